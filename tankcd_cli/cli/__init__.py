@@ -1,0 +1,1 @@
+"""Command layer: one module per command; no numpy at import time."""

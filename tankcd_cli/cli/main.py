@@ -1,0 +1,104 @@
+"""The ``tankcd`` group: wiring only (version, -v/-q, exit codes, lazy commands)."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+
+import click
+
+from tankcd_cli import __version__
+from tankcd_cli.cli.report import Reporter
+from tankcd_cli.errors import InputError
+
+# command name -> (module, short help); modules are imported only when run
+COMMANDS = {
+    "classify": ("tankcd_cli.cli.classify", "Classify a terrain: mean curvature and region classes into an HDF5 store."),
+    "info": ("tankcd_cli.cli.info", "Describe a terrain store (.h5)."),
+}
+
+EXIT_DONE, EXIT_COLLISION, EXIT_USAGE, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3, 4
+
+
+class LazyGroup(click.Group):
+    """Loads a command's module only when that command runs, so --help is instant,
+    and maps exceptions onto the contract's exit codes."""
+
+    def list_commands(self, ctx):
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx, name):
+        if name not in COMMANDS:
+            return None
+        module = importlib.import_module(COMMANDS[name][0])
+        return getattr(module, name)
+
+    def format_commands(self, ctx, formatter):
+        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.Exit, click.exceptions.Abort, click.ClickException):
+            raise
+        except InputError as exc:
+            click.echo(f"tankcd: error: {exc.one_line()}", err=True)
+            _traceback_if_verbose(ctx)
+            ctx.exit(EXIT_BAD_INPUT)
+        except BrokenPipeError:
+            _quiet_broken_pipe()
+            ctx.exit(EXIT_DONE)
+        except KeyboardInterrupt:
+            click.echo("tankcd: interrupted", err=True)
+            ctx.exit(130)
+        except Exception as exc:  # a bug: say so, ask for a report
+            first = str(exc).splitlines()[0] if str(exc) else ""
+            click.echo(f"tankcd: internal error: {type(exc).__name__}: {first} "
+                       "(this is a bug; please report it with the command and input; -v shows the traceback)", err=True)
+            _traceback_if_verbose(ctx)
+            ctx.exit(EXIT_INTERNAL)
+
+
+def _traceback_if_verbose(ctx) -> None:
+    reporter = ctx.find_object(Reporter)
+    if reporter is not None and reporter.verbosity >= 1:
+        import traceback
+
+        traceback.print_exc(file=sys.stderr)
+
+
+def _quiet_broken_pipe() -> None:
+    # the reader went away (``| head``): stop quietly, and keep Python from
+    # complaining again when it flushes stdout at exit
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, "--version", prog_name="tankcd")
+@click.option("-v", "--verbose", count=True, help="More detail on stderr (repeatable); tracebacks on errors.")
+@click.option("-q", "--quiet", is_flag=True, help="Only errors on stderr.")
+@click.pass_context
+def cli(ctx, verbose, quiet):
+    """tankcd: place a tank on real terrain and tell when it collides.
+
+    Data goes to stdout or to files, messages and progress to stderr.
+    Exit codes: 0 done, 1 collision with --fail-on-collision, 2 usage error,
+    3 bad input data, 4 internal error.
+    """
+    ctx.obj = Reporter(-1 if quiet else verbose)
+
+
+def main(argv=None):
+    """Console-script entry point."""
+    try:
+        cli.main(args=argv, prog_name="tankcd")
+    except BrokenPipeError:
+        _quiet_broken_pipe()
+        sys.exit(EXIT_DONE)

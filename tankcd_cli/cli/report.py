@@ -1,0 +1,35 @@
+"""Messages and progress on stderr, scaled by -q/-v. Data never goes through here."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import click
+
+
+class Reporter:
+    """verbosity: -1 quiet (errors only), 0 normal, 1+ detail."""
+
+    def __init__(self, verbosity: int = 0):
+        self.verbosity = verbosity
+        self.started = time.perf_counter()
+        self.interactive = sys.stderr.isatty()
+
+    def info(self, message: str) -> None:
+        if self.verbosity >= 0:
+            click.echo(message, err=True)
+
+    def detail(self, message: str) -> None:
+        if self.verbosity >= 1:
+            click.echo(message, err=True)
+
+    def progress(self, prefix: str):
+        """A stage callback: prints stages on a terminal (or with -v), silent in pipelines."""
+        def stage(text: str) -> None:
+            if self.verbosity >= 1 or (self.interactive and self.verbosity >= 0):
+                click.echo(f"{prefix}: {text} ({self.elapsed():.1f} s)", err=True)
+        return stage
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.started

@@ -1,0 +1,40 @@
+"""Pictures a person would rather look at than read."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def class_map_png(store, path: str) -> None:
+    """Class map (left) and signed mean curvature (right) of a terrain store, as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.tri import Triangulation
+
+    v, f = store.vertices, store.faces
+    origin = v[:, :2].min(axis=0)
+    tri = Triangulation(v[:, 0] - origin[0], v[:, 1] - origin[1], f)
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), constrained_layout=True)
+    cmap = ListedColormap(["#9ccc65", "#ffca28", "#e53935"])
+    face_class = store.vertex_class[f].max(axis=1)
+    pc = axes[0].tripcolor(tri, facecolors=face_class, cmap=cmap, norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3))
+    cb = fig.colorbar(pc, ax=axes[0], ticks=[0, 1, 2], shrink=0.85)
+    cb.ax.set_yticklabels(["flat", "general", "uneven"])
+    a = store.attrs
+    axes[0].set_title(f"region classes ({a.get('vehicle')} footprint; |H| < {a.get('threshold_flat'):.4f} flat, "
+                      f">= {a.get('threshold_uneven'):.4f} uneven)", fontsize=9)
+    H = store.mean_curvature
+    lim = float(np.nanpercentile(np.abs(H), 99)) or 1e-6
+    pc2 = axes[1].tripcolor(tri, H, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="gouraud")
+    fig.colorbar(pc2, ax=axes[1], shrink=0.85, label="mean curvature H, 1/m (ridges +, valleys -)")
+    axes[1].set_title(f"signed mean curvature ({a.get('curvature_method')})", fontsize=9)
+    for ax in axes:
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"x - {origin[0]:.0f} m (east)")
+        ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
+    fig.suptitle(f"{a.get('source')}", fontsize=10)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)

@@ -1,0 +1,1 @@
+"""Terrain: clean-up, mean curvature, region classes, point location, the store."""

@@ -1,0 +1,100 @@
+"""The classify pipeline: a read terrain in, a complete terrain store out."""
+
+from __future__ import annotations
+
+import datetime
+from typing import Callable
+
+import numpy as np
+
+from tankcd_cli import __version__
+from tankcd_cli.io.terrain_readers import Grid, RawTerrain
+from tankcd_cli.terrain.curvature import mean_curvature
+from tankcd_cli.terrain.locate import build_buckets
+from tankcd_cli.terrain.mesh import clean_mesh, edge_topology
+from tankcd_cli.terrain.regions import (NO_CLASS, Thresholds, class_shares, classify_values, default_thresholds,
+                                        footprint_curvature, vertex_areas)
+from tankcd_cli.terrain.store import TerrainStore
+from tankcd_cli.tolerances import DEFAULT, Tolerances
+from tankcd_cli.vehicle import Vehicle, vehicle_preset
+
+
+def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | None = None,
+                     thresholds: Thresholds | None = None, tol: Tolerances = DEFAULT,
+                     progress: Callable[[str], None] | None = None) -> TerrainStore:
+    """Clean a terrain, compute mean curvature and region classes, and build the query indexes."""
+    say = progress or (lambda stage: None)
+    vehicle = vehicle or vehicle_preset("t72")
+    thresholds = thresholds or default_thresholds(vehicle)
+
+    say("cleaning mesh")
+    mesh = clean_mesh(raw.vertices, raw.faces, tol, merge=raw.grid is None)
+    if len(mesh.faces) == 0:
+        from tankcd_cli.errors import InputError
+
+        raise InputError(raw.source, "no usable faces: every face is degenerate (zero area)")
+    grid = None
+    if raw.grid is not None:
+        post = raw.grid.vertex
+        remapped = np.where(post >= 0, mesh.old_to_new[np.maximum(post, 0)], -1)
+        grid = Grid(raw.grid.origin, raw.grid.spacing, remapped)
+    vertices, faces = mesh.vertices, mesh.faces
+
+    say(f"mean curvature ({method}) at {len(vertices):,} vertices")
+    topo = edge_topology(faces, len(vertices))
+    H = mean_curvature(vertices, faces, method, tol, topology=topo)
+    if not np.isfinite(H).all():
+        raise RuntimeError(f"{int((~np.isfinite(H)).sum())} non-finite curvature values")
+
+    say("region classes")
+    area = vertex_areas(vertices, faces)
+    averaged, raster = footprint_curvature(vertices, H, area, vehicle)
+    classes = classify_values(averaged, thresholds)
+    class_raster = np.where(np.isfinite(raster.values), classify_values(np.nan_to_num(raster.values), thresholds),
+                            NO_CLASS).astype(np.uint8)
+    shares = class_shares(classes, area)
+
+    say("point-location index")
+    buckets = build_buckets(vertices, faces)
+
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    attrs = {
+        "tankcd_version": __version__,
+        "created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "source": raw.source,
+        "source_sha256": raw.sha256,
+        "source_format": raw.format,
+        "source_up_axis": raw.up,
+        "curvature_method": method,
+        "boundary_treatment": "one-sided cubic fit over the 20 nearest vertices",
+        "threshold_flat": thresholds.flat,
+        "threshold_uneven": thresholds.uneven,
+        "threshold_derivation": thresholds.derivation,
+        "class_average": "area-weighted mean of |H| (H first averaged over a disk of radius track_length/4) over a disk of radius track_length/2",
+        "vehicle": vehicle.name,
+        "track_length": vehicle.track_length,
+        "track_width": vehicle.track_width,
+        "share_flat": shares[0], "share_general": shares[1], "share_uneven": shares[2],
+        "extent_min": lo, "extent_max": hi,
+        "vertices_read": len(raw.vertices), "faces_read": len(raw.faces),
+        "boundary_vertices": int(topo.boundary_vertex.sum()),
+        "nonmanifold_edges": int((topo.face_count > 2).sum()),
+        "is_grid": raw.grid is not None,
+    }
+    for key, value in mesh.counts.items():
+        attrs[key] = value
+    return TerrainStore(vertices, faces, H, averaged, classes, class_raster, raster.values.astype(np.float32),
+                        raster.origin, raster.cell, buckets, grid, attrs)
+
+
+def load_terrain(path: str, up: str = "z", fmt: str | None = None) -> RawTerrain:
+    """Any terrain input: a mesh, a DEM, or a store written by classify (its cleaned mesh)."""
+    from tankcd_cli.io.terrain_readers import read_terrain
+    from tankcd_cli.terrain.store import is_store, read_store
+
+    if path != "-" and (fmt == "h5" or (fmt is None and is_store(path))):
+        store = read_store(path)
+        return RawTerrain(store.vertices, store.faces, store.grid, store.attrs.get("source", path),
+                          store.attrs.get("source_sha256", ""), store.attrs.get("source_format", "h5"),
+                          store.attrs.get("source_up_axis", "z"))
+    return read_terrain(path, up=up, fmt=fmt)

@@ -1,0 +1,278 @@
+"""Signed mean curvature H at every vertex of a terrain mesh, 1/m.
+
+Sign convention (the contract's, as libigl, VTK and GIS tools): with the upward
+normal, a hilltop or ridge is positive, a bowl or valley negative, a plane zero.
+On a height field z = f(x, y):
+
+    H = -((1 + fy^2) fxx - 2 fx fy fxy + (1 + fx^2) fyy) / (2 (1 + fx^2 + fy^2)^(3/2))
+
+Methods (``METHODS``), cheapest first:
+
+``cotan``  the discrete cotangent formula with the mixed Voronoi area
+           (the paper's equation 2; Meyer, Desbrun, Schroeder and Barr 2003),
+           projected on the upward vertex normal. Second order on regular grids;
+           it does not converge on irregular meshes (a known property of the
+           operator, shared by libigl and VTK).
+``sphere`` the paper's own estimator (equations 3 to 8): the normal curvature
+           along each edge i-j is 1/R of the sphere through X_i, X_j and the two
+           ring neighbours X_{j-1}, X_{j+1} (the vertices opposite the edge),
+           signed by the side of the centre, weighted as in equation 2.
+           Nearly coplanar points give zero normal curvature, never inf or NaN.
+``jet``    a least-squares cubic height function over the 20 nearest
+           vertices in the tangent frame of their least-squares plane (an osculating jet; Cazals and Pouget 2003),
+           H from its derivatives at the vertex. Second order on irregular
+           meshes too; several times the cost of ``cotan``.
+
+Boundary vertices (and vertices on non-manifold edges) have no closed one-ring,
+so no one-ring formula applies there. Every method gives them the same explicit
+treatment: the one-sided cubic fit of ``jet`` (its nearest vertices, not its
+mesh rings, which on a Delaunay boundary run along far-reaching slivers).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tankcd_cli.terrain.mesh import EdgeTopology, edge_topology
+from tankcd_cli.tolerances import DEFAULT, Tolerances
+
+METHODS = ("cotan", "sphere", "jet")
+
+
+def face_corners(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-face edge vectors, corner cotangents and upward normals.
+
+    Returns
+    -------
+    edge : (m, 3, 3) float, m -- edge[:, k] = X[f[k+2]] - X[f[k+1]], the edge opposite corner k
+    cot : (m, 3) float -- cotangent of the angle at each corner
+    normal : (m, 3) float, m^2 -- face normal of length twice the face area, turned so that z >= 0
+    """
+    p = vertices[faces]  # (m, 3 corners, 3)
+    edge = p[:, [2, 0, 1]] - p[:, [1, 2, 0]]
+    normal = np.cross(edge[:, 2], -edge[:, 1])  # (b - a) x (c - a)
+    flip = normal[:, 2] < 0
+    normal[flip] *= -1
+    double_area = np.linalg.norm(normal, axis=1)
+    # the angle at corner k lies between the edges to its two neighbours
+    u = p[:, [1, 2, 0]] - p
+    v = p[:, [2, 0, 1]] - p
+    dot = np.einsum("mkc,mkc->mk", u, v)
+    cot = dot / double_area[:, None]
+    return edge, cot, normal
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray, face_normal: np.ndarray | None = None) -> np.ndarray:
+    """Unit upward vertex normals (n, 3): area-weighted sum of upward face normals.
+
+    A vertex whose faces' normals cancel (impossible for upward-turned faces
+    unless all are vertical) gets +z.
+    """
+    if face_normal is None:
+        face_normal = face_corners(vertices, faces)[2]
+    n = len(vertices)
+    acc = np.column_stack([np.bincount(faces.ravel(), weights=np.repeat(face_normal[:, c], 3), minlength=n)
+                           for c in range(3)])
+    norm = np.linalg.norm(acc, axis=1)
+    bad = ~(norm > 0)
+    acc[bad] = (0.0, 0.0, 1.0)
+    norm[bad] = 1.0
+    return acc / norm[:, None]
+
+
+def mixed_area(faces: np.ndarray, edge: np.ndarray, cot: np.ndarray, double_area: np.ndarray, n: int) -> np.ndarray:
+    """A_mixed of Meyer et al. (2003) at each vertex, m^2 (n,).
+
+    Non-obtuse triangles give each corner its Voronoi area; an obtuse triangle
+    gives half its area to the obtuse corner and a quarter to the others.
+    """
+    len2 = np.einsum("mkc,mkc->mk", edge, edge)
+    # corner k is adjacent to edges k+1 (to X[k+2]... ) and k+2; Voronoi share of corner k:
+    voronoi = (len2[:, [2, 0, 1]] * cot[:, [2, 0, 1]] + len2[:, [1, 2, 0]] * cot[:, [1, 2, 0]]) / 8.0
+    area = double_area / 2.0
+    obtuse = cot < 0
+    any_obtuse = obtuse.any(axis=1)
+    share = np.where(any_obtuse[:, None], np.where(obtuse, area[:, None] / 2, area[:, None] / 4), voronoi)
+    return np.bincount(faces.ravel(), weights=share.ravel(), minlength=n)
+
+
+def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan",
+                   tol: Tolerances = DEFAULT, topology: EdgeTopology | None = None) -> np.ndarray:
+    """Signed mean curvature H (n,) at each vertex, 1/m.
+
+    vertices : (n, 3) float64, m (any offset: all arithmetic is on differences)
+    faces : (m, 3) int, a cleaned mesh (no zero-area faces)
+    method : one of ``METHODS``
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(METHODS)}")
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    n = len(vertices)
+    topo = topology if topology is not None else edge_topology(faces, n)
+    edge, cot, fnormal = face_corners(vertices, faces)
+    normal = vertex_normals(vertices, faces, fnormal)
+    if method == "jet":
+        return jet_curvature(vertices, normal, np.ones(n, dtype=bool))
+    area = mixed_area(faces, edge, cot, np.linalg.norm(fnormal, axis=1), n)
+    if method == "cotan":
+        H = _cotan(faces, edge, cot, normal, area, n)
+    else:
+        H = _sphere(vertices, faces, cot, normal, area, topo, tol)
+    if topo.boundary_vertex.any():
+        H[topo.boundary_vertex] = jet_curvature(vertices, normal, topo.boundary_vertex)[topo.boundary_vertex]
+    return H
+
+
+def _cotan(faces, edge, cot, normal, area, n):
+    """-(K . n) / (4 A): K = sum over edges of (cot a + cot b)(X_j - X_i)."""
+    # corner k's cotangent weighs edge k (from X[k+1] to X[k+2]):
+    # it adds cot_k * edge_k to vertex k+1 and -cot_k * edge_k to vertex k+2
+    idx = np.concatenate([faces[:, [1, 2, 0]].ravel(), faces[:, [2, 0, 1]].ravel()])
+    w = (cot[:, :, None] * edge).reshape(-1, 3)
+    w = np.concatenate([w, -w])
+    K = np.column_stack([np.bincount(idx, weights=w[:, c], minlength=n) for c in range(3)])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        H = -np.einsum("ij,ij->i", K, normal) / (4.0 * area)
+    return np.where(area > 0, H, 0.0)
+
+
+def _sphere(vertices, faces, cot, normal, area, topo: EdgeTopology, tol: Tolerances):
+    """The paper's four-point sphere estimator, one sphere per interior edge."""
+    n = len(vertices)
+    e = len(topo.edges)
+    i, j = topo.edges[:, 0], topo.edges[:, 1]
+    weight = np.bincount(topo.face_edge.ravel(), weights=cot.ravel(), minlength=e)  # cot a + cot b
+    # the vertices opposite each edge: the corner whose opposite edge it is
+    corner_vertex = faces.ravel()
+    order = np.argsort(topo.face_edge.ravel(), kind="stable")
+    first = np.searchsorted(topo.face_edge.ravel()[order], np.arange(e))
+    interior = topo.face_count == 2
+    p = np.where(interior, corner_vertex[order[np.minimum(first, len(order) - 1)]], -1)
+    q = np.where(interior, corner_vertex[order[np.minimum(first + 1, len(order) - 1)]], -1)
+
+    d_j = vertices[j] - vertices[i]
+    len2 = np.einsum("ij,ij->i", d_j, d_j)
+    kappa_i = np.zeros(e)
+    kappa_j = np.zeros(e)
+    ii = np.flatnonzero(interior)
+    if len(ii):
+        d = np.stack([d_j[ii], vertices[p[ii]] - vertices[i[ii]], vertices[q[ii]] - vertices[i[ii]]], axis=1)
+        A = 2.0 * d  # rows: 2 (X_k - X_i)
+        L = np.einsum("ekc,ekc->ek", d, d)
+        # Cramer: centre (relative to X_i) c = adj(A) L / det(A); solve without dividing
+        r0, r1, r2 = A[:, 0], A[:, 1], A[:, 2]
+        c01, c12, c20 = np.cross(r0, r1), np.cross(r1, r2), np.cross(r2, r0)
+        det = np.einsum("ij,ij->i", r0, c12)
+        adjL = c12 * L[:, [0]] + c20 * L[:, [1]] + c01 * L[:, [2]]  # = det * centre
+        scale = np.linalg.norm(r0, axis=1) * np.linalg.norm(r1, axis=1) * np.linalg.norm(r2, axis=1)
+        norm_adjL = np.linalg.norm(adjL, axis=1)
+        ok = (np.abs(det) > tol.singular_ratio * scale) & (norm_adjL > 0)
+        inv_r = np.where(ok, np.abs(det) / np.where(ok, norm_adjL, 1.0), 0.0)
+        # sign: + when the centre lies below the vertex along its normal
+        side_i = -np.einsum("ij,ij->i", adjL, normal[i[ii]]) * np.sign(det)
+        side_j = -np.einsum("ij,ij->i", adjL - det[:, None] * d[:, 0], normal[j[ii]]) * np.sign(det)
+        kappa_i[ii] = np.sign(side_i) * inv_r
+        kappa_j[ii] = np.sign(side_j) * inv_r
+    other = ~interior  # boundary and non-manifold edges: equation 3 with the vertex normal
+    if other.any():
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kappa_i[other] = -2.0 * np.einsum("ij,ij->i", d_j[other], normal[i[other]]) / len2[other]
+            kappa_j[other] = 2.0 * np.einsum("ij,ij->i", d_j[other], normal[j[other]]) / len2[other]
+    contrib = weight * len2 / 8.0
+    num = np.bincount(i, weights=contrib * kappa_i, minlength=n) + np.bincount(j, weights=contrib * kappa_j, minlength=n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        H = num / area
+    return np.where(area > 0, H, 0.0)
+
+
+JET_NEIGHBOURS = 20  # a symmetric 5x5 stencil less its corners on a regular grid
+
+
+def nearest_neighbours(vertices: np.ndarray, which: np.ndarray, k: int = JET_NEIGHBOURS) -> np.ndarray:
+    """Indices (len(which), k) of the k nearest other vertices of each selected vertex.
+
+    Distance, not mesh rings: on a boundary the rings of a Delaunay mesh run
+    along hull slivers far from the vertex, whereas the nearest points stay close.
+    """
+    from scipy.spatial import cKDTree
+
+    k = min(k, len(vertices) - 1)
+    centred = vertices - vertices.mean(axis=0)  # small numbers even at UTM offsets
+    tree = cKDTree(centred)
+    _, idx = tree.query(centred[which], k + 1, workers=-1)
+    sel = np.flatnonzero(which)
+    # drop the vertex itself (normally column 0, but a duplicate may come first)
+    is_self = idx == sel[:, None]
+    keep = np.where(is_self.any(axis=1)[:, None], ~is_self, np.arange(k + 1)[None, :] < k)
+    return idx[keep].reshape(len(sel), k)
+
+
+_MONOMIALS = 9  # u v uu uv vv uuu uuv uvv vvv
+
+
+def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, chunk: int = 65536) -> np.ndarray:
+    """Mean curvature from a least-squares cubic fit over the nearest neighbours.
+
+    vertices : (n, 3) float64, m
+    normal : (n, 3) unit upward vertex normals (to orient the fitted normal)
+    which : (n,) bool, the vertices to compute
+    Returns (n,) with values at ``which`` (zeros elsewhere), 1/m.
+    """
+    n = len(vertices)
+    H = np.zeros(n)
+    sel = np.flatnonzero(which)
+    if len(sel) == 0:
+        return H
+    if n < 4:
+        return H
+    nbr = nearest_neighbours(vertices, which)
+    for start in range(0, len(sel), chunk):
+        rows = slice(start, start + chunk)
+        H[sel[rows]] = _jet_chunk(vertices, normal, sel[rows], nbr[rows])
+    return H
+
+
+def _fit_normal(d: np.ndarray, valid: np.ndarray, hint: np.ndarray) -> np.ndarray:
+    """Upward normal of the least-squares plane through the vertex and its neighbours.
+
+    Face-weighted normals can be turned far off by a near-vertical sliver on a
+    mesh boundary; the plane through the whole neighbourhood cannot.
+    """
+    dv = d * valid[:, :, None]
+    count = valid.sum(axis=1)[:, None, None] + 1.0  # the vertex itself sits at the origin
+    mean = dv.sum(axis=1, keepdims=True) / count
+    cov = np.einsum("cki,ckj->cij", dv, dv) / count - np.einsum("cki,ckj->cij", mean, mean)
+    _, vec = np.linalg.eigh(cov)
+    nrm = vec[:, :, 0]
+    # upward where the plane is not vertical; a wall takes the side of the face normals
+    side = np.where(np.abs(nrm[:, 2]) > 1e-6, nrm[:, 2], np.einsum("ij,ij->i", nrm, hint))
+    nrm = np.where((side < 0)[:, None], -nrm, nrm)
+    return nrm
+
+
+def _jet_chunk(vertices, normal, centre, nbr):
+    d = vertices[nbr] - vertices[centre][:, None, :]  # (c, k, 3): exact differences even at UTM offsets
+    valid = np.ones(nbr.shape, dtype=bool)
+    nz = _fit_normal(d, valid, normal[centre])
+    # tangent frame: t1 perpendicular to n, from whichever world axis is least parallel
+    helper = np.where(np.abs(nz[:, [0]]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    t1 = np.cross(nz, helper)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(nz, t1)
+    s = np.sqrt(np.einsum("ckx,ckx->ck", d, d).mean(axis=1))
+    s = np.where(s > 0, s, 1.0)  # scaled coordinates keep the normal equations well conditioned
+    u = np.einsum("ckx,cx->ck", d, t1) / s[:, None]
+    v = np.einsum("ckx,cx->ck", d, t2) / s[:, None]
+    w = np.einsum("ckx,cx->ck", d, nz) / s[:, None]
+    B = np.stack([u, v, u * u, u * v, v * v, u ** 3, u * u * v, u * v * v, v ** 3], axis=2)
+    M = np.einsum("cki,ckj->cij", B, B)
+    rhs = np.einsum("cki,ck->ci", B, w)
+    # a vanishing ridge keeps every system solvable (collinear or coincident neighbours)
+    ridge = 1e-10 * np.trace(M, axis1=1, axis2=2) / _MONOMIALS + 1e-300
+    M += ridge[:, None, None] * np.eye(_MONOMIALS)
+    coef = np.linalg.solve(M, rhs[:, :, None])[:, :, 0]
+    fu, fv = coef[:, 0], coef[:, 1]
+    fuu, fuv, fvv = 2 * coef[:, 2] / s, coef[:, 3] / s, 2 * coef[:, 4] / s
+    g = 1.0 + fu * fu + fv * fv
+    return -((1 + fv * fv) * fuu - 2 * fu * fv * fuv + (1 + fu * fu) * fvv) / (2.0 * g ** 1.5)

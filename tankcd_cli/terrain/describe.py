@@ -1,0 +1,49 @@
+"""A plain summary of a terrain store, for ``tankcd info``."""
+
+from __future__ import annotations
+
+from tankcd_cli.errors import InputError
+
+
+def describe_store(path: str) -> dict:
+    """Facts about a store as an ordered dict of plain values."""
+    import h5py
+
+    from tankcd_cli.terrain.store import is_store, read_attrs
+
+    if not is_store(path):
+        raise InputError(path, "not an HDF5 store (tankcd info describes stores written by classify)")
+    a = read_attrs(path)
+    with h5py.File(path, "r") as h5:
+        n = h5["mesh/vertices"].shape[0]
+        m = h5["mesh/faces"].shape[0]
+        raster = h5["classes/raster"].shape
+        grid = h5["grid/vertex"].shape if "grid/vertex" in h5 else None
+    lo, hi = a.get("extent_min", [0, 0, 0]), a.get("extent_max", [0, 0, 0])
+    return {
+        "file": path,
+        "kind": "terrain store (format %s v%s)" % (a.get("format"), a.get("format_version")),
+        "source": a.get("source"),
+        "source sha256": a.get("source_sha256"),
+        "source format": a.get("source_format"),
+        "written by": f"tankcd {a.get('tankcd_version')} at {a.get('created_utc')}",
+        "vertices": n,
+        "faces": m,
+        "DEM grid": f"{grid[0]} x {grid[1]} posts" if grid else "no (irregular mesh: triangle buckets)",
+        "extent x": [lo[0], hi[0]],
+        "extent y": [lo[1], hi[1]],
+        "extent z": [lo[2], hi[2]],
+        "curvature method": a.get("curvature_method"),
+        "boundary treatment": a.get("boundary_treatment"),
+        "class average": a.get("class_average"),
+        "vehicle": a.get("vehicle"),
+        "threshold flat": a.get("threshold_flat"),
+        "threshold uneven": a.get("threshold_uneven"),
+        "thresholds from": a.get("threshold_derivation"),
+        "area flat": f"{a.get('share_flat', 0):.1%}",
+        "area general": f"{a.get('share_general', 0):.1%}",
+        "area uneven": f"{a.get('share_uneven', 0):.1%}",
+        "class raster": f"{raster[0]} x {raster[1]} cells",
+        "clean-up": (f"{a.get('merged_vertices')} merged, {a.get('unreferenced_vertices')} unreferenced vertices; "
+                     f"{a.get('degenerate_faces')} degenerate, {a.get('repeated_faces')} repeated faces dropped"),
+    }

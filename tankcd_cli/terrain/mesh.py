@@ -1,0 +1,132 @@
+"""Mesh clean-up and the per-face and per-edge arrays shared by the curvature code."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tankcd_cli.tolerances import DEFAULT, Tolerances
+
+
+@dataclass(frozen=True)
+class CleanMesh:
+    """A cleaned triangle mesh.
+
+    vertices : (n, 3) float64, m
+    faces : (m, 3) int64
+    old_to_new : (n_in,) int64 -- new index of each input vertex, -1 if dropped
+    counts : what was merged or dropped, by kind
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    old_to_new: np.ndarray
+    counts: dict = field(default_factory=dict)
+
+
+def clean_mesh(vertices: np.ndarray, faces: np.ndarray, tol: Tolerances = DEFAULT,
+               merge: bool = True) -> CleanMesh:
+    """Merge duplicate vertices, drop degenerate and repeated faces and unreferenced vertices.
+
+    vertices : (n, 3) float, m
+    faces : (m, 3) int
+    merge : look for vertices closer than ``tol.merge_distance`` (skip for DEM
+        posts, which are distinct by construction)
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    n = len(vertices)
+    counts = {"merged_vertices": 0, "degenerate_faces": 0, "repeated_faces": 0, "unreferenced_vertices": 0}
+
+    rep = np.arange(n)
+    if merge and n > 1:
+        rep = _merge_representatives(vertices, tol.merge_distance)
+        counts["merged_vertices"] = int(np.count_nonzero(rep != np.arange(n)))
+    f = rep[faces]
+
+    a, b, c = (vertices[f[:, k]] for k in range(3))
+    e0, e1, e2 = c - b, a - c, b - a
+    longest2 = np.maximum(np.maximum(_sq(e0), _sq(e1)), _sq(e2))
+    area2 = np.linalg.norm(np.cross(e2, -e1), axis=1)  # twice the area
+    repeated_index = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
+    degenerate = repeated_index | ~(area2 > 2 * tol.degenerate_area_ratio * longest2)
+    counts["degenerate_faces"] = int(degenerate.sum())
+    f = f[~degenerate]
+
+    keep = _first_of_each_face(f, n)
+    counts["repeated_faces"] = int(len(f) - keep.sum())
+    f = f[keep]
+
+    used = np.zeros(n, dtype=bool)
+    used[f.ravel()] = True
+    new_index = np.full(n, -1, dtype=np.int64)
+    new_index[used] = np.arange(int(used.sum()))
+    old_to_new = new_index[rep]
+    counts["unreferenced_vertices"] = int(n - counts["merged_vertices"] - used.sum())
+    return CleanMesh(vertices[used], new_index[f], old_to_new, counts)
+
+
+def _sq(v: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", v, v)
+
+
+def _merge_representatives(vertices: np.ndarray, distance: float) -> np.ndarray:
+    """Index of the representative (lowest index) of each vertex's cluster of near-duplicates."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = len(vertices)
+    # centre first: the k-d tree then works on small numbers even at UTM offsets
+    pts = vertices - vertices.mean(axis=0)
+    pairs = cKDTree(pts).query_pairs(distance, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.arange(n)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, n, dtype=np.int64)
+    np.minimum.at(first, label, np.arange(n))
+    return first[label]
+
+
+def _first_of_each_face(faces: np.ndarray, n: int) -> np.ndarray:
+    """Mask keeping the first occurrence of each face (same three vertices, any order)."""
+    s = np.sort(faces, axis=1)
+    if n < 2_000_000:
+        key = (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+        _, first = np.unique(key, return_index=True)
+    else:
+        _, first = np.unique(s, axis=0, return_index=True)
+    keep = np.zeros(len(faces), dtype=bool)
+    keep[first] = True
+    return keep
+
+
+@dataclass(frozen=True)
+class EdgeTopology:
+    """Undirected edges of a mesh and the faces around them.
+
+    edges : (e, 2) int64 -- vertex pairs, lower index first
+    face_edge : (m, 3) int64 -- edge index of the edge opposite each face corner
+    face_count : (e,) int64 -- faces sharing each edge (1 = boundary, >2 = non-manifold)
+    boundary_vertex : (n,) bool -- vertex on a boundary or non-manifold edge
+    """
+
+    edges: np.ndarray
+    face_edge: np.ndarray
+    face_count: np.ndarray
+    boundary_vertex: np.ndarray
+
+
+def edge_topology(faces: np.ndarray, n_vertices: int) -> EdgeTopology:
+    """Edges opposite each corner: corner k of face f is opposite edge (f[k+1], f[k+2])."""
+    m = len(faces)
+    half = np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1).reshape(-1, 2)
+    lo, hi = half.min(axis=1), half.max(axis=1)
+    key = lo * np.int64(n_vertices) + hi
+    uniq, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+    edges = np.column_stack([uniq // n_vertices, uniq % n_vertices])
+    boundary_vertex = np.zeros(n_vertices, dtype=bool)
+    boundary_vertex[edges[count != 2].ravel()] = True
+    return EdgeTopology(edges, inverse.reshape(m, 3), count, boundary_vertex)

@@ -1,0 +1,156 @@
+"""The terrain store (HDF5): what ``classify`` writes and every later command reads.
+
+Layout (contract paths first; the rest makes later queries fast):
+
+/mesh/vertices            (n, 3) float64   world coordinates, m
+/mesh/faces               (m, 3) int32/64  vertex indices
+/curvature/mean           (n,) float64     signed mean curvature H, 1/m
+/curvature/footprint      (n,) float64     footprint-averaged |H| that the classes come from, 1/m
+/classes/vertex           (n,) uint8       0 flat, 1 general, 2 uneven
+/classes/raster           (ny, nx) uint8   class per raster cell (255: no terrain); attrs origin, cell
+/curvature/footprint_raster (ny, nx) float32  averaged |H| per raster cell (NaN: no terrain)
+/index/start, /index/face                  triangle buckets for point location; attrs origin, cell, shape
+/grid/vertex              (rows, cols) int64  vertex of each DEM post (-1 NODATA); attrs origin, spacing
+
+Datasets are stored contiguous and uncompressed so that readers can map them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tankcd_cli.errors import InputError
+
+FORMAT = "tankcd-terrain"
+FORMAT_VERSION = 1
+
+
+@dataclass
+class TerrainStore:
+    """Everything in a terrain store, as arrays. ``attrs`` holds the root attributes."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    mean_curvature: np.ndarray
+    footprint_curvature: np.ndarray
+    vertex_class: np.ndarray
+    class_raster: np.ndarray
+    footprint_raster: np.ndarray
+    raster_origin: np.ndarray
+    raster_cell: float
+    buckets: object  # TriangleBuckets
+    grid: object | None  # io.terrain_readers.Grid
+    attrs: dict = field(default_factory=dict)
+
+
+def write_store(path: str, store: TerrainStore) -> None:
+    """Write a store to ``path`` (callers wrap this in an atomic rename)."""
+    import h5py
+
+    n = len(store.vertices)
+    face_dtype = np.int32 if n < 2**31 else np.int64
+    with h5py.File(path, "w") as h5:
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
+        for key, value in store.attrs.items():
+            h5.attrs[key] = value
+        h5["mesh/vertices"] = store.vertices.astype(np.float64)
+        h5["mesh/faces"] = store.faces.astype(face_dtype)
+        h5["curvature/mean"] = store.mean_curvature.astype(np.float64)
+        h5["curvature/footprint"] = store.footprint_curvature.astype(np.float64)
+        h5["curvature/footprint_raster"] = store.footprint_raster.astype(np.float32)
+        h5["classes/vertex"] = store.vertex_class.astype(np.uint8)
+        ds = h5.create_dataset("classes/raster", data=store.class_raster.astype(np.uint8))
+        for d in (ds, h5["curvature/footprint_raster"]):
+            d.attrs["origin"] = store.raster_origin
+            d.attrs["cell"] = store.raster_cell
+        b = store.buckets
+        grp = h5.create_group("index")
+        grp.attrs["kind"] = "triangle buckets"
+        grp.attrs["origin"] = b.origin
+        grp.attrs["cell"] = b.cell
+        grp.attrs["shape"] = np.asarray(b.shape)
+        grp["start"] = b.start
+        grp["face"] = b.face
+        if store.grid is not None:
+            g = h5.create_dataset("grid/vertex", data=store.grid.vertex)
+            g.attrs["origin"] = store.grid.origin
+            g.attrs["spacing"] = store.grid.spacing
+
+
+def is_store(path: str) -> bool:
+    """True when ``path`` is an HDF5 file (by its signature)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+    except OSError:
+        return False
+
+
+def read_attrs(path: str) -> dict:
+    """Root attributes of a store, without reading its arrays."""
+    import h5py
+
+    h5 = _open(path)
+    with h5:
+        return {k: _plain(v) for k, v in h5.attrs.items()}
+
+
+def read_store(path: str) -> TerrainStore:
+    """Read a whole store into memory."""
+    from tankcd_cli.io.terrain_readers import Grid
+    from tankcd_cli.terrain.locate import TriangleBuckets
+
+    h5 = _open(path)
+    with h5:
+        try:
+            attrs = {k: _plain(v) for k, v in h5.attrs.items()}
+            idx = h5["index"]
+            buckets = TriangleBuckets(np.asarray(idx.attrs["origin"]), float(idx.attrs["cell"]),
+                                      tuple(int(s) for s in idx.attrs["shape"]), idx["start"][()], idx["face"][()])
+            grid = None
+            if "grid/vertex" in h5:
+                g = h5["grid/vertex"]
+                grid = Grid(np.asarray(g.attrs["origin"]), np.asarray(g.attrs["spacing"]), g[()])
+            raster = h5["classes/raster"]
+            store = TerrainStore(
+                vertices=h5["mesh/vertices"][()], faces=h5["mesh/faces"][()].astype(np.int64),
+                mean_curvature=h5["curvature/mean"][()], footprint_curvature=h5["curvature/footprint"][()],
+                vertex_class=h5["classes/vertex"][()], class_raster=raster[()],
+                footprint_raster=h5["curvature/footprint_raster"][()],
+                raster_origin=np.asarray(raster.attrs["origin"]), raster_cell=float(raster.attrs["cell"]),
+                buckets=buckets, grid=grid, attrs=attrs)
+        except KeyError as exc:
+            raise InputError(path, f"not a complete tankcd terrain store (missing {exc.args[0] if exc.args else 'data'})") from None
+    return store
+
+
+def _open(path: str):
+    import h5py
+
+    try:
+        h5 = h5py.File(path, "r")
+    except FileNotFoundError:
+        raise InputError(path, "no such file") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(path, f"cannot read as HDF5: {str(exc).splitlines()[0][:200]}") from None
+    if h5.attrs.get("format") != FORMAT:
+        h5.close()
+        raise InputError(path, "HDF5 file is not a tankcd terrain store (no format attribute 'tankcd-terrain')")
+    version = int(h5.attrs.get("format_version", -1))
+    if version != FORMAT_VERSION:
+        h5.close()
+        raise InputError(path, f"terrain store format version {version}; this tankcd reads version {FORMAT_VERSION}: run classify again")
+    return h5
+
+
+def _plain(value):
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
