@@ -10,8 +10,8 @@ from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_opti
 from tankcd_cli.errors import InputError
 
 METHOD_HELP = ("Mean-curvature estimator: cotan (cotangent formula with mixed Voronoi area, the paper's "
-               "equation 2; fastest), sphere (the paper's four-point sphere fit), jet (cubic fit over the "
-               "nearest 20 vertices; accurate on irregular meshes, slower).")
+               "equation 2; fastest), sphere (the paper's four-point sphere fit), jet ( "
+               "quartic fit over the nearest 20 vertices; accurate on irregular meshes, slower).")
 
 
 @click.command(short_help="Classify a terrain into an HDF5 store.")

@@ -66,7 +66,7 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
         "source_format": raw.format,
         "source_up_axis": raw.up,
         "curvature_method": method,
-        "boundary_treatment": "one-sided cubic fit over the 20 nearest vertices",
+        "boundary_treatment": "one-sided quartic fit over the 40 nearest vertices",
         "threshold_flat": thresholds.flat,
         "threshold_uneven": thresholds.uneven,
         "threshold_derivation": thresholds.derivation,

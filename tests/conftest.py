@@ -1,0 +1,41 @@
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from tankcd_cli.cli.main import cli
+
+
+@pytest.fixture
+def run(tmp_path, monkeypatch):
+    """Run a tankcd command in a temporary directory; returns the click Result.
+
+    stdout and stderr are kept apart, as scripts see them.
+    """
+    monkeypatch.chdir(tmp_path)
+
+    def invoke(*args, input=None):
+        runner = CliRunner()
+        return runner.invoke(cli, [str(a) for a in args], input=input, catch_exceptions=False)
+    return invoke
+
+
+def write_asc(path, z, cellsize=1.0, xll=0.0, yll=0.0, nodata=None, corner=False):
+    """Write an ESRI ASCII grid; z[0] is the NORTH row, as in the file."""
+    z = np.asarray(z, dtype=float)
+    lines = [f"ncols {z.shape[1]}", f"nrows {z.shape[0]}",
+             f"{'xllcorner' if corner else 'xllcenter'} {xll!r}", f"{'yllcorner' if corner else 'yllcenter'} {yll!r}",
+             f"cellsize {cellsize!r}"]
+    if nodata is not None:
+        lines.append(f"NODATA_value {nodata}")
+    lines += [" ".join(repr(float(v)) for v in row) for row in z]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_obj(path, vertices, faces):
+    with open(path, "w") as fh:
+        for v in vertices:
+            fh.write("v %r %r %r\n" % tuple(float(c) for c in v))
+        for f in faces:
+            fh.write("f %d %d %d\n" % tuple(int(i) + 1 for i in f))
+    return path
