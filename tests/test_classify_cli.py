@@ -1,0 +1,195 @@
+"""tankcd classify and info as users and scripts run them."""
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from tankcd_cli.terrain.store import read_store, write_store
+from tests.conftest import write_asc
+
+SAMPLE = Path(__file__).resolve().parent.parent / "sample_data"
+
+
+@pytest.fixture(scope="module")
+def sample_store(tmp_path_factory):
+    from click.testing import CliRunner
+
+    from tankcd_cli.cli.main import cli
+
+    out = tmp_path_factory.mktemp("store") / "bf.h5"
+    result = CliRunner().invoke(cli, ["classify", str(SAMPLE / "battlefield.asc"), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_store_follows_the_contract(sample_store):
+    with h5py.File(sample_store, "r") as h5:
+        n = h5["mesh/vertices"].shape[0]
+        assert h5["mesh/vertices"].shape == (n, 3) and h5["mesh/vertices"].dtype == np.float64
+        assert h5["mesh/faces"].shape[1] == 3 and h5["mesh/faces"].dtype.kind == "i"
+        assert h5["curvature/mean"].shape == (n,) and h5["curvature/mean"].dtype == np.float64
+        assert h5["classes/vertex"].shape == (n,) and h5["classes/vertex"].dtype == np.uint8
+        assert set(np.unique(h5["classes/vertex"][()])) <= {0, 1, 2}
+        assert np.isfinite(h5["curvature/mean"][()]).all()
+        a = h5.attrs
+        assert a["tankcd_version"]
+        assert a["source"].endswith("battlefield.asc")
+        assert a["source_sha256"] == hashlib.sha256((SAMPLE / "battlefield.asc").read_bytes()).hexdigest()
+        assert a["curvature_method"] == "cotan"
+        assert 0 < a["threshold_flat"] < a["threshold_uneven"]
+        # UTM placement kept to the last digit
+        assert h5["mesh/vertices"][:, 0].min() == 500000.0
+        assert "grid/vertex" in h5 and "index/start" in h5
+
+
+def test_sample_has_all_three_classes(sample_store):
+    store = read_store(str(sample_store))
+    shares = [store.attrs[f"share_{c}"] for c in ("flat", "general", "uneven")]
+    assert all(s > 0.03 for s in shares) and sum(shares) == pytest.approx(1.0)
+    # the plain (west third) is flat, the craters' centres uneven
+    x = store.vertices[:, 0] - 500000.0
+    y = store.vertices[:, 1] - 4500000.0
+    assert np.mean(store.vertex_class[x < 60] == 0) > 0.99
+    for cx, cy in ((185, 40), (215, 70), (200, 135)):
+        assert (store.vertex_class[np.hypot(x - cx, y - cy) < 3] == 2).all()
+
+
+def test_store_round_trip(tmp_path, sample_store):
+    a = read_store(str(sample_store))
+    write_store(str(tmp_path / "again.h5"), a)
+    b = read_store(str(tmp_path / "again.h5"))
+    for name in ("vertices", "faces", "mean_curvature", "vertex_class", "class_raster", "footprint_curvature"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    np.testing.assert_array_equal(a.buckets.face, b.buckets.face)
+    np.testing.assert_array_equal(a.grid.vertex, b.grid.vertex)
+
+
+def test_default_output_png_and_info(run, tmp_path):
+    src = tmp_path / "hill.asc"
+    x = np.arange(-20, 21.0)
+    X, Y = np.meshgrid(x, x)
+    write_asc(src, 3 * np.exp(-(X**2 + Y**2) / 100))
+    result = run("classify", src, "--png", "map.png", "--method", "jet")
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout == ""
+    assert "hill.asc -> " in result.stderr and "flat" in result.stderr
+    assert (tmp_path / "hill.h5").exists()
+    assert (tmp_path / "map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    info = run("info", tmp_path / "hill.h5")
+    assert info.exit_code == 0
+    assert "curvature method:" in info.stdout and "jet" in info.stdout
+    assert "area uneven:" in info.stdout
+    facts = json.loads(run("info", tmp_path / "hill.h5", "--json").stdout)
+    assert facts["vertices"] == 41 * 41 and facts["curvature method"] == "jet"
+
+
+def test_quiet_and_verbose(run, tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.zeros((5, 5)))
+    quiet = run("-q", "classify", src, "-o", "q.h5")
+    assert quiet.exit_code == 0 and quiet.stderr == ""
+    loud = run("classify", src, "-o", "v.h5", "-v")
+    assert "merged vertices: 0" in loud.stderr and "degenerate faces: 0" in loud.stderr
+
+
+def test_user_thresholds_recorded(run, tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.zeros((5, 5)))
+    assert run("classify", src, "--thresholds", "0.001", "0.05", "-o", "t.h5").exit_code == 0
+    with h5py.File(tmp_path / "t.h5") as h5:
+        assert h5.attrs["threshold_flat"] == 0.001 and h5.attrs["threshold_uneven"] == 0.05
+    bad = run("classify", src, "--thresholds", "0.05", "0.001")
+    assert bad.exit_code == 2
+
+
+@pytest.mark.parametrize("content,fragment", [
+    ("", "file is empty"),
+    ("ncols 3\nnrows 3\nxllcenter 0\nyllcenter 0\ncellsize 1\n1 2 3\n4 5 6\n7 8\n", "expected 3 x 3 = 9 values"),
+    ("ncols 2\nnrows 2\nxllcenter 0\nyllcenter 0\ncellsize 1\n1 inf\n3 4\n", "non-finite height"),
+])
+def test_bad_input_exit_3_one_line_nothing_left(run, tmp_path, content, fragment):
+    src = tmp_path / "bad.asc"
+    src.write_text(content)
+    (tmp_path / "keep.h5").write_bytes(b"previous result")
+    result = run("classify", src, "-o", "keep.h5")
+    assert result.exit_code == 3
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "bad.asc" in lines[0] and fragment in lines[0]
+    assert "Traceback" not in result.stderr
+    assert (tmp_path / "keep.h5").read_bytes() == b"previous result"  # untouched
+    assert not [p for p in os.listdir(tmp_path) if p.endswith(".part")]
+
+
+def test_missing_file_and_bad_store(run, tmp_path):
+    result = run("classify", tmp_path / "nope.obj")
+    assert result.exit_code == 3 and "no such file" in result.stderr
+    (tmp_path / "x.h5").write_bytes(b"\x89HDF\r\n\x1a\n" + b"junk" * 10)
+    result = run("info", tmp_path / "x.h5")
+    assert result.exit_code == 3 and "x.h5" in result.stderr
+
+
+def test_output_directory_missing_is_exit_3(run, tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.zeros((3, 3)))
+    result = run("classify", src, "-o", tmp_path / "no" / "such" / "dir" / "g.h5")
+    assert result.exit_code == 3 and "output directory does not exist" in result.stderr
+
+
+def test_internal_error_is_exit_4(run, tmp_path, monkeypatch):
+    src = write_asc(tmp_path / "g.asc", np.zeros((3, 3)))
+
+    def boom(*a, **k):
+        raise RuntimeError("simulated bug")
+    monkeypatch.setattr("tankcd_cli.terrain.classify.classify_terrain", boom)
+    result = run("classify", src)
+    assert result.exit_code == 4
+    assert "internal error" in result.stderr and "please report" in result.stderr
+    assert not (tmp_path / "g.h5").exists()
+
+
+def test_reclassify_from_a_store(run, sample_store, tmp_path):
+    result = run("classify", sample_store, "--method", "sphere", "-o", "again.h5")
+    assert result.exit_code == 0, result.stderr
+    with h5py.File(tmp_path / "again.h5") as new, h5py.File(sample_store) as old:
+        np.testing.assert_array_equal(new["mesh/vertices"][()], old["mesh/vertices"][()])
+        assert new.attrs["curvature_method"] == "sphere"
+        assert new.attrs["source_sha256"] == old.attrs["source_sha256"]
+
+
+def _tankcd(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "tankcd_cli", *map(str, args)], capture_output=True, **kw)
+
+
+def test_stdin_to_stdout_pipeline(tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.arange(16.0).reshape(4, 4))
+    proc = _tankcd("classify", "-", "--format", "asc", "-o", "-", input=src.read_bytes())
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout[:8] == b"\x89HDF\r\n\x1a\n"
+    (tmp_path / "piped.h5").write_bytes(proc.stdout)
+    assert len(read_store(str(tmp_path / "piped.h5")).vertices) == 16
+
+
+def test_closed_pipe_exits_quietly(tmp_path):
+    src = SAMPLE / "battlefield.asc"
+    proc = subprocess.run(f"{sys.executable} -m tankcd_cli classify {src} -o - | head -c 100 > /dev/null",
+                          shell=True, capture_output=True, cwd=tmp_path)
+    assert b"Traceback" not in proc.stderr and b"Error" not in proc.stderr
+
+
+def test_help_is_lean():
+    """--help loads no numpy, scipy, h5py or trimesh: it must be instant."""
+    code = ("import sys; from tankcd_cli.cli.main import main\n"
+            "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "heavy = [m for m in ('numpy', 'scipy', 'h5py', 'trimesh', 'matplotlib') if m in sys.modules]\n"
+            "print('HEAVY=' + ','.join(heavy))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.stdout.strip().splitlines()[-1] == "HEAVY="
+
+
+def test_version():
+    proc = _tankcd("--version", text=True)
+    assert proc.returncode == 0 and "tankcd" in proc.stdout
