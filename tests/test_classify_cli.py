@@ -46,7 +46,7 @@ def test_store_follows_the_contract(sample_store):
         assert 0 < a["threshold_flat"] < a["threshold_uneven"]
         # UTM placement kept to the last digit
         assert h5["mesh/vertices"][:, 0].min() == 500000.0
-        assert "grid/vertex" in h5 and "index/start" in h5
+        assert "grid/vertex" in h5 and "index" not in h5  # a DEM locates points by its posts
 
 
 def test_sample_has_all_three_classes(sample_store):
@@ -67,8 +67,18 @@ def test_store_round_trip(tmp_path, sample_store):
     b = read_store(str(tmp_path / "again.h5"))
     for name in ("vertices", "faces", "mean_curvature", "vertex_class", "class_raster", "footprint_curvature"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    np.testing.assert_array_equal(a.buckets.face, b.buckets.face)
     np.testing.assert_array_equal(a.grid.vertex, b.grid.vertex)
+
+
+def test_mesh_store_has_buckets_and_round_trips(run, tmp_path):
+    result = run("classify", SAMPLE / "battlefield.obj", "-o", "mesh.h5")
+    assert result.exit_code == 0, result.stderr
+    a = read_store(str(tmp_path / "mesh.h5"))
+    assert a.grid is None and a.buckets is not None
+    write_store(str(tmp_path / "again.h5"), a)
+    b = read_store(str(tmp_path / "again.h5"))
+    np.testing.assert_array_equal(a.buckets.face, b.buckets.face)
+    np.testing.assert_array_equal(a.buckets.start, b.buckets.start)
 
 
 def test_default_output_png_and_info(run, tmp_path):

@@ -224,3 +224,28 @@ def test_property_quadratic_patches(a, b, c, tx, ty, angle):
         assert np.isfinite(H).all()
     Hj = mean_curvature(V, F, "jet")
     assert abs(Hj[centre] - truth) < 1e-6 + 1e-6 * abs(truth)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("mesh", [S.grid_mesh, S.jittered_mesh])
+def test_compiled_kernels_agree_with_numpy(method, mesh):
+    """The fast path (numba, for large meshes) against its numpy oracle."""
+    V, F, _ = mesh(SURFACES["gaussian_hill"], HALF, 1.0, offset=(500_000.0, 4_500_000.0, 0.0))
+    F = F.copy()
+    F[::7] = F[::7][:, [0, 2, 1]]  # flipped faces must not matter
+    slow = mean_curvature(V, F, method, fast=False)
+    fast = mean_curvature(V, F, method, fast=True)
+    np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-12)
+
+
+def test_open_vertices_agree_and_find_nonmanifold_edges():
+    from tankcd_cli.terrain.curvature import open_vertices
+
+    V, F, _ = S.jittered_mesh(S.plane(), 5.0, 1.0, seed=2)
+    F = np.vstack([F, [[F[0, 0], F[0, 1], len(V)]]])  # a fin on edge (F0[0], F0[1]): non-manifold
+    n = len(V) + 1
+    slow = open_vertices(F, n, fast=False)
+    fast = open_vertices(F, n, fast=True)
+    for a, b in zip(slow, fast):
+        np.testing.assert_array_equal(a, b)
+    assert fast[1][F[0, 0]] and fast[1][F[0, 1]] and fast[1].sum() == 2

@@ -69,7 +69,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     a = store.attrs
     for key in ("merged_vertices", "unreferenced_vertices", "degenerate_faces", "repeated_faces"):
         report.detail(f"classify: {key.replace('_', ' ')}: {a[key]}")
-    report.detail(f"classify: boundary vertices: {a['boundary_vertices']}, non-manifold edges: {a['nonmanifold_edges']}")
+    report.detail(f"classify: boundary vertices: {a['boundary_vertices']}, non-manifold vertices: {a['nonmanifold_vertices']}")
     report.info(f"classify: {raw.source} -> {output}: {len(store.vertices):,} vertices, {len(store.faces):,} faces, "
                 f"H by {method}; flat {a['share_flat']:.0%}, general {a['share_general']:.0%}, "
                 f"uneven {a['share_uneven']:.0%} of the area ({report.elapsed():.2f} s)")

@@ -8,10 +8,10 @@ from typing import Callable
 import numpy as np
 
 from tankcd_cli import __version__
-from tankcd_cli.io.terrain_readers import Grid, RawTerrain
-from tankcd_cli.terrain.curvature import mean_curvature
+from tankcd_cli.io.terrain_readers import RawTerrain
+from tankcd_cli.terrain.curvature import mean_curvature, open_vertices
 from tankcd_cli.terrain.locate import build_buckets
-from tankcd_cli.terrain.mesh import clean_mesh, edge_topology
+from tankcd_cli.terrain.mesh import CleanMesh, clean_mesh
 from tankcd_cli.terrain.regions import (NO_CLASS, Thresholds, class_shares, classify_values, default_thresholds,
                                         footprint_curvature, vertex_areas)
 from tankcd_cli.terrain.store import TerrainStore
@@ -27,22 +27,24 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
 
-    say("cleaning mesh")
-    mesh = clean_mesh(raw.vertices, raw.faces, tol, merge=raw.grid is None)
-    if len(mesh.faces) == 0:
-        from tankcd_cli.errors import InputError
+    if raw.grid is None:
+        say("cleaning mesh")
+        mesh = clean_mesh(raw.vertices, raw.faces, tol)
+        if len(mesh.faces) == 0:
+            from tankcd_cli.errors import InputError
 
-        raise InputError(raw.source, "no usable faces: every face is degenerate (zero area)")
-    grid = None
-    if raw.grid is not None:
-        post = raw.grid.vertex
-        remapped = np.where(post >= 0, mesh.old_to_new[np.maximum(post, 0)], -1)
-        grid = Grid(raw.grid.origin, raw.grid.spacing, remapped)
+            raise InputError(raw.source, "no usable faces: every face is degenerate (zero area)")
+        grid = None
+    else:
+        # DEM posts are distinct and their triangles have the cell's area: nothing to clean
+        mesh = CleanMesh(raw.vertices, raw.faces, np.arange(len(raw.vertices)),
+                         {"merged_vertices": 0, "degenerate_faces": 0, "repeated_faces": 0, "unreferenced_vertices": 0})
+        grid = raw.grid
     vertices, faces = mesh.vertices, mesh.faces
 
     say(f"mean curvature ({method}) at {len(vertices):,} vertices")
-    topo = edge_topology(faces, len(vertices))
-    H = mean_curvature(vertices, faces, method, tol, topology=topo)
+    boundary, nonmanifold = open_vertices(faces, len(vertices))
+    H = mean_curvature(vertices, faces, method, tol, open_mask=boundary | nonmanifold)
     if not np.isfinite(H).all():
         raise RuntimeError(f"{int((~np.isfinite(H)).sum())} non-finite curvature values")
 
@@ -54,8 +56,10 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
                             NO_CLASS).astype(np.uint8)
     shares = class_shares(classes, area)
 
-    say("point-location index")
-    buckets = build_buckets(vertices, faces)
+    buckets = None
+    if grid is None:  # a DEM's post raster locates points by itself
+        say("point-location index")
+        buckets = build_buckets(vertices, faces)
 
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     attrs = {
@@ -77,8 +81,8 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
         "share_flat": shares[0], "share_general": shares[1], "share_uneven": shares[2],
         "extent_min": lo, "extent_max": hi,
         "vertices_read": len(raw.vertices), "faces_read": len(raw.faces),
-        "boundary_vertices": int(topo.boundary_vertex.sum()),
-        "nonmanifold_edges": int((topo.face_count > 2).sum()),
+        "boundary_vertices": int(boundary.sum()),
+        "nonmanifold_vertices": int(nonmanifold.sum()),
         "is_grid": raw.grid is not None,
     }
     for key, value in mesh.counts.items():

@@ -78,11 +78,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray, face_normal: np.ndar
     n = len(vertices)
     acc = np.column_stack([np.bincount(faces.ravel(), weights=np.repeat(face_normal[:, c], 3), minlength=n)
                            for c in range(3)])
-    norm = np.linalg.norm(acc, axis=1)
-    bad = ~(norm > 0)
-    acc[bad] = (0.0, 0.0, 1.0)
-    norm[bad] = 1.0
-    return acc / norm[:, None]
+    return _unit_or_up(acc)
 
 
 def mixed_area(faces: np.ndarray, edge: np.ndarray, cot: np.ndarray, double_area: np.ndarray, n: int) -> np.ndarray:
@@ -101,34 +97,97 @@ def mixed_area(faces: np.ndarray, edge: np.ndarray, cot: np.ndarray, double_area
     return np.bincount(faces.ravel(), weights=share.ravel(), minlength=n)
 
 
+FAST_MIN_VERTICES = 200_000  # below this the numba import (about 0.2 s) costs more than it saves
+
+
+def use_fast_path(n: int, fast: bool | None = None) -> bool:
+    """Whether to use the compiled kernels for a mesh of ``n`` vertices."""
+    return n >= FAST_MIN_VERTICES if fast is None else fast
+
+
+def open_vertices(faces: np.ndarray, n: int, fast: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices without a closed one-ring: (boundary (n,) bool, non-manifold (n,) bool).
+
+    A boundary vertex lies on an edge with one face; a non-manifold one on an
+    edge with three or more. Neither has a usable one-ring formula.
+    """
+    if use_fast_path(n, fast):
+        from tankcd_cli.terrain import kernels
+
+        start, face = kernels.vertex_face_csr(faces, n)
+        return kernels.boundary_flags(faces, n, start, face)
+    topo = edge_topology(faces, n)
+    nonmanifold = np.zeros(n, dtype=bool)
+    nonmanifold[topo.edges[topo.face_count > 2].ravel()] = True
+    boundary = np.zeros(n, dtype=bool)
+    boundary[topo.edges[topo.face_count == 1].ravel()] = True
+    used = np.zeros(n, dtype=bool)
+    used[faces.ravel()] = True
+    return boundary | ~used, nonmanifold
+
+
 def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan",
-                   tol: Tolerances = DEFAULT, topology: EdgeTopology | None = None) -> np.ndarray:
+                   tol: Tolerances = DEFAULT, open_mask: np.ndarray | None = None,
+                   fast: bool | None = None) -> np.ndarray:
     """Signed mean curvature H (n,) at each vertex, 1/m.
 
     vertices : (n, 3) float64, m (any offset: all arithmetic is on differences)
     faces : (m, 3) int, a cleaned mesh (no zero-area faces)
     method : one of ``METHODS``
+    open_mask : (n,) bool, vertices without a closed one-ring, if already known
+    fast : use the compiled kernels (default: for meshes of FAST_MIN_VERTICES or more)
     """
     if method not in METHODS:
         raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(METHODS)}")
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     n = len(vertices)
-    topo = topology if topology is not None else edge_topology(faces, n)
-    edge, cot, fnormal = face_corners(vertices, faces)
-    normal = vertex_normals(vertices, faces, fnormal)
-    if method == "jet":
-        H = jet_curvature(vertices, normal, ~topo.boundary_vertex)
+    fast = use_fast_path(n, fast)
+    if open_mask is None:
+        boundary, nonmanifold = open_vertices(faces, n, fast)
+        open_mask = boundary | nonmanifold
+    if fast:
+        from tankcd_cli.terrain import kernels
+
+        K, normal_sum, area = kernels.cotan_accumulate(vertices, faces)
+        normal = _unit_or_up(normal_sum)
     else:
-        area = mixed_area(faces, edge, cot, np.linalg.norm(fnormal, axis=1), n)
-        if method == "cotan":
-            H = _cotan(faces, edge, cot, normal, area, n)
+        edge, cot, fnormal = face_corners(vertices, faces)
+        normal = vertex_normals(vertices, faces, fnormal)
+    if method == "jet":
+        H = jet_curvature(vertices, normal, ~open_mask)
+    elif method == "cotan":
+        if fast:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                H = np.where(area > 0, -np.einsum("ij,ij->i", K, normal) / (4.0 * area), 0.0)
         else:
-            H = _sphere(vertices, faces, cot, normal, area, topo, tol)
-    if topo.boundary_vertex.any():
-        b = topo.boundary_vertex
-        H[b] = jet_curvature(vertices, normal, b, k=BOUNDARY_NEIGHBOURS, degree=JET_DEGREE)[b]
+            area = mixed_area(faces, edge, cot, np.linalg.norm(fnormal, axis=1), n)
+            H = _cotan(faces, edge, cot, normal, area, n)
+    else:
+        if fast:
+            edge, cot, fnormal = face_corners(vertices, faces)
+        else:
+            area = mixed_area(faces, edge, cot, np.linalg.norm(fnormal, axis=1), n)
+        H = _sphere(vertices, faces, cot, normal, area, edge_topology(faces, n), tol)
+    if open_mask.any():
+        candidates = None
+        if fast and method != "jet":
+            # the boundary fit needs only the vertices near the boundary, not a tree over all
+            from tankcd_cli.terrain import kernels
+
+            start, face = kernels.vertex_face_csr(faces, n)
+            candidates = kernels.grow_rings(faces, start, face, open_mask, BOUNDARY_RINGS)
+        H[open_mask] = jet_curvature(vertices, normal, open_mask, k=BOUNDARY_NEIGHBOURS,
+                                     degree=JET_DEGREE, candidates=candidates)[open_mask]
     return H
+
+
+def _unit_or_up(vectors: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(vectors, axis=1)
+    bad = ~(norm > 0)
+    out = vectors / np.where(bad, 1.0, norm)[:, None]
+    out[bad] = (0.0, 0.0, 1.0)
+    return out
 
 
 def _cotan(faces, edge, cot, normal, area, n):
@@ -195,10 +254,12 @@ def _sphere(vertices, faces, cot, normal, area, topo: EdgeTopology, tol: Toleran
 
 JET_NEIGHBOURS = 20  # a symmetric 5x5 stencil less its corners on a regular grid
 BOUNDARY_NEIGHBOURS = 40  # a one-sided quartic needs more rows of points
+BOUNDARY_RINGS = 8  # the 40 nearest lie within 5 rings of a regular grid; 8 leaves room
 JET_DEGREE = 4  # a quartic: its second derivatives err at O(h^2) on irregular meshes, O(h^4) on symmetric stencils
 
 
-def nearest_neighbours(vertices: np.ndarray, which: np.ndarray, k: int = JET_NEIGHBOURS) -> np.ndarray:
+def nearest_neighbours(vertices: np.ndarray, which: np.ndarray, k: int = JET_NEIGHBOURS,
+                       candidates: np.ndarray | None = None) -> np.ndarray:
     """Indices (len(which), k) of the k nearest other vertices of each selected vertex.
 
     Distance, not mesh rings: on a boundary the rings of a Delaunay mesh run
@@ -206,15 +267,22 @@ def nearest_neighbours(vertices: np.ndarray, which: np.ndarray, k: int = JET_NEI
     """
     from scipy.spatial import cKDTree
 
-    k = min(k, len(vertices) - 1)
-    centred = vertices - vertices.mean(axis=0)  # small numbers even at UTM offsets
-    tree = cKDTree(centred)
-    _, idx = tree.query(centred[which], k + 1, workers=-1)
+    pool = np.arange(len(vertices)) if candidates is None else np.flatnonzero(candidates | which)
+    k = min(k, len(pool) - 1)
+    extra = min(k + 1 + 16, len(pool))  # room to break ties between equidistant points by index
+    centre = vertices[pool].mean(axis=0)  # small numbers even at UTM offsets
+    tree = cKDTree(vertices[pool] - centre)
     sel = np.flatnonzero(which)
-    # drop the vertex itself (normally column 0, but a duplicate may come first)
-    is_self = idx == sel[:, None]
-    keep = np.where(is_self.any(axis=1)[:, None], ~is_self, np.arange(k + 1)[None, :] < k)
-    return idx[keep].reshape(len(sel), k)
+    dist, local = tree.query(vertices[sel] - centre, extra, workers=-1)
+    idx = pool[local.reshape(len(sel), extra)]
+    dist = dist.reshape(len(sel), extra)
+    # deterministic whatever the pool: nearest first, equal distances (to 1e-9) by vertex index
+    scale = np.maximum(dist[:, -1:], 1e-300)
+    order = np.lexsort((idx, np.round(dist / scale * 1e9)), axis=-1)
+    idx = np.take_along_axis(idx, order, axis=1)
+    idx = np.where(idx == sel[:, None], -1, idx)  # the vertex itself is the fit's origin, not a sample
+    keep = np.argsort(idx < 0, axis=1, kind="stable")[:, :k]
+    return np.take_along_axis(idx, keep, axis=1)
 
 
 _MONOMIALS = {3: 9, 4: 14}  # monomials of a jet of that degree through the origin
@@ -222,12 +290,14 @@ _MONOMIALS = {3: 9, 4: 14}  # monomials of a jet of that degree through the orig
 
 
 def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, chunk: int = 65536,
-                  k: int = JET_NEIGHBOURS, degree: int = JET_DEGREE) -> np.ndarray:
+                  k: int = JET_NEIGHBOURS, degree: int = JET_DEGREE,
+                  candidates: np.ndarray | None = None) -> np.ndarray:
     """Mean curvature from a least-squares polynomial fit over the k nearest neighbours.
 
     vertices : (n, 3) float64, m
     normal : (n, 3) unit upward vertex normals (to orient the fitted normal)
     which : (n,) bool, the vertices to compute
+    candidates : (n,) bool, where to look for neighbours (default: everywhere)
     Returns (n,) with values at ``which`` (zeros elsewhere), 1/m.
     """
     n = len(vertices)
@@ -237,7 +307,7 @@ def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, c
         return H
     if n < 4:
         return H
-    nbr = nearest_neighbours(vertices, which, k)
+    nbr = nearest_neighbours(vertices, which, k, candidates)
     for start in range(0, len(sel), chunk):
         rows = slice(start, start + chunk)
         H[sel[rows]] = _jet_chunk(vertices, normal, sel[rows], nbr[rows], degree)

@@ -9,8 +9,10 @@ Layout (contract paths first; the rest makes later queries fast):
 /classes/vertex           (n,) uint8       0 flat, 1 general, 2 uneven
 /classes/raster           (ny, nx) uint8   class per raster cell (255: no terrain); attrs origin, cell
 /curvature/footprint_raster (ny, nx) float32  averaged |H| per raster cell (NaN: no terrain)
-/index/start, /index/face                  triangle buckets for point location; attrs origin, cell, shape
-/grid/vertex              (rows, cols) int64  vertex of each DEM post (-1 NODATA); attrs origin, spacing
+/index/start, /index/face                  triangle buckets for point location on irregular meshes;
+                                           attrs origin, cell, shape
+/grid/vertex              (rows, cols) int64  DEMs only: vertex of each post (-1 NODATA), which
+                                           locates any point in O(1); attrs origin, spacing
 
 Datasets are stored contiguous and uncompressed so that readers can map them.
 """
@@ -40,7 +42,7 @@ class TerrainStore:
     footprint_raster: np.ndarray
     raster_origin: np.ndarray
     raster_cell: float
-    buckets: object  # TriangleBuckets
+    buckets: object | None  # TriangleBuckets, for irregular meshes
     grid: object | None  # io.terrain_readers.Grid
     attrs: dict = field(default_factory=dict)
 
@@ -67,13 +69,14 @@ def write_store(path: str, store: TerrainStore) -> None:
             d.attrs["origin"] = store.raster_origin
             d.attrs["cell"] = store.raster_cell
         b = store.buckets
-        grp = h5.create_group("index")
-        grp.attrs["kind"] = "triangle buckets"
-        grp.attrs["origin"] = b.origin
-        grp.attrs["cell"] = b.cell
-        grp.attrs["shape"] = np.asarray(b.shape)
-        grp["start"] = b.start
-        grp["face"] = b.face
+        if b is not None:
+            grp = h5.create_group("index")
+            grp.attrs["kind"] = "triangle buckets"
+            grp.attrs["origin"] = b.origin
+            grp.attrs["cell"] = b.cell
+            grp.attrs["shape"] = np.asarray(b.shape)
+            grp["start"] = b.start
+            grp["face"] = b.face
         if store.grid is not None:
             g = h5.create_dataset("grid/vertex", data=store.grid.vertex)
             g.attrs["origin"] = store.grid.origin
@@ -107,9 +110,12 @@ def read_store(path: str) -> TerrainStore:
     with h5:
         try:
             attrs = {k: _plain(v) for k, v in h5.attrs.items()}
-            idx = h5["index"]
-            buckets = TriangleBuckets(np.asarray(idx.attrs["origin"]), float(idx.attrs["cell"]),
-                                      tuple(int(s) for s in idx.attrs["shape"]), idx["start"][()], idx["face"][()])
+            buckets = None
+            if "index" in h5:
+                idx = h5["index"]
+                buckets = TriangleBuckets(np.asarray(idx.attrs["origin"]), float(idx.attrs["cell"]),
+                                          tuple(int(s) for s in idx.attrs["shape"]), idx["start"][()],
+                                          idx["face"][()])
             grid = None
             if "grid/vertex" in h5:
                 g = h5["grid/vertex"]
