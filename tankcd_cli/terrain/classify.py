@@ -43,8 +43,8 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
     vertices, faces = mesh.vertices, mesh.faces
 
     say(f"mean curvature ({method}) at {len(vertices):,} vertices")
-    boundary, nonmanifold = open_vertices(faces, len(vertices))
-    H = mean_curvature(vertices, faces, method, tol, open_mask=boundary | nonmanifold)
+    open_verts = open_vertices(faces, len(vertices))
+    H = mean_curvature(vertices, faces, method, tol, open_verts=open_verts)
     if not np.isfinite(H).all():
         raise RuntimeError(f"{int((~np.isfinite(H)).sum())} non-finite curvature values")
 
@@ -81,8 +81,8 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
         "share_flat": shares[0], "share_general": shares[1], "share_uneven": shares[2],
         "extent_min": lo, "extent_max": hi,
         "vertices_read": len(raw.vertices), "faces_read": len(raw.faces),
-        "boundary_vertices": int(boundary.sum()),
-        "nonmanifold_vertices": int(nonmanifold.sum()),
+        "boundary_vertices": int(open_verts.boundary.sum()),
+        "nonmanifold_vertices": int(open_verts.nonmanifold.sum()),
         "is_grid": raw.grid is not None,
     }
     for key, value in mesh.counts.items():

@@ -36,6 +36,8 @@ far-reaching slivers).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from tankcd_cli.terrain.mesh import EdgeTopology, edge_topology
@@ -97,7 +99,7 @@ def mixed_area(faces: np.ndarray, edge: np.ndarray, cot: np.ndarray, double_area
     return np.bincount(faces.ravel(), weights=share.ravel(), minlength=n)
 
 
-FAST_MIN_VERTICES = 200_000  # below this the numba import (about 0.2 s) costs more than it saves
+FAST_MIN_VERTICES = 150_000  # break-even measured: below it the numba start-up (about 0.6 s) costs more than it saves
 
 
 def use_fast_path(n: int, fast: bool | None = None) -> bool:
@@ -105,17 +107,30 @@ def use_fast_path(n: int, fast: bool | None = None) -> bool:
     return n >= FAST_MIN_VERTICES if fast is None else fast
 
 
-def open_vertices(faces: np.ndarray, n: int, fast: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices without a closed one-ring: (boundary (n,) bool, non-manifold (n,) bool).
+class OpenVertices(NamedTuple):
+    """Vertices without a closed one-ring, (n,) bool each.
 
-    A boundary vertex lies on an edge with one face; a non-manifold one on an
-    edge with three or more. Neither has a usable one-ring formula.
+    boundary : on an edge with one face
+    nonmanifold : on an edge with three or more faces
+    near : within BOUNDARY_RINGS edge hops of either (where their one-sided fits
+        look for neighbours); None when not computed (every vertex is a candidate)
     """
+
+    boundary: np.ndarray
+    nonmanifold: np.ndarray
+    near: np.ndarray | None
+
+    @property
+    def mask(self) -> np.ndarray:
+        return self.boundary | self.nonmanifold
+
+
+def open_vertices(faces: np.ndarray, n: int, fast: bool | None = None) -> OpenVertices:
+    """Find the vertices that no one-ring formula can serve."""
     if use_fast_path(n, fast):
         from tankcd_cli.terrain import kernels
 
-        start, face = kernels.vertex_face_csr(faces, n)
-        return kernels.boundary_flags(faces, n, start, face)
+        return OpenVertices(*kernels.open_vertex_flags(faces, n, BOUNDARY_RINGS))
     topo = edge_topology(faces, n)
     nonmanifold = np.zeros(n, dtype=bool)
     nonmanifold[topo.edges[topo.face_count > 2].ravel()] = True
@@ -123,18 +138,18 @@ def open_vertices(faces: np.ndarray, n: int, fast: bool | None = None) -> tuple[
     boundary[topo.edges[topo.face_count == 1].ravel()] = True
     used = np.zeros(n, dtype=bool)
     used[faces.ravel()] = True
-    return boundary | ~used, nonmanifold
+    return OpenVertices(boundary | ~used, nonmanifold, None)
 
 
 def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan",
-                   tol: Tolerances = DEFAULT, open_mask: np.ndarray | None = None,
+                   tol: Tolerances = DEFAULT, open_verts: OpenVertices | None = None,
                    fast: bool | None = None) -> np.ndarray:
     """Signed mean curvature H (n,) at each vertex, 1/m.
 
     vertices : (n, 3) float64, m (any offset: all arithmetic is on differences)
     faces : (m, 3) int, a cleaned mesh (no zero-area faces)
     method : one of ``METHODS``
-    open_mask : (n,) bool, vertices without a closed one-ring, if already known
+    open_verts : the result of ``open_vertices``, if already known
     fast : use the compiled kernels (default: for meshes of FAST_MIN_VERTICES or more)
     """
     if method not in METHODS:
@@ -143,9 +158,9 @@ def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan
     faces = np.asarray(faces, dtype=np.int64)
     n = len(vertices)
     fast = use_fast_path(n, fast)
-    if open_mask is None:
-        boundary, nonmanifold = open_vertices(faces, n, fast)
-        open_mask = boundary | nonmanifold
+    if open_verts is None:
+        open_verts = open_vertices(faces, n, fast)
+    open_mask = open_verts.mask
     if fast:
         from tankcd_cli.terrain import kernels
 
@@ -170,15 +185,9 @@ def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan
             area = mixed_area(faces, edge, cot, np.linalg.norm(fnormal, axis=1), n)
         H = _sphere(vertices, faces, cot, normal, area, edge_topology(faces, n), tol)
     if open_mask.any():
-        candidates = None
-        if fast and method != "jet":
-            # the boundary fit needs only the vertices near the boundary, not a tree over all
-            from tankcd_cli.terrain import kernels
-
-            start, face = kernels.vertex_face_csr(faces, n)
-            candidates = kernels.grow_rings(faces, start, face, open_mask, BOUNDARY_RINGS)
+        # the one-sided fits look for neighbours only near the boundary, not in a tree over all
         H[open_mask] = jet_curvature(vertices, normal, open_mask, k=BOUNDARY_NEIGHBOURS,
-                                     degree=JET_DEGREE, candidates=candidates)[open_mask]
+                                     degree=JET_DEGREE, candidates=open_verts.near)[open_mask]
     return H
 
 
@@ -346,11 +355,14 @@ def _jet_chunk(vertices, normal, centre, nbr, degree):
     u = np.einsum("ckx,cx->ck", d, t1) / s[:, None]
     v = np.einsum("ckx,cx->ck", d, t2) / s[:, None]
     w = np.einsum("ckx,cx->ck", d, nz) / s[:, None]
-    B = np.stack([u, v, u * u, u * v, v * v, u ** 3, u * u * v, u * v * v, v ** 3,
-                  u ** 4, u ** 3 * v, u * u * v * v, u * v ** 3, v ** 4][:_MONOMIALS[degree]], axis=2)
-    M = np.einsum("cki,ckj->cij", B, B)
-    rhs = np.einsum("cki,ck->ci", B, w)
-    # a vanishing ridge keeps every system solvable (collinear or coincident neighbours)
+    uu, uv, vv = u * u, u * v, v * v
+    columns = [u, v, uu, uv, vv, uu * u, uu * v, u * vv, vv * v]
+    if degree >= 4:
+        columns += [uu * uu, uu * uv, uu * vv, uv * vv, vv * vv]
+    B = np.stack(columns, axis=2)  # products, not powers: np.power is several times slower
+    Bt = B.transpose(0, 2, 1)
+    M = Bt @ B
+    rhs = (Bt @ w[:, :, None])[:, :, 0]
     count = _MONOMIALS[degree]
     ridge = 1e-10 * np.trace(M, axis1=1, axis2=2) / count + 1e-300
     M += ridge[:, None, None] * np.eye(count)

@@ -152,3 +152,12 @@ def grow_rings(F, start, face, seed, rings):  # pragma: no cover - compiled
         if frontier.size == 0:
             break
     return mark
+
+
+@njit(cache=True)
+def open_vertex_flags(F, n, rings):  # pragma: no cover - compiled
+    """Boundary and non-manifold flags, and the vertices within ``rings`` hops of either."""
+    start, face = vertex_face_csr(F, n)
+    boundary, nonmanifold = boundary_flags(F, n, start, face)
+    near = grow_rings(F, start, face, boundary | nonmanifold, rings)
+    return boundary, nonmanifold, near
