@@ -38,7 +38,6 @@ def test_utm_offsets_do_not_merge_neighbours():
 
 
 def test_edge_topology_boundary_and_nonmanifold():
-    V = np.zeros((5, 3))
     F = np.array([[0, 1, 2], [0, 2, 3], [0, 2, 4]])  # edge 0-2 shared by three faces
     topo = edge_topology(F, 5)
     assert (topo.face_count > 2).sum() == 1

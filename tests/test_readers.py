@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.io.terrain_readers import grid_faces, parse_esri_ascii, read_terrain
+from tankcd_cli.io.terrain_readers import grid_faces, read_terrain
 from tests.conftest import write_asc, write_obj
 
 
@@ -112,7 +112,7 @@ def test_y_up_mesh_is_turned_to_z_up(tmp_path):
 def test_stdin_needs_format_and_reads(monkeypatch, tmp_path):
     with pytest.raises(InputError, match="needs --format"):
         read_terrain("-")
-    data = (tmp_path / "x").write_text("ncols 2\nnrows 2\nxllcenter 0\nyllcenter 0\ncellsize 1\n1 2\n3 4\n")
+    (tmp_path / "x").write_text("ncols 2\nnrows 2\nxllcenter 0\nyllcenter 0\ncellsize 1\n1 2\n3 4\n")
     monkeypatch.setattr("sys.stdin", io.TextIOWrapper(io.BytesIO((tmp_path / "x").read_bytes())))
     raw = read_terrain("-", fmt="asc")
     assert raw.source == "<stdin>" and len(raw.vertices) == 4

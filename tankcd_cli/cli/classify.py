@@ -7,7 +7,6 @@ import os
 import click
 
 from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_options
-from tankcd_cli.errors import InputError
 
 METHOD_HELP = ("Mean-curvature estimator: cotan (cotangent formula with mixed Voronoi area, the paper's "
                "equation 2; fastest), sphere (the paper's four-point sphere fit), jet ( "

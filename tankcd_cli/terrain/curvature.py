@@ -298,7 +298,7 @@ _MONOMIALS = {3: 9, 4: 14}  # monomials of a jet of that degree through the orig
 # # u v uu uv vv uuu uuv uvv vvv
 
 
-def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, chunk: int = 65536,
+def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, chunk: int = 16384,
                   k: int = JET_NEIGHBOURS, degree: int = JET_DEGREE,
                   candidates: np.ndarray | None = None) -> np.ndarray:
     """Mean curvature from a least-squares polynomial fit over the k nearest neighbours.

@@ -94,7 +94,6 @@ def is_store(path: str) -> bool:
 
 def read_attrs(path: str) -> dict:
     """Root attributes of a store, without reading its arrays."""
-    import h5py
 
     h5 = _open(path)
     with h5:
