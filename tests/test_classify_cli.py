@@ -203,3 +203,13 @@ def test_help_is_lean():
 def test_version():
     proc = _tankcd("--version", text=True)
     assert proc.returncode == 0 and "tankcd" in proc.stdout
+
+
+def test_outputs_get_ordinary_permissions_and_info_keeps_utm_digits(run, tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.zeros((3, 3)), xll=500123.0, yll=4512345.0)
+    assert run("classify", src, "-o", "g.h5").exit_code == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (tmp_path / "g.h5").stat().st_mode & 0o777 == 0o666 & ~umask
+    out = run("info", "g.h5").stdout
+    assert "4512345, 4512347" in out

@@ -29,7 +29,7 @@ def info(report, file, as_json):
 
 def _fmt(value) -> str:
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return f"{value:.10g}"  # UTM northings keep their metres
     if isinstance(value, (list, tuple)):
         return ", ".join(_fmt(v) for v in value)
     return str(value)

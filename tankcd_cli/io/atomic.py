@@ -31,6 +31,9 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
     except OSError as exc:
         raise InputError(target, f"cannot write output: {exc.strerror or exc}") from None
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a finished output gets the usual permissions
     try:
         yield tmp
         if to_stdout:
