@@ -16,6 +16,7 @@ from tankcd_cli.errors import InputError
 COMMANDS = {
     "classify": ("tankcd_cli.cli.classify", "Classify a terrain: mean curvature and region classes into an HDF5 store."),
     "info": ("tankcd_cli.cli.info", "Describe a terrain store (.h5)."),
+    "replay": ("tankcd_cli.cli.replay", "Replay a trajectory over a terrain: one pose per row."),
 }
 
 EXIT_DONE, EXIT_COLLISION, EXIT_USAGE, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3, 4

@@ -154,3 +154,32 @@ def jittered_mesh(field: HeightField, half_extent: float, spacing: float, jitter
 def _lift(field: HeightField, xy: Array, offset) -> Array:
     z = field.f(xy[:, 0], xy[:, 1])
     return np.column_stack([xy[:, 0] + offset[0], xy[:, 1] + offset[1], z + offset[2]])
+
+
+def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: str = "dem"):
+    """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south; NaN = NODATA)."""
+    from tankcd_cli.io.terrain_readers import Grid, RawTerrain, grid_faces
+
+    heights = np.asarray(heights, dtype=float)
+    valid = np.isfinite(heights)
+    vertex = np.full(heights.shape, -1, dtype=np.int64)
+    vertex[valid] = np.arange(int(valid.sum()))
+    rr, cc = np.nonzero(valid)
+    vertices = np.column_stack([origin[0] + cc * spacing, origin[1] + rr * spacing, heights[valid]])
+    grid = Grid(np.array(origin, dtype=float), np.array([spacing, spacing]), vertex)
+    return RawTerrain(vertices, grid_faces(vertex), grid, name, "0" * 64, "asc")
+
+
+def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh"):
+    """A RawTerrain without grid structure (an irregular mesh)."""
+    from tankcd_cli.io.terrain_readers import RawTerrain
+
+    return RawTerrain(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64), None, name, "0" * 64, "obj")
+
+
+def surface_of(raw, vehicle=None):
+    """Classify a RawTerrain and build its TerrainSurface (for tests and benchmarks)."""
+    from tankcd_cli.terrain.classify import classify_terrain
+    from tankcd_cli.terrain.surface import TerrainSurface
+
+    return TerrainSurface.from_store(classify_terrain(raw, vehicle=vehicle))

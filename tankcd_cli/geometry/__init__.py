@@ -1,0 +1,1 @@
+"""Exact geometric primitives shared by the higher floors (no I/O, no state)."""

@@ -1,0 +1,253 @@
+"""Place the vehicle on the terrain at many poses at once: ``match``.
+
+Every matcher yields a support plane in the heading frame (u forward along
+the yaw direction, v to the left, both horizontal, origin at the footprint
+centre): z = a + b u + c v. The hull lies on that plane: the vehicle-frame
+origin sits at (x, y, a), its x axis in the plane above the heading, its z
+axis along the plane's upward normal.
+
+Matchers (``MATCHERS``):
+
+``two_point``  the paper's TPTMA: heights at the front and rear midpoints of
+               the footprint give the pitch and, at their midpoint, the height;
+               the roll comes from the terrain normal under the footprint centre.
+``four_point`` the paper's FPTMA: the four footprint corners. Where they are not
+               coplanar, one diagonal pair is high and the hull rocks on it; the
+               paper rests on the high pair and one of the two others (the
+               "floating point" is the other). Choosing one would jump from side
+               to side as the ground changes, so the hull rests on the high
+               pair with the two low corners floating equally (the least-squares
+               plane of the corners raised onto the high pair): continuous.
+``six_point``  the paper's SPTMA: front, middle and rear of each track. The three
+               supporting points are those whose plane has no point above it and
+               the footprint centre over their triangle: the facet of the
+               points' upper convex hull above the centre.
+``reference``  the contract's ground truth: the lowest plane over the footprint
+               centre that no ground point of either track's contact patch rises
+               above, from the exact ground under the patches (every terrain
+               triangle clipped to them), the patches re-projected for the
+               hull's tilt and solved again.
+``auto``       the matcher the worst region class under the footprint calls for:
+               flat two_point, general four_point, uneven six_point.
+
+Key points are projected vertically from their untilted positions, as the
+paper does. Where a key point is off the terrain, the pose comes from the
+reference over the part of the footprint that is on the terrain (status
+``partly_off``); where that cannot carry the hull, the pose is NaN with status
+``off``.
+
+Measures of how far each pose is from physical (``measure=True``):
+``penetration`` the highest ground point of the contact patches above the
+hull's plane (0 if none); ``gap`` the largest height of the plane above the
+ground at the six wheel stations (front, middle, rear of each track).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tankcd_cli.matching.pose import attitude_from_slopes, quaternion_from_euler, rotation_matrix, wrap_angle
+from tankcd_cli.vehicle import Vehicle, key_points
+
+MATCHERS = ("two_point", "four_point", "six_point", "reference")
+MATCHER_CHOICES = MATCHERS + ("auto",)
+STATUS = ("ok", "partly_off", "off")
+OK, PARTLY_OFF, OFF = 0, 1, 2
+REGION_UNKNOWN = 255
+EPS_XY = 1e-9  # m: xy distances below this are zero in the support-plane walk
+
+
+@dataclass
+class Poses:
+    """Matched poses, N of each (angles in radians).
+
+    position : (N, 3) world position of the vehicle-frame origin, m
+    roll, pitch, yaw : (N,) rad (REP 103)
+    quaternion : (N, 4) (qw, qx, qy, qz), qw >= 0
+    plane : (N, 3) support plane (a, b, c) in the heading frame
+    region : (N,) uint8 worst class under the footprint (255 unknown)
+    matcher : (N,) int index into MATCHERS
+    status : (N,) int index into STATUS
+    penetration, gap : (N,) m (NaN when not measured)
+    covered : (N,) share of the contact patches over terrain (NaN when not measured)
+    """
+
+    position: np.ndarray
+    roll: np.ndarray
+    pitch: np.ndarray
+    yaw: np.ndarray
+    quaternion: np.ndarray
+    plane: np.ndarray
+    region: np.ndarray
+    matcher: np.ndarray
+    status: np.ndarray
+    penetration: np.ndarray
+    gap: np.ndarray
+    covered: np.ndarray
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """(N, 3, 3) rotation matrices, R = Rz(yaw) Ry(pitch) Rx(roll)."""
+        return rotation_matrix(self.roll, self.pitch, self.yaw)
+
+    def __len__(self) -> int:
+        return len(self.yaw)
+
+
+def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
+          tilt_iterations: int = 2) -> Poses:
+    """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
+
+    surface : :class:`~tankcd_cli.terrain.surface.TerrainSurface`
+    matcher : one of ``MATCHER_CHOICES``
+    measure : also compute penetration, gap and coverage (costs an exact footprint pass)
+    """
+    if matcher not in MATCHER_CHOICES:
+        raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    y = np.atleast_1d(np.asarray(y, dtype=float))
+    yaw = wrap_angle(np.atleast_1d(np.asarray(yaw, dtype=float)))
+    n = len(x)
+    region = surface.region_under(x, y, yaw, vehicle.track_length, vehicle.footprint_width)
+    if matcher == "auto":
+        choice = np.where(region == REGION_UNKNOWN, 3, np.minimum(region, 2) + 0).astype(np.int64)
+    else:
+        choice = np.full(n, MATCHERS.index(matcher), dtype=np.int64)
+
+    plane = np.full((n, 3), np.nan)
+    status = np.full(n, OK, dtype=np.int64)
+    for code, solver in ((0, _two_point), (1, _four_point), (2, _six_point)):
+        idx = np.flatnonzero(choice == code)
+        if len(idx):
+            plane[idx], ok = solver(surface, vehicle, x[idx], y[idx], yaw[idx])
+            fallback = idx[~ok]
+            choice[fallback] = 3
+            status[fallback] = PARTLY_OFF
+    idx = np.flatnonzero(choice == 3)
+    if len(idx):
+        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations)
+        status[idx] = np.maximum(status[idx], np.where(covered_ref < 1 - 1e-9, PARTLY_OFF, OK))
+        status[idx[st != 0]] = OFF
+    plane[status == OFF] = np.nan
+
+    roll, pitch = attitude_from_slopes(plane[:, 1], plane[:, 2])
+    position = np.column_stack([x, y, plane[:, 0]])
+    quat = quaternion_from_euler(roll, pitch, yaw)
+    penetration = np.full(n, np.nan)
+    gap = np.full(n, np.nan)
+    covered = np.full(n, np.nan)
+    if measure:
+        good = np.flatnonzero(status != OFF)
+        if len(good):
+            penetration[good], covered[good] = footprint_penetration(surface, vehicle, x[good], y[good], yaw[good],
+                                                                     plane[good], roll[good], pitch[good])
+            gap[good] = wheel_gap(surface, vehicle, x[good], y[good], yaw[good], plane[good])
+    return Poses(position, roll, pitch, yaw, quat, plane, region, choice, status, penetration, gap, covered)
+
+
+# --- key points -----------------------------------------------------------------
+
+def _heights(surface, x, y, yaw, points):
+    """Ground heights (N, k) under key points (k, 2) given in the heading frame, and an all-on mask (N,)."""
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    px = x[:, None] + c * points[:, 0] - s * points[:, 1]
+    py = y[:, None] + s * points[:, 0] + c * points[:, 1]
+    z, normal, on = surface.height_normal(px, py)
+    return z, normal, on.all(axis=1)
+
+
+def _two_point(surface, vehicle, x, y, yaw):
+    pts = np.vstack([key_points(vehicle, 2), [[0.0, 0.0]]])  # front, rear, and the centre for the normal
+    z, normal, ok = _heights(surface, x, y, yaw, pts)
+    half = vehicle.track_length / 2
+    b = (z[:, 0] - z[:, 1]) / (2 * half)
+    a = 0.5 * (z[:, 0] + z[:, 1])
+    nc = normal[:, 2]  # world normal at the centre, turned into the heading frame
+    nv = -np.sin(yaw) * nc[:, 0] + np.cos(yaw) * nc[:, 1]
+    c = -nv / nc[:, 2]
+    return np.column_stack([a, b, c]), ok
+
+
+def _four_point(surface, vehicle, x, y, yaw):
+    pts = key_points(vehicle, 4)  # a (front left), b (front right), c (rear right), d (rear left)
+    z, _, ok = _heights(surface, x, y, yaw, pts)
+    h, g = vehicle.track_length / 2, vehicle.track_gauge / 2
+    za, zb, zc, zd = z.T
+    mean = z.mean(axis=1)
+    slope_u = ((za + zb) - (zc + zd)) / (4 * h)
+    slope_v = ((za + zd) - (zb + zc)) / (4 * g)
+    twist = za + zc - zb - zd  # > 0: a and c are the high diagonal; < 0: b and d
+    return np.column_stack([mean + np.abs(twist) / 4, slope_u, slope_v]), ok
+
+
+def _six_point(surface, vehicle, x, y, yaw):
+    from tankcd_cli.geometry.support_plane import support_planes_fixed
+
+    pts = key_points(vehicle, 6)
+    z, _, ok = _heights(surface, x, y, yaw, pts)
+    planes = np.full((len(x), 3), np.nan)
+    if ok.any():
+        planes[ok], st = support_planes_fixed(pts[:, 0].copy(), pts[:, 1].copy(), np.ascontiguousarray(z[ok]), EPS_XY)
+        bad = np.flatnonzero(ok)[st != 0]
+        ok[bad] = False
+    return planes, ok
+
+
+# --- the exact footprint ----------------------------------------------------------
+
+def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """The two contact patches projected to the heading frame, (N, 2, 4, 2), counter-clockwise.
+
+    A vehicle-frame point (xi, eta) of the hull's ground plane lies, seen from
+    above, at (xi cos(pitch) + eta sin(pitch) sin(roll), eta cos(roll)).
+    """
+    h, g, w = vehicle.track_length / 2, vehicle.track_gauge / 2, vehicle.track_width / 2
+    base = np.array([[[-h, g - w], [h, g - w], [h, g + w], [-h, g + w]],
+                     [[-h, -g - w], [h, -g - w], [h, -g + w], [-h, -g + w]]])
+    cp, sp = np.cos(pitch)[:, None, None], np.sin(pitch)[:, None, None]
+    cr, sr = np.cos(roll)[:, None, None], np.sin(roll)[:, None, None]
+    xi, eta = base[None, :, :, 0], base[None, :, :, 1]
+    return np.stack([xi * cp + eta * sp * sr, eta * cr], axis=-1)
+
+
+def _footprint(surface, mode, x, y, yaw, quads, planes_in):
+    from tankcd_cli.matching.footprint import footprint_batch
+
+    lx, ly = surface.to_local(x, y)
+    return footprint_batch(mode, lx, ly, yaw, np.ascontiguousarray(quads), surface.vertices, surface.faces,
+                           surface.plane, surface.cell_origin, surface.cell_size, surface.cell_shape[0],
+                           surface.cell_shape[1], surface.cell_start, surface.cell_face,
+                           np.ascontiguousarray(planes_in), EPS_XY)
+
+
+def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 2):
+    """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,)."""
+    n = len(x)
+    roll = np.zeros(n)
+    pitch = np.zeros(n)
+    dummy = np.zeros((n, 3))
+    for _ in range(max(1, tilt_iterations)):
+        planes, covered, status = _footprint(surface, 0, x, y, yaw, patch_quads(vehicle, roll, pitch), dummy)
+        good = status == 0
+        roll[good], pitch[good] = attitude_from_slopes(planes[good, 1], planes[good, 2])
+    status = np.where(covered > 0, status, 1)
+    return planes, status, covered
+
+
+def footprint_penetration(surface, vehicle, x, y, yaw, planes, roll, pitch):
+    """Deepest ground point above each plane over the tilted contact patches (>= 0), and the covered share."""
+    out, covered, status = _footprint(surface, 1, x, y, yaw, patch_quads(vehicle, roll, pitch), planes)
+    depth = np.where(status == 0, np.maximum(out[:, 0], 0.0), np.nan)
+    return depth, covered
+
+
+def wheel_gap(surface, vehicle, x, y, yaw, planes):
+    """Largest height of the plane above the ground at the six wheel stations (NaN if none is on terrain)."""
+    pts = key_points(vehicle, 6)
+    z, _, _ = _heights(surface, x, y, yaw, pts)
+    above = planes[:, [0]] + planes[:, [1]] * pts[:, 0] + planes[:, [2]] * pts[:, 1] - z
+    with np.errstate(invalid="ignore"):
+        gap = np.nanmax(np.where(np.isnan(above), -np.inf, above), axis=1)
+    return np.where(np.isfinite(gap), np.maximum(gap, 0.0), np.nan)

@@ -1,0 +1,139 @@
+"""Height and upward normal anywhere on a terrain, in one vectorized call.
+
+A :class:`TerrainSurface` is built once from a terrain store. Points are
+located in a uniform grid of cells that lists the triangles overlapping each
+cell: for a DEM the cells are the DEM's own cells (two triangles each, found
+by arithmetic: O(1) per point); for an irregular mesh they are the store's
+triangle buckets. Heights are exact on the terrain's own triangles (the
+triangle's plane, i.e. barycentric interpolation). A point over no triangle is
+off the terrain: it is reported in the ``on`` mask and its height is NaN.
+
+All arithmetic runs in local coordinates (relative to the terrain's south-west
+corner), so UTM coordinates lose nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TerrainSurface:
+    """Arrays for point location and heights (all in local x, y; z absolute).
+
+    origin : (2,) world x, y of the local origin, m
+    vertices : (n, 3) local x, y and absolute z, m
+    faces : (m, 3) int64
+    plane : (m, 3) z = plane[0] + plane[1] x + plane[2] y over each face (local x, y)
+    cell_origin, cell_size : (2,) lower-left corner and size of the locator cells, local, m
+    cell_start, cell_face : CSR lists of the faces overlapping each cell (row-major, (ny, nx))
+    cell_shape : (ny, nx)
+    class_raster, class_origin, class_cell : region classes per raster cell (255: none), local origin
+    """
+
+    origin: np.ndarray
+    vertices: np.ndarray
+    faces: np.ndarray
+    plane: np.ndarray
+    cell_origin: np.ndarray
+    cell_size: np.ndarray
+    cell_shape: tuple
+    cell_start: np.ndarray
+    cell_face: np.ndarray
+    class_raster: np.ndarray
+    class_origin: np.ndarray
+    class_cell: float
+
+    @classmethod
+    def from_store(cls, store) -> "TerrainSurface":
+        """Build from a :class:`~tankcd_cli.terrain.store.TerrainStore`."""
+        origin = store.vertices[:, :2].min(axis=0)
+        local = np.column_stack([store.vertices[:, :2] - origin, store.vertices[:, 2]])
+        faces = np.ascontiguousarray(store.faces, dtype=np.int64)
+        plane = face_planes(local, faces)
+        if store.grid is not None:
+            cell_origin, cell_size, shape, start, cell_face = _grid_cells(store.grid, faces, len(local))
+            cell_origin = cell_origin - origin
+        else:
+            b = store.buckets
+            cell_origin = np.asarray(b.origin, dtype=float) - origin
+            cell_size = np.array([b.cell, b.cell], dtype=float)
+            shape, start, cell_face = tuple(b.shape), b.start, b.face.astype(np.int64)
+        return cls(origin, local, faces, plane, cell_origin, cell_size, shape, np.ascontiguousarray(start, dtype=np.int64),
+                   np.ascontiguousarray(cell_face, dtype=np.int64), store.class_raster,
+                   np.asarray(store.raster_origin, dtype=float) - origin, float(store.raster_cell))
+
+    def to_local(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(x, dtype=float) - self.origin[0], np.asarray(y, dtype=float) - self.origin[1]
+
+    def locate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Face under each world point (N,), -1 where off the terrain (the highest face on overhangs)."""
+        from tankcd_cli.terrain.surface_kernels import locate_faces
+
+        lx, ly = self.to_local(x, y)
+        return locate_faces(np.ravel(lx), np.ravel(ly), self.vertices, self.faces, self.plane, self.cell_origin,
+                            self.cell_size, self.cell_shape[0], self.cell_shape[1], self.cell_start,
+                            self.cell_face).reshape(np.shape(lx))
+
+    def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points.
+
+        Off the terrain the height and normal are NaN and ``on`` is False.
+        """
+        lx, ly = self.to_local(x, y)
+        face = self.locate(x, y)
+        on = face >= 0
+        p = self.plane[np.where(on, face, 0)]
+        z = np.where(on, p[..., 0] + p[..., 1] * lx + p[..., 2] * ly, np.nan)
+        n = np.stack([-p[..., 1], -p[..., 2], np.ones_like(lx)], axis=-1)
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        n[~on] = np.nan
+        return z, n, on
+
+    def region_under(self, x: np.ndarray, y: np.ndarray, yaw: np.ndarray, length: float, width: float) -> np.ndarray:
+        """The worst region class under each footprint rectangle (N,) uint8; 255 where none is known.
+
+        The rectangle (length along the heading, width across, centred on x, y)
+        is sampled at the class raster's resolution, corners included.
+        """
+        from tankcd_cli.terrain.surface_kernels import worst_class
+
+        nu = max(2, int(np.ceil(length / self.class_cell)) + 1)
+        nv = max(2, int(np.ceil(width / self.class_cell)) + 1)
+        su, sv = np.meshgrid(np.linspace(-length / 2, length / 2, nu), np.linspace(-width / 2, width / 2, nv))
+        lx, ly = self.to_local(x, y)
+        return worst_class(np.ravel(lx), np.ravel(ly), np.ravel(np.asarray(yaw, dtype=float)), su.ravel(), sv.ravel(),
+                           self.class_raster, self.class_origin, self.class_cell)
+
+
+def face_planes(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Plane z = p0 + p1 x + p2 y of each face (m, 3); vertical faces get NaN (they hold no height)."""
+    a, b, c = local[faces[:, 0]], local[faces[:, 1]], local[faces[:, 2]]
+    e1, e2 = b - a, c - a
+    nrm = np.cross(e1, e2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p1 = -nrm[:, 0] / nrm[:, 2]
+        p2 = -nrm[:, 1] / nrm[:, 2]
+    vertical = ~(np.abs(nrm[:, 2]) > 1e-12 * np.maximum(np.einsum("ij,ij->i", e1, e1), np.einsum("ij,ij->i", e2, e2)))
+    p1[vertical] = np.nan
+    p2[vertical] = np.nan
+    p0 = a[:, 2] - p1 * a[:, 0] - p2 * a[:, 1]
+    return np.column_stack([p0, p1, p2])
+
+
+def _grid_cells(grid, faces: np.ndarray, n: int):
+    """The DEM's cells as locator cells: each lists its one or two triangles."""
+    rows, cols = grid.vertex.shape
+    post_row = np.empty(n, dtype=np.int64)
+    post_col = np.empty(n, dtype=np.int64)
+    valid = grid.vertex >= 0
+    rr, cc = np.nonzero(valid)
+    post_row[grid.vertex[valid]] = rr
+    post_col[grid.vertex[valid]] = cc
+    cell = post_row[faces].min(axis=1) * (cols - 1) + post_col[faces].min(axis=1)
+    order = np.argsort(cell, kind="stable")
+    start = np.zeros((rows - 1) * (cols - 1) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cell, minlength=(rows - 1) * (cols - 1)), out=start[1:])
+    return np.asarray(grid.origin, dtype=float), np.asarray(grid.spacing, dtype=float), (rows - 1, cols - 1), start, order

@@ -1,0 +1,104 @@
+"""Compiled point location for :mod:`tankcd_cli.terrain.surface` (numba, cached on disk)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+BARY_EPS = 1e-9  # points this close (in barycentric units) to a triangle's edge count as inside
+
+
+@njit(cache=True, inline="always")
+def cell_of(x, y, origin, size, ny, nx):  # pragma: no cover - compiled
+    col = int(np.floor((x - origin[0]) / size[0]))
+    row = int(np.floor((y - origin[1]) / size[1]))
+    # a point on the far edge of the last cell belongs to it
+    if col == nx and x - origin[0] <= nx * size[0] * (1 + 1e-12):
+        col = nx - 1
+    if row == ny and y - origin[1] <= ny * size[1] * (1 + 1e-12):
+        row = ny - 1
+    return row, col
+
+
+@njit(cache=True, inline="always")
+def inside_triangle(x, y, V, F, f):  # pragma: no cover - compiled
+    a = F[f, 0]
+    b = F[f, 1]
+    c = F[f, 2]
+    ax = V[a, 0]
+    ay = V[a, 1]
+    e1x = V[b, 0] - ax
+    e1y = V[b, 1] - ay
+    e2x = V[c, 0] - ax
+    e2y = V[c, 1] - ay
+    det = e1x * e2y - e1y * e2x
+    if det == 0.0:
+        return False
+    px = x - ax
+    py = y - ay
+    l1 = (px * e2y - py * e2x) / det
+    l2 = (e1x * py - e1y * px) / det
+    return l1 >= -BARY_EPS and l2 >= -BARY_EPS and l1 + l2 <= 1.0 + BARY_EPS
+
+
+@njit(cache=True)
+def _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face):  # pragma: no cover - compiled
+    if row < 0 or col < 0 or row >= ny or col >= nx:
+        return -1
+    cell = row * nx + col
+    best = -1
+    best_z = -np.inf
+    for s in range(start[cell], start[cell + 1]):
+        f = cell_face[s]
+        if np.isnan(plane[f, 1]):
+            continue  # vertical face: no height of its own
+        if inside_triangle(x, y, V, F, f):
+            z = plane[f, 0] + plane[f, 1] * x + plane[f, 2] * y
+            if z > best_z:
+                best_z = z
+                best = f
+    return best
+
+
+@njit(cache=True, parallel=True)
+def locate_faces(px, py, V, F, plane, origin, size, ny, nx, start, cell_face):  # pragma: no cover - compiled
+    """Face under each local point, -1 if none; on overhangs the highest face."""
+    out = np.full(px.shape[0], -1, np.int64)
+    for i in prange(px.shape[0]):
+        x = px[i]
+        y = py[i]
+        if not (np.isfinite(x) and np.isfinite(y)):
+            continue
+        row, col = cell_of(x, y, origin, size, ny, nx)
+        best = _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face)
+        if best < 0:
+            # a point on a cell's border may lie only in a neighbour's triangle
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    if best < 0 and (dr != 0 or dc != 0):
+                        best = _best_in_cell(x, y, row + dr, col + dc, V, F, plane, ny, nx, start, cell_face)
+        out[i] = best
+    return out
+
+
+@njit(cache=True, parallel=True)
+def worst_class(px, py, yaw, su, sv, raster, origin, cell):  # pragma: no cover - compiled
+    """Highest class code among the raster cells under sample offsets (su, sv) of each footprint; 255 if none known."""
+    ny, nx = raster.shape
+    out = np.full(px.shape[0], 255, np.uint8)
+    for i in prange(px.shape[0]):
+        co = np.cos(yaw[i])
+        si = np.sin(yaw[i])
+        worst = -1
+        for k in range(su.shape[0]):
+            x = px[i] + co * su[k] - si * sv[k]
+            y = py[i] + si * su[k] + co * sv[k]
+            col = int(np.floor((x - origin[0]) / cell + 0.5))
+            row = int(np.floor((y - origin[1]) / cell + 0.5))
+            if 0 <= row < ny and 0 <= col < nx:
+                c = raster[row, col]
+                if c != 255 and c > worst:
+                    worst = c
+        if worst >= 0:
+            out[i] = worst
+    return out
