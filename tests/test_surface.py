@@ -71,7 +71,7 @@ def test_region_under_takes_the_worst_class():
     Z = np.where(r < 5, -1.5 * (1 - (r / 5) ** 2) ** 2, 0.0)
     surface = S.surface_of(S.dem_terrain(Z, origin=(-40.0, -40.0)))
     # a footprint whose centre is on flat ground but whose front reaches the crater
-    region = surface.region_under(np.array([11.0, -25.0]), np.array([0.0, 0.0]), np.array([0.0, 0.0]), 4.28, 3.37)
+    region = surface.region_under(np.array([12.0, -25.0]), np.array([0.0, 0.0]), np.array([0.0, 0.0]), 4.28, 3.37)
     assert region[0] == UNEVEN and region[1] == 0
     off = surface.region_under(np.array([500.0]), np.array([0.0]), np.array([0.0]), 4.28, 3.37)
     assert off[0] == 255
