@@ -26,7 +26,7 @@ Matchers (``MATCHERS``):
                centre that no ground point of either track's contact patch rises
                above, from the exact ground under the patches (every terrain
                triangle clipped to them), the patches re-projected for the
-               hull's tilt and solved again.
+               hull's tilt and solved again until the tilt settles.
 ``auto``       the matcher the worst region class under the footprint calls for:
                flat two_point, general four_point, uneven six_point.
 
@@ -97,7 +97,7 @@ class Poses:
 
 
 def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
-          tilt_iterations: int = 2) -> Poses:
+          tilt_iterations: int = 30) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
     surface : :class:`~tankcd_cli.terrain.surface.TerrainSurface`
@@ -222,16 +222,73 @@ def _footprint(surface, mode, x, y, yaw, quads, planes_in):
                            np.ascontiguousarray(planes_in), EPS_XY)
 
 
-def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 2):
-    """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,)."""
+def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):
+    """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,).
+
+    The contact patches seen from above depend on the hull's tilt, which the
+    plane decides: a fixed point. Solve, re-project the patches for the new
+    tilt, solve again, until the tilt moves less than ``tilt_tolerance`` rad.
+    Plain iteration settles in a few rounds on ordinary ground but oscillates
+    slowly where the tilt changes which ground carries the hull (a ditch as
+    long as the tracks): each pose's step is extrapolated by the ratio of its
+    last two steps (Aitken), which settles those in about 15 rounds.
+
+    Where no fixed point exists (a balanced see-saw: each tilt puts the hull
+    on ground that calls for the other), the last two planes are compared
+    under their own tilts and the less penetrating one is raised until it
+    penetrates nothing: a hull that floats by millimetres rather than sinks.
+    """
     n = len(x)
-    roll = np.zeros(n)
-    pitch = np.zeros(n)
-    dummy = np.zeros((n, 3))
-    for _ in range(max(1, tilt_iterations)):
-        planes, covered, status = _footprint(surface, 0, x, y, yaw, patch_quads(vehicle, roll, pitch), dummy)
-        good = status == 0
-        roll[good], pitch[good] = attitude_from_slopes(planes[good, 1], planes[good, 2])
+    tilt = np.zeros((n, 2))  # roll, pitch
+    previous_step = np.zeros((n, 2))
+    planes = np.full((n, 3), np.nan)
+    earlier = np.full((n, 3), np.nan)  # the plane of the round before, for poses that never settle
+    covered = np.zeros(n)
+    status = np.ones(n, dtype=np.int64)
+    active = np.arange(n)
+    for round_ in range(max(1, tilt_iterations)):
+        quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
+        pl, cov, st = _footprint(surface, 0, x[active], y[active], yaw[active], quads, np.zeros((len(active), 3)))
+        good = st == 0
+        if round_ == 0:
+            planes[active], covered[active], status[active] = pl, cov, st
+        else:
+            # a later round that finds no support (an extrapolated tilt too steep) keeps the last plane
+            keep = active[good]
+            earlier[keep] = planes[keep]
+            planes[keep], covered[keep] = pl[good], cov[good]
+        step = np.column_stack(attitude_from_slopes(pl[:, 1], pl[:, 2])) - tilt[active]
+        step[~good] = 0.0
+        moving = good & (np.abs(step).max(axis=1) > tilt_tolerance)
+        prev = previous_step[active]
+        denom = np.einsum("ij,ij->i", prev, prev)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho = np.where(denom > 0, np.einsum("ij,ij->i", step, prev) / denom, 0.0)
+        gain = np.where((rho < 0.95) & (round_ > 0), np.clip(1.0 / (1.0 - rho), 0.2, 5.0), 1.0)
+        tilt[active] = np.clip(tilt[active] + gain[:, None] * step, -1.4, 1.4)
+        previous_step[active] = step
+        active = active[moving]
+        if len(active) == 0:
+            break
+    if len(active):
+        # no fixed point: the hull is balanced where a change of tilt changes the ground that
+        # carries it (a see-saw). Of the last two planes keep the one that penetrates least
+        # under its own tilt, raised until it does not penetrate at all.
+        best = planes[active].copy()
+        best_depth = np.full(len(active), np.inf)
+        for candidate in (planes[active], earlier[active]):
+            ok = np.isfinite(candidate).all(axis=1)
+            depth = np.full(len(active), np.inf)
+            if ok.any():
+                roll, pitch = attitude_from_slopes(candidate[ok, 1], candidate[ok, 2])
+                d, _ = footprint_penetration(surface, vehicle, x[active[ok]], y[active[ok]], yaw[active[ok]],
+                                             candidate[ok], roll, pitch)
+                depth[ok] = np.where(np.isfinite(d), d, np.inf)
+            better = depth < best_depth
+            best[better], best_depth[better] = candidate[better], depth[better]
+        lift = np.where(np.isfinite(best_depth), best_depth, 0.0)
+        best[:, 0] += lift
+        planes[active] = best
     status = np.where(covered > 0, status, 1)
     return planes, status, covered
 
