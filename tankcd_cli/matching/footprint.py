@@ -25,11 +25,11 @@ MAX_POLY = 16
 
 
 @njit(cache=True)
-def _clip(pu, pv, pz, count, au, av, bu, bv):  # pragma: no cover - compiled
-    """Clip polygon (pu, pv, pz)[:count] to the left of the directed edge a->b; in place."""
-    ou = np.empty(MAX_POLY)
-    ov = np.empty(MAX_POLY)
-    oz = np.empty(MAX_POLY)
+def _clip(pu, pv, pz, count, au, av, bu, bv, ou, ov, oz):  # pragma: no cover - compiled
+    """Clip polygon (pu, pv, pz)[:count] to the left of the directed edge a->b.
+
+    Writes the result into (ou, ov, oz) (scratch of MAX_POLY) and copies it back; returns its size.
+    """
     n = 0
     eu = bu - au
     ev = bv - av
@@ -92,6 +92,9 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
     pu = np.empty(MAX_POLY)
     pv = np.empty(MAX_POLY)
     pz = np.empty(MAX_POLY)
+    ou = np.empty(MAX_POLY)
+    ov = np.empty(MAX_POLY)
+    oz = np.empty(MAX_POLY)
     area = 0.0
     for s in range(total):
         f = cand[s]
@@ -108,7 +111,7 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
             pz[k] = V[vtx, 2]
         n = 3
         for k in range(4):
-            n = _clip(pu, pv, pz, n, quad[k, 0], quad[k, 1], quad[(k + 1) % 4, 0], quad[(k + 1) % 4, 1])
+            n = _clip(pu, pv, pz, n, quad[k, 0], quad[k, 1], quad[(k + 1) % 4, 0], quad[(k + 1) % 4, 1], ou, ov, oz)
             if n == 0:
                 break
         if n < 3:

@@ -1,0 +1,109 @@
+"""tankcd replay over a terrain: pose rows for every trajectory row, bad rows named exactly."""
+
+import csv
+import io
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tankcd_cli.io.poses_csv import COLUMNS
+
+SAMPLE = Path(__file__).resolve().parent.parent / "sample_data"
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    from click.testing import CliRunner
+
+    from tankcd_cli.cli.main import cli
+
+    out = tmp_path_factory.mktemp("replay") / "bf.h5"
+    assert CliRunner().invoke(cli, ["classify", str(SAMPLE / "battlefield.asc"), "-o", str(out)]).exit_code == 0
+    return out
+
+
+def trajectory(n=50, x0=500010.0, y0=4500080.0, extra=""):
+    rows = ["t,x,y,yaw_deg" + (",note" if extra else "")]
+    for k in range(n):
+        rows.append(f"{k * 0.5},{x0 + 4.4 * k},{y0 + 0.5 * k},{(k * 17.0) % 360 - 180}" + (f",{extra}" if extra else ""))
+    return "\n".join(rows) + "\n"
+
+
+def test_replay_writes_one_pose_per_row(run, store):
+    result = run("replay", "-", "--terrain", store, input=trajectory())
+    assert result.exit_code == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    assert len(rows) == 50
+    assert list(rows[0].keys()) == list(COLUMNS)
+    assert [int(r["step"]) for r in rows] == list(range(50))
+    for r in rows:
+        assert r["status"] == "ok" and r["region"] in ("flat", "general", "uneven")
+        assert r["matcher"] in ("two_point", "four_point", "six_point")
+        q = np.array([float(r[k]) for k in ("qw", "qx", "qy", "qz")])
+        assert q[0] >= 0 and abs(np.linalg.norm(q) - 1) < 1e-7
+        assert np.isfinite([float(r[k]) for k in ("z", "roll_deg", "pitch_deg", "penetration", "gap")]).all()
+    assert "replay: 50 rows" in result.stderr
+
+
+def test_replay_matcher_choice_and_file_output(run, store, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory(extra="free text"))
+    result = run("replay", "t.csv", "--terrain", store, "--matcher", "reference", "--poses", "p.csv")
+    assert result.exit_code == 0, result.stderr
+    rows = list(csv.DictReader(open(tmp_path / "p.csv")))
+    assert {r["matcher"] for r in rows} == {"reference"}
+    assert max(float(r["penetration"]) for r in rows) < 1e-6
+
+
+def test_off_terrain_rows_say_so(run, store):
+    result = run("replay", "-", "--terrain", store, input="t,x,y,yaw_deg\n0,500010,4500080,0\n1,0,0,0\n")
+    assert result.exit_code == 0
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    assert rows[1]["status"] == "off" and rows[1]["z"] == "" and rows[1]["qw"] == ""
+    assert rows[0]["status"] == "ok"
+
+
+@pytest.mark.parametrize("text,fragment", [
+    ("", "file is empty"),
+    ("t,x,yaw_deg\n0,1,2\n", "lacks the required column y"),
+    ("t,x,y,yaw_deg\n0,500010,4500080,0\n1,500011,4500080\n", "line 3: expected 4 columns"),
+    ("t,x,y,yaw_deg\n0,500010,4500080,0\n1,abc,4500080,0\n", "line 3 column x: not a number: 'abc'"),
+    ("t,x,y,yaw_deg\n0,500010,4500080,nan\n", "line 2 column yaw_deg: non-finite"),
+    ("t,x,y,yaw_deg\n1,500010,4500080,0\n0.5,500010,4500080,0\n", "line 3 column t: time goes back"),
+    ("t,x,t,y,yaw_deg\n0,1,0,2,3\n", "column t appears twice"),
+])
+def test_bad_trajectories_exit_3_naming_line_and_column(run, store, text, fragment):
+    result = run("replay", "-", "--terrain", store, input=text)
+    assert result.exit_code == 3
+    assert "<stdin>" in result.stderr and fragment in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_bom_crlf_and_blank_lines(run, store):
+    text = "\ufefft,x,y,yaw_deg\r\n0,500010,4500080,0\r\n\r\n1,500012,4500080,0\r\n"
+    result = run("replay", "-", "--terrain", store, input=text.encode("utf-8"))
+    assert result.exit_code == 0, result.stderr
+    assert len(result.stdout.strip().splitlines()) == 3
+
+
+def test_bad_row_leaves_no_poses_file(run, store, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory() + "99,oops,1,1\n")
+    result = run("replay", "t.csv", "--terrain", store, "--poses", "p.csv")
+    assert result.exit_code == 3 and "line 52" in result.stderr
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_terrain_classified_on_the_fly(run):
+    result = run("replay", "-", "--terrain", SAMPLE / "battlefield.obj", input="t,x,y,yaw_deg\n0,20,80,45\n")
+    assert result.exit_code == 0, result.stderr
+    assert len(result.stdout.strip().splitlines()) == 2
+
+
+def test_pipeline_into_head_exits_quietly(store, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory(n=3000))
+    proc = subprocess.run(f"{sys.executable} -m tankcd_cli replay {tmp_path / 't.csv'} --terrain {store} | head -2",
+                          shell=True, capture_output=True, text=True)
+    assert proc.stdout.count("\n") == 2
+    assert "Traceback" not in proc.stderr and "Error" not in proc.stderr
