@@ -10,9 +10,12 @@ A 240 m x 160 m terrain at 1 m post spacing, heights in mm:
   ditch running north-south, and an earth berm running east-west.
 
 Writes ``battlefield.asc`` (ESRI ASCII grid placed at UTM-like coordinates,
-x = 500 000, y = 4 500 000, to exercise far-from-origin arithmetic) and
+x = 500 000, y = 4 500 000, to exercise far-from-origin arithmetic),
 ``battlefield.obj`` (the same surface as a z-up triangle mesh in local
-coordinates, triangulated as DEM exports are).
+coordinates, triangulated as DEM exports are) and ``patrol.csv`` (a
+trajectory in the ASC's coordinates: across the plain, over the rolling
+ground, past a crater, over the berm and along the ditch, at 10 rows per
+second, the turret sweeping round and the gun dipping on the way back).
 """
 
 from __future__ import annotations
@@ -81,6 +84,29 @@ def main(out_dir: str | None = None) -> None:
         fh.write("\n")
         fh.write("\n".join(f"f {p} {q} {r}" for p, q, r in faces))
         fh.write("\n")
+    patrol(out)
+
+
+def patrol(out: Path) -> None:
+    """A patrol path through every zone, as a trajectory CSV (UTM-like coordinates)."""
+    # way points (local metres) joined by straight legs at 5 m/s, headings from the legs
+    way = np.array([[10, 80], [70, 60], [130, 95], [170, 60], [190, 52], [195, 90],
+                    [200, 115], [212, 140], [222, 120], [220, 30], [150, 25], [60, 30]], dtype=float)
+    legs = np.diff(way, axis=0)
+    length = np.hypot(legs[:, 0], legs[:, 1])
+    s = np.arange(0.0, length.sum(), 0.5)  # 0.5 m per row at 5 m/s: 10 rows per second
+    cum = np.concatenate([[0.0], np.cumsum(length)])
+    leg = np.minimum(np.searchsorted(cum, s, side="right") - 1, len(legs) - 1)
+    frac = (s - cum[leg]) / length[leg]
+    xy = way[leg] + frac[:, None] * legs[leg]
+    yaw = np.degrees(np.arctan2(legs[leg, 1], legs[leg, 0]))
+    t = s / 5.0
+    turret = (t * 12.0) % 360.0 - 180.0  # a slow sweep, 12 degrees a second
+    gun = np.where(t > t.max() * 0.6, -6.0 * np.clip((t - t.max() * 0.6) / 10.0, 0, 1), 2.0)
+    with open(out / "patrol.csv", "w", newline="\n") as fh:
+        fh.write("t,x,y,yaw_deg,turret_deg,gun_deg\n")
+        for row in zip(t, xy[:, 0] + UTM_ORIGIN[0], xy[:, 1] + UTM_ORIGIN[1], yaw, turret, gun):
+            fh.write("%.2f,%.3f,%.3f,%.3f,%.2f,%.2f\n" % row)
 
 
 if __name__ == "__main__":

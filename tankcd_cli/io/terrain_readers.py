@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import io
 import os
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,19 +95,16 @@ def read_terrain(path: str, up: str = "z", fmt: str | None = None) -> RawTerrain
 
 
 def _read_bytes(path: str, name: str) -> bytes:
-    if path == "-":
-        return sys.stdin.buffer.read()
-    if os.path.isdir(path):
-        raise InputError(name, "is a directory, not a file")
+    from tankcd_cli.io.files import open_input
+
+    _, stream = open_input(path)
     try:
-        with open(path, "rb") as fh:
-            return fh.read()
-    except FileNotFoundError:
-        raise InputError(name, "no such file") from None
-    except PermissionError:
-        raise InputError(name, "permission denied") from None
+        return stream.read()
     except OSError as exc:
         raise InputError(name, f"cannot read: {exc.strerror or exc}") from None
+    finally:
+        if path != "-":
+            stream.close()
 
 
 def _check_arrays(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:

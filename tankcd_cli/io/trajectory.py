@@ -8,16 +8,14 @@ the line and the column.
 
 from __future__ import annotations
 
-import io
 import itertools
-import os
-import sys
 from dataclasses import dataclass
 from typing import Iterator
 
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.files import open_input
 
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
@@ -41,26 +39,9 @@ class TrajectoryChunk:
         return len(self.t)
 
 
-def open_text(path: str):
-    """A text stream for ``path`` ('-' = stdin), with a clear error for what cannot be read."""
-    name = "<stdin>" if path == "-" else path
-    if path == "-":
-        return name, io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline="")
-    if os.path.isdir(path):
-        raise InputError(name, "is a directory, not a file")
-    try:
-        return name, open(path, encoding="utf-8-sig", newline="")
-    except FileNotFoundError:
-        raise InputError(name, "no such file") from None
-    except PermissionError:
-        raise InputError(name, "permission denied") from None
-    except OSError as exc:
-        raise InputError(name, f"cannot read: {exc.strerror or exc}") from None
-
-
 def read_trajectory(path: str, chunk_rows: int = 65536) -> Iterator[TrajectoryChunk]:
     """Yield validated chunks of a trajectory CSV in file order."""
-    name, fh = open_text(path)
+    name, fh = open_input(path, text=True)
     try:
         yield from _chunks(fh, name, chunk_rows)
     except UnicodeDecodeError:

@@ -112,7 +112,7 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     n = len(x)
     region = surface.region_under(x, y, yaw, vehicle.track_length, vehicle.footprint_width)
     if matcher == "auto":
-        choice = np.where(region == REGION_UNKNOWN, 3, np.minimum(region, 2) + 0).astype(np.int64)
+        choice = np.where(region == REGION_UNKNOWN, 3, np.minimum(region, 2)).astype(np.int64)
     else:
         choice = np.full(n, MATCHERS.index(matcher), dtype=np.int64)
 

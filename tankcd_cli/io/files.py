@@ -1,0 +1,26 @@
+"""Opening input files with one clear message for each way it can fail."""
+
+from __future__ import annotations
+
+import io
+import os
+import sys
+
+from tankcd_cli.errors import InputError
+
+
+def open_input(path: str, text: bool = False):
+    """(name, stream) for ``path``; '-' is standard input. Text streams are UTF-8 with or without BOM."""
+    if path == "-":
+        stream = sys.stdin.buffer
+        return "<stdin>", io.TextIOWrapper(stream, encoding="utf-8-sig", newline="") if text else stream
+    if os.path.isdir(path):
+        raise InputError(path, "is a directory, not a file")
+    try:
+        return path, open(path, encoding="utf-8-sig", newline="") if text else open(path, "rb")
+    except FileNotFoundError:
+        raise InputError(path, "no such file") from None
+    except PermissionError:
+        raise InputError(path, "permission denied") from None
+    except OSError as exc:
+        raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
