@@ -97,12 +97,13 @@ class Poses:
 
 
 def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
-          tilt_iterations: int = 30) -> Poses:
+          tilt_iterations: int = 30, regions: bool = True) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
     surface : :class:`~tankcd_cli.terrain.surface.TerrainSurface`
     matcher : one of ``MATCHER_CHOICES``
     measure : also compute penetration, gap and coverage (costs an exact footprint pass)
+    regions : report the worst region class under each footprint (always done for ``auto``)
     """
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
@@ -110,7 +111,9 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     y = np.atleast_1d(np.asarray(y, dtype=float))
     yaw = wrap_angle(np.atleast_1d(np.asarray(yaw, dtype=float)))
     n = len(x)
-    region = surface.region_under(x, y, yaw, vehicle.track_length, vehicle.footprint_width)
+    region = np.full(n, REGION_UNKNOWN, dtype=np.uint8)
+    if regions or matcher == "auto":
+        region = surface.region_under(x, y, yaw, vehicle.track_length, vehicle.footprint_width)
     if matcher == "auto":
         choice = np.where(region == REGION_UNKNOWN, 3, np.minimum(region, 2)).astype(np.int64)
     else:
@@ -150,23 +153,23 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
 # --- key points -----------------------------------------------------------------
 
 def _heights(surface, x, y, yaw, points):
-    """Ground heights (N, k) under key points (k, 2) given in the heading frame, and an all-on mask (N,)."""
+    """Ground heights and gradients (N, k) under key points (k, 2) given in the heading frame,
+    and whether all of a pose's points are on the terrain (N,)."""
     c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
     px = x[:, None] + c * points[:, 0] - s * points[:, 1]
     py = y[:, None] + s * points[:, 0] + c * points[:, 1]
-    z, normal, on = surface.height_normal(px, py)
-    return z, normal, on.all(axis=1)
+    z, gx, gy = surface.height_slope(px, py)
+    return z, (gx, gy), np.isfinite(z).all(axis=1)
 
 
 def _two_point(surface, vehicle, x, y, yaw):
     pts = np.vstack([key_points(vehicle, 2), [[0.0, 0.0]]])  # front, rear, and the centre for the normal
-    z, normal, ok = _heights(surface, x, y, yaw, pts)
+    z, (gx, gy), ok = _heights(surface, x, y, yaw, pts)
     half = vehicle.track_length / 2
     b = (z[:, 0] - z[:, 1]) / (2 * half)
     a = 0.5 * (z[:, 0] + z[:, 1])
-    nc = normal[:, 2]  # world normal at the centre, turned into the heading frame
-    nv = -np.sin(yaw) * nc[:, 0] + np.cos(yaw) * nc[:, 1]
-    c = -nv / nc[:, 2]
+    # the terrain's slope to the left under the centre (its normal, turned into the heading frame)
+    c = -np.sin(yaw) * gx[:, 2] + np.cos(yaw) * gy[:, 2]
     return np.column_stack([a, b, c]), ok
 
 

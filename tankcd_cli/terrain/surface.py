@@ -31,6 +31,7 @@ class TerrainSurface:
     cell_start, cell_face : CSR lists of the faces overlapping each cell (row-major, (ny, nx))
     cell_shape : (ny, nx)
     class_raster, class_origin, class_cell : region classes per raster cell (255: none), local origin
+    post_z, post_origin, post_size : a DEM's post heights (rows, cols; NaN NODATA), local; empty for meshes
     """
 
     origin: np.ndarray
@@ -45,6 +46,9 @@ class TerrainSurface:
     class_raster: np.ndarray
     class_origin: np.ndarray
     class_cell: float
+    post_z: np.ndarray
+    post_origin: np.ndarray
+    post_size: np.ndarray
 
     @classmethod
     def from_store(cls, store) -> "TerrainSurface":
@@ -53,9 +57,15 @@ class TerrainSurface:
         local = np.column_stack([store.vertices[:, :2] - origin, store.vertices[:, 2]])
         faces = np.ascontiguousarray(store.faces, dtype=np.int64)
         plane = face_planes(local, faces)
+        post_z = np.empty((0, 0))
+        post_origin = np.zeros(2)
+        post_size = np.ones(2)
         if store.grid is not None:
             cell_origin, cell_size, shape, start, cell_face = _grid_cells(store.grid, faces, len(local))
             cell_origin = cell_origin - origin
+            post = store.grid.vertex
+            post_z = np.where(post >= 0, local[np.maximum(post, 0), 2], np.nan)
+            post_origin, post_size = cell_origin, cell_size
         else:
             b = store.buckets
             cell_origin = np.asarray(b.origin, dtype=float) - origin
@@ -63,7 +73,8 @@ class TerrainSurface:
             shape, start, cell_face = tuple(b.shape), b.start, b.face.astype(np.int64)
         return cls(origin, local, faces, plane, cell_origin, cell_size, shape, np.ascontiguousarray(start, dtype=np.int64),
                    np.ascontiguousarray(cell_face, dtype=np.int64), store.class_raster,
-                   np.asarray(store.raster_origin, dtype=float) - origin, float(store.raster_cell))
+                   np.asarray(store.raster_origin, dtype=float) - origin, float(store.raster_cell),
+                   post_z, post_origin, post_size)
 
     def to_local(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.asarray(x, dtype=float) - self.origin[0], np.asarray(y, dtype=float) - self.origin[1]
@@ -77,20 +88,26 @@ class TerrainSurface:
                             self.cell_size, self.cell_shape[0], self.cell_shape[1], self.cell_start,
                             self.cell_face).reshape(np.shape(lx))
 
+    def height_slope(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Height (N,) m and gradient dz/dx, dz/dy (N,) at world points; NaN off the terrain."""
+        from tankcd_cli.terrain.surface_kernels import heights_slopes
+
+        lx, ly = self.to_local(x, y)
+        shape = np.shape(lx)
+        z, gx, gy = heights_slopes(np.ravel(lx), np.ravel(ly), self.post_z, self.post_origin, self.post_size,
+                                   self.vertices, self.faces, self.plane, self.cell_origin, self.cell_size,
+                                   self.cell_shape[0], self.cell_shape[1], self.cell_start, self.cell_face)
+        return z.reshape(shape), gx.reshape(shape), gy.reshape(shape)
+
     def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points.
 
         Off the terrain the height and normal are NaN and ``on`` is False.
         """
-        lx, ly = self.to_local(x, y)
-        face = self.locate(x, y)
-        on = face >= 0
-        p = self.plane[np.where(on, face, 0)]
-        z = np.where(on, p[..., 0] + p[..., 1] * lx + p[..., 2] * ly, np.nan)
-        n = np.stack([-p[..., 1], -p[..., 2], np.ones_like(lx)], axis=-1)
+        z, gx, gy = self.height_slope(x, y)
+        n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
         n /= np.linalg.norm(n, axis=-1, keepdims=True)
-        n[~on] = np.nan
-        return z, n, on
+        return z, n, np.isfinite(z)
 
     def region_under(self, x: np.ndarray, y: np.ndarray, yaw: np.ndarray, length: float, width: float) -> np.ndarray:
         """The worst region class under each footprint rectangle (N,) uint8; 255 where none is known.

@@ -102,3 +102,63 @@ def worst_class(px, py, yaw, su, sv, raster, origin, cell):  # pragma: no cover 
         if worst >= 0:
             out[i] = worst
     return out
+
+
+@njit(cache=True, parallel=True)
+def heights_slopes(px, py, post_z, post_origin, post_size, V, F, plane, origin, size, ny, nx, start, cell_face):  # pragma: no cover - compiled
+    """Height and gradient (dz/dx, dz/dy) of the terrain at local points; NaN off the terrain.
+
+    ``post_z`` (rows, cols), NaN for NODATA, is a DEM's post raster: a full DEM
+    cell is evaluated by arithmetic on its four posts (split along the SW-NE
+    diagonal, as the mesh is). Anything else (cells with a missing post,
+    irregular meshes: an empty ``post_z``) goes through the located face.
+    """
+    n = px.shape[0]
+    z = np.full(n, np.nan)
+    gx = np.full(n, np.nan)
+    gy = np.full(n, np.nan)
+    rows = post_z.shape[0]
+    cols = post_z.shape[1]
+    for i in prange(n):
+        x = px[i]
+        y = py[i]
+        if not (np.isfinite(x) and np.isfinite(y)):
+            continue
+        if rows >= 2 and cols >= 2:
+            u = (x - post_origin[0]) / post_size[0]
+            v = (y - post_origin[1]) / post_size[1]
+            c = int(np.floor(u))
+            r = int(np.floor(v))
+            if c == cols - 1 and u <= cols - 1 + 1e-9:
+                c = cols - 2
+            if r == rows - 1 and v <= rows - 1 + 1e-9:
+                r = rows - 2
+            if 0 <= c < cols - 1 and 0 <= r < rows - 1:
+                sw = post_z[r, c]
+                se = post_z[r, c + 1]
+                ne = post_z[r + 1, c + 1]
+                nw = post_z[r + 1, c]
+                if np.isfinite(sw) and np.isfinite(se) and np.isfinite(ne) and np.isfinite(nw):
+                    fx = u - c
+                    fy = v - r
+                    if fx >= fy:
+                        z[i] = sw + fx * (se - sw) + fy * (ne - se)
+                        gx[i] = (se - sw) / post_size[0]
+                        gy[i] = (ne - se) / post_size[1]
+                    else:
+                        z[i] = sw + fy * (nw - sw) + fx * (ne - nw)
+                        gx[i] = (ne - nw) / post_size[0]
+                        gy[i] = (nw - sw) / post_size[1]
+                    continue
+        row, col = cell_of(x, y, origin, size, ny, nx)
+        best = _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face)
+        if best < 0:
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    if best < 0 and (dr != 0 or dc != 0):
+                        best = _best_in_cell(x, y, row + dr, col + dc, V, F, plane, ny, nx, start, cell_face)
+        if best >= 0:
+            z[i] = plane[best, 0] + plane[best, 1] * x + plane[best, 2] * y
+            gx[i] = plane[best, 1]
+            gy[i] = plane[best, 2]
+    return z, gx, gy
