@@ -16,7 +16,9 @@ from tankcd_cli.cli.options import verbosity_options
 @click.pass_obj
 def info(report, file, as_json):
     """Describe FILE: a terrain store written by classify (source, counts,
-    extent, curvature method, thresholds, area share of each class)."""
+    extent, curvature method, thresholds, area share of each class), a tree
+    written by bvh (depth, node counts per level and type, leaf sizes), or a
+    scene (the resolved scene and the effects it enables)."""
     from tankcd_cli.terrain.describe import describe_store
 
     facts = describe_store(file)
@@ -32,4 +34,6 @@ def _fmt(value) -> str:
         return f"{value:.10g}"  # UTM northings keep their metres
     if isinstance(value, (list, tuple)):
         return ", ".join(_fmt(v) for v in value)
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {_fmt(v)}" for k, v in value.items())
     return str(value)

@@ -15,7 +15,9 @@ from tankcd_cli.errors import InputError
 # command name -> (module, short help); modules are imported only when run
 COMMANDS = {
     "classify": ("tankcd_cli.cli.classify", "Classify a terrain: mean curvature and region classes into an HDF5 store."),
-    "info": ("tankcd_cli.cli.info", "Describe a terrain store (.h5)."),
+    "info": ("tankcd_cli.cli.info", "Describe a terrain store, a tree or a scene."),
+    "bvh": ("tankcd_cli.cli.bvh", "Build a serialized bounding-volume tree of a model or a scene's obstacles."),
+    "collide": ("tankcd_cli.cli.collide", "Test the vehicle at given poses against the scene's obstacles."),
     "replay": ("tankcd_cli.cli.replay", "Replay a trajectory over a terrain: one pose per row."),
 }
 

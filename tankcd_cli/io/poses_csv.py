@@ -38,3 +38,55 @@ def _fmt_float(values: np.ndarray, fmt: str) -> np.ndarray:
     out = np.char.mod(fmt, np.nan_to_num(values, nan=0.0)).astype(object)
     out[~np.isfinite(values)] = ""
     return out
+
+
+POSE_REQUIRED = ("x", "y", "z")
+POSE_OPTIONAL = ("step", "t", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz")
+
+
+def read_poses(path: str, chunk_rows: int = 65536):
+    """Yield (step (N,), t (N,), rotation (N, 3, 3), position (N, 3), valid (N,)) chunks of a poses CSV.
+
+    Needs x, y, z and either roll_deg, pitch_deg, yaw_deg or qw, qx, qy, qz. A row whose
+    numbers are empty (a pose ``replay`` could not make: status off) is not valid and is skipped.
+    """
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.io.csv_columns import numeric_chunks
+    from tankcd_cli.io.files import open_input
+    from tankcd_cli.matching.pose import rotation_matrix
+
+    name, fh = open_input(path, text=True)
+    blank = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "t")
+    first = 0
+    try:
+        for rows, wanted, values in numeric_chunks(fh, name, POSE_REQUIRED, POSE_OPTIONAL, chunk_rows, blank):
+            col = {c: values[:, i] for i, c in enumerate(wanted)}
+            n = len(values)
+            if all(c in col for c in ("qw", "qx", "qy", "qz")):
+                q = np.column_stack([col["qw"], col["qx"], col["qy"], col["qz"]])
+                norm = np.linalg.norm(q, axis=1)
+                bad = np.flatnonzero(np.isfinite(norm) & (np.abs(norm - 1) > 1e-3))
+                if len(bad):
+                    raise InputError(name, f"quaternion is not unit (norm {norm[bad[0]]:.6f})", where=f"line {rows[bad[0]]}")
+                R = _rotation_from_quaternion(q / np.where(norm > 0, norm, 1)[:, None])
+            elif all(c in col for c in ("roll_deg", "pitch_deg", "yaw_deg")):
+                R = rotation_matrix(np.radians(col["roll_deg"]), np.radians(col["pitch_deg"]), np.radians(col["yaw_deg"]))
+            else:
+                raise InputError(name, "needs roll_deg, pitch_deg, yaw_deg or qw, qx, qy, qz columns", where="line 1")
+            position = np.column_stack([col["x"], col["y"], col["z"]])
+            valid = np.isfinite(position).all(axis=1) & np.isfinite(R.reshape(n, 9)).all(axis=1)
+            step = col["step"].astype(np.int64) if "step" in col else np.arange(first, first + n)
+            t = col.get("t", np.full(n, np.nan))
+            first += n
+            yield step, t, R, position, valid
+    finally:
+        if path != "-":
+            fh.close()
+
+
+def _rotation_from_quaternion(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], axis=1)

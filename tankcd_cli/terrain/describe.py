@@ -12,7 +12,23 @@ def describe_store(path: str) -> dict:
     from tankcd_cli.terrain.store import is_store, read_attrs
 
     if not is_store(path):
-        raise InputError(path, "not an HDF5 store (tankcd info describes stores written by classify)")
+        if path.lower().endswith(".toml"):
+            from tankcd_cli.replay.scene import load_scene
+
+            return load_scene(path).describe()
+        raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
+    import h5py as _h5
+
+    with _h5.File(path, "r") as h5:
+        kind = h5.attrs.get("format")
+    if kind == "tankcd-bvh":
+        from tankcd_cli.bvh.store import read_tree
+
+        tree, part = read_tree(path)
+        facts = {"file": path, "kind": "bounding-volume tree"}
+        facts.update({k: v for k, v in tree.attrs.items() if k in ("source", "source_sha256", "placement", "tankcd_version")})
+        facts.update(tree.describe())
+        return facts
     a = read_attrs(path)
     with h5py.File(path, "r") as h5:
         n = h5["mesh/vertices"].shape[0]

@@ -1,0 +1,73 @@
+"""Trees on disk (HDF5, flat arrays), with what they were built from, so a stale one is caught.
+
+/nodes/lo, /nodes/hi      (n, k/2) float64  node k-DOPs
+/nodes/left, /nodes/right (n,) int64        children (-1 at leaves)
+/nodes/start, /nodes/count (n,) int64       leaf triangle ranges
+/nodes/depth              (n,) int64
+/triangles                (m, 3, 3) float64 in leaf order
+/source_index             (m,) int64        input index of each triangle
+/part                     (m,) uint8        optional: part of the model each triangle belongs to
+root attributes: format, format_version, k, aabb_levels, split, leaf_size,
+source, source_sha256, placement (what the model's frame was turned and moved by), tankcd_version
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tankcd_cli.bvh.build import Tree
+from tankcd_cli.errors import InputError
+
+FORMAT = "tankcd-bvh"
+FORMAT_VERSION = 1
+
+
+def write_tree(path: str, tree: Tree, part: np.ndarray | None = None) -> None:
+    import h5py
+
+    from tankcd_cli import __version__
+
+    with h5py.File(path, "w") as h5:
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
+        h5.attrs["tankcd_version"] = __version__
+        for key in ("k", "aabb_levels", "split", "leaf_size"):
+            h5.attrs[key] = getattr(tree, key)
+        for key, value in tree.attrs.items():
+            h5.attrs[key] = value
+        for name in ("lo", "hi", "left", "right", "start", "count", "depth"):
+            h5[f"nodes/{name}"] = getattr(tree, name)
+        h5["triangles"] = tree.triangles
+        h5["source_index"] = tree.source_index
+        if part is not None:
+            h5["part"] = part
+
+
+def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
+    """The tree and its per-triangle part labels (None if absent)."""
+    import h5py
+
+    try:
+        h5 = h5py.File(path, "r")
+    except FileNotFoundError:
+        raise InputError(path, "no such file") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(path, f"cannot read as HDF5: {str(exc).splitlines()[0][:200]}") from None
+    with h5:
+        if h5.attrs.get("format") != FORMAT:
+            raise InputError(path, "HDF5 file is not a tankcd tree (no format attribute 'tankcd-bvh')")
+        version = int(h5.attrs.get("format_version", -1))
+        if version != FORMAT_VERSION:
+            raise InputError(path, f"tree format version {version}; this tankcd reads version {FORMAT_VERSION}: build it again")
+        try:
+            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
+            nodes = {name: h5[f"nodes/{name}"][()] for name in ("lo", "hi", "left", "right", "start", "count", "depth")}
+            tree = Tree(h5["triangles"][()], h5["source_index"][()], k=int(attrs["k"]),
+                        aabb_levels=int(attrs["aabb_levels"]), split=str(attrs["split"]),
+                        leaf_size=int(attrs["leaf_size"]), attrs={k: v for k, v in attrs.items()
+                                                                  if k not in ("k", "aabb_levels", "split", "leaf_size")},
+                        **nodes)
+            part = h5["part"][()] if "part" in h5 else None
+        except KeyError as exc:
+            raise InputError(path, f"not a complete tankcd tree (missing {exc.args[0] if exc.args else 'data'})") from None
+    return tree, part

@@ -1,0 +1,62 @@
+"""tankcd bvh: build and save bounding-volume trees."""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from tankcd_cli.cli.options import verbosity_options
+
+
+@click.command(short_help="Build a serialized bounding-volume tree of a model or of a scene's obstacles.")
+@click.argument("model", required=False, type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Output tree (default: MODEL's stem + .bvh.h5 beside it).")
+@click.option("--scene", type=click.Path(dir_okay=False), default=None,
+              help="Build (or refresh) the cached trees of every obstacle of this scene instead.")
+@click.option("--k", "k", type=click.Choice(["6", "14", "18", "26"]), default="18", show_default=True,
+              help="k-DOP type (6 is the AABB).")
+@click.option("--aabb-levels", type=click.IntRange(0, 64), default=2, show_default=True,
+              help="Top levels that use only the AABB (the paper's hybrid); 0: all k-DOP.")
+@click.option("--split", type=click.Choice(["median", "sah"]), default="median", show_default=True,
+              help="Split rule: median of the longest axis, or the surface-area heuristic.")
+@click.option("--leaf-size", type=click.IntRange(1, 64), default=4, show_default=True, help="Triangles per leaf.")
+@click.option("--up", type=click.Choice(["z", "y"]), default="z", help="Up axis of MODEL.")
+@click.option("--force", is_flag=True, help="With --scene: rebuild even up-to-date trees.")
+@verbosity_options
+@click.pass_obj
+def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, force):
+    """Build a bounding-volume tree over MODEL's triangles (in its own frame) and save it,
+    or with --scene build the world trees of every obstacle and cache them beside the scene."""
+    step = report.progress("bvh")
+    if scene:
+        if model:
+            raise click.UsageError("give MODEL or --scene, not both")
+        from tankcd_cli.collision.obstacles import cache_path, load_obstacles
+        from tankcd_cli.replay.scene import load_scene
+
+        sc = load_scene(scene)
+        obstacles = load_obstacles(sc, cache=True, rebuild=force, progress=step)
+        for spec, ob in zip(sc.obstacles, obstacles):
+            report.info(f"bvh: {ob.name}: {len(ob.tree.triangles):,} triangles, {ob.tree.nodes:,} nodes -> "
+                        f"{cache_path(sc, spec)}")
+        report.info(f"bvh: {len(obstacles)} obstacle tree(s) up to date ({report.elapsed():.2f} s)")
+        return
+    if not model:
+        raise click.UsageError("give MODEL or --scene")
+    from tankcd_cli.bvh.build import build_tree
+    from tankcd_cli.bvh.store import write_tree
+    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.terrain_readers import read_terrain
+
+    raw = read_terrain(model, up=up)
+    output = output or os.path.splitext(model)[0] + ".bvh.h5"
+    step(f"building over {len(raw.faces):,} triangles")
+    tree = build_tree(raw.vertices[raw.faces], k=int(k), leaf_size=leaf_size, aabb_levels=aabb_levels, split=split)
+    tree.attrs.update({"source": raw.source, "source_sha256": raw.sha256, "placement": f'{{"up": "{up}"}}'})
+    with atomic_path(output, ".h5") as tmp:
+        write_tree(tmp, tree)
+    d = tree.describe()
+    report.info(f"bvh: {model} -> {output}: {d['triangles']:,} triangles, {d['nodes']:,} nodes, depth {d['depth']}, "
+                f"k = {d['k']}, {d['aabb_nodes']} AABB and {d['kdop_nodes']} k-DOP nodes ({report.elapsed():.2f} s)")

@@ -1,0 +1,99 @@
+"""Numeric CSV columns by header name, read in chunks with every bad cell named by line and column."""
+
+from __future__ import annotations
+
+import itertools
+from typing import Iterator
+
+import numpy as np
+
+from tankcd_cli.errors import InputError
+
+
+def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: int,
+                   blank_ok: tuple = ()) -> Iterator[tuple[list, list, np.ndarray]]:
+    """Yield (line numbers, column names, values (rows, cols)) chunk by chunk.
+
+    Header row required, column order free, extra columns ignored. Columns in
+    ``blank_ok`` may be empty (NaN); every other cell must be a finite number.
+    """
+    header_line = fh.readline()
+    lineno = 1
+    while header_line and not header_line.strip():
+        header_line = fh.readline()
+        lineno += 1
+    if not header_line:
+        raise InputError(name, f"file is empty (a header row with {','.join(required)} is needed)")
+    if "\x00" in header_line:
+        raise InputError(name, "not a text file", where="line 1")
+    header = [h.strip().strip('"').strip() for h in header_line.rstrip("\r\n").split(",")]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise InputError(name, f"header lacks the required column{'s' if len(missing) > 1 else ''} "
+                               f"{', '.join(missing)} (found: {', '.join(header)[:200]})", where=f"line {lineno}")
+    dup = sorted({h for h in header if header.count(h) > 1 and h in required + optional})
+    if dup:
+        raise InputError(name, f"column {dup[0]} appears twice in the header", where=f"line {lineno}")
+    wanted = list(required) + [c for c in optional if c in header]
+    cols = [header.index(c) for c in wanted]
+    width = len(header)
+    blank_cols = [j for j, c in enumerate(wanted) if c in blank_ok]
+    while True:
+        lines = list(itertools.islice(fh, chunk_rows))
+        if not lines:
+            return
+        start_line = lineno + 1
+        lineno += len(lines)
+        rows, cells = [], []
+        for k, line in enumerate(lines):
+            body = line.rstrip("\r\n")
+            if not body.strip():
+                continue
+            parts = body.split(",")
+            if len(parts) != width:
+                raise InputError(name, f"expected {width} columns as in the header, found {len(parts)}",
+                                 where=f"line {start_line + k}")
+            rows.append(start_line + k)
+            cells.append([parts[i] for i in cols])
+        if not cells:
+            continue
+        if blank_cols:
+            for row in cells:
+                for j in blank_cols:
+                    if not row[j].strip():
+                        row[j] = "nan"
+        try:
+            values = np.array(cells, dtype=np.float64)
+        except ValueError:
+            values = None
+        if values is None or not _finite_where_needed(values, blank_cols, cells):
+            _raise_first_bad(cells, rows, wanted, name, blank_cols)
+        yield rows, wanted, values
+
+
+def _finite_where_needed(values, blank_cols, cells) -> bool:
+    need = np.ones(values.shape[1], dtype=bool)
+    need[blank_cols] = False
+    if not np.isfinite(values[:, need]).all():
+        return False
+    # blank-able columns: empty is fine, a written nan or inf is not
+    for j in blank_cols:
+        bad = ~np.isfinite(values[:, j])
+        if bad.any() and any(cells[r][j] != "nan" for r in np.flatnonzero(bad)):
+            return False
+    return True
+
+
+def _raise_first_bad(cells, rows, wanted, name, blank_cols):
+    for k, row in enumerate(cells):
+        for j, text in enumerate(row):
+            if j in blank_cols and text == "nan":
+                continue
+            try:
+                value = float(text)
+            except ValueError:
+                raise InputError(name, f"not a number: {text.strip()[:40]!r}",
+                                 where=f"line {rows[k]} column {wanted[j]}") from None
+            if not np.isfinite(value):
+                raise InputError(name, f"non-finite value {text.strip()!r}", where=f"line {rows[k]} column {wanted[j]}")
+    raise InputError(name, "unparseable rows")  # pragma: no cover
