@@ -25,7 +25,7 @@ FIRST, ALL = 0, 1
 @njit(cache=True)
 def _walk(R, tv, f, g, shift, a_tri, a_idx, a_left, a_right, a_start, a_count, a_depth, a_levels, a_centre, a_half,
           a_size, b_tri, b_idx, b_lo, b_hi, b_left, b_right, b_start, b_count, b_depth, b_levels, b_size,
-          mode, pairs, points, stack):  # pragma: no cover - compiled
+          mode, pairs, points, stack, tol):  # pragma: no cover - compiled
     K = f.shape[0]
     T = g.shape[0]
     node_tests = 0
@@ -60,7 +60,7 @@ def _walk(R, tv, f, g, shift, a_tri, a_idx, a_left, a_right, a_start, a_count, a
                     best_lo = c - r
                 if c + r < best_hi:
                     best_hi = c + r
-            if best_lo + shift[i] > b_hi[b, i] or best_hi + shift[i] < b_lo[b, i]:
+            if best_lo + shift[i] > b_hi[b, i] + tol or best_hi + shift[i] < b_lo[b, i] - tol:
                 disjoint = True
                 break
         if disjoint:
@@ -120,6 +120,9 @@ def collide_batch(R, tv, D, W, a_tri, a_idx, a_left, a_right, a_start, a_count, 
     pairs = np.full((n, max(max_contacts, 1), 2), -1, np.int64)
     points = np.full((n, max(max_contacts, 1), 3), np.nan)
     depth = a_depth.max() + b_depth.max() + 4
+    reach = 0.0  # the largest coordinate of either tree's bounds
+    for i in range(3):
+        reach = max(reach, abs(a_centre[0, 0, i]) + abs(a_half[0, 0, i]), abs(b_lo[0, i]), abs(b_hi[0, i]))
     for p in prange(n):
         f = np.empty((K, 3))
         for i in range(K):
@@ -134,10 +137,13 @@ def collide_batch(R, tv, D, W, a_tri, a_idx, a_left, a_right, a_start, a_count, 
         for i in range(K):
             shift[i] = D[i, 0] * tv[p, 0] + D[i, 1] * tv[p, 1] + D[i, 2] * tv[p, 2]
         stack = np.empty((2 * depth + 2, 2), np.int64)
+        # volumes are compared with a margin of round-off, so that exactly touching shapes are never
+        # dropped before their triangles (which count touching as contact) are tested
+        scale = abs(tv[p, 0]) + abs(tv[p, 1]) + abs(tv[p, 2]) + reach
         found[p], node_tests[p], tri_tests[p] = _walk(
             R[p], tv[p], f, g, shift, a_tri, a_idx, a_left, a_right, a_start, a_count, a_depth, a_levels, a_centre,
             a_half, a_size, b_tri, b_idx, b_lo, b_hi, b_left, b_right, b_start, b_count, b_depth, b_levels, b_size,
-            mode, pairs[p], points[p], stack)
+            mode, pairs[p], points[p], stack, 1e-12 * scale)
     return found, pairs, points, node_tests, tri_tests
 
 
