@@ -93,7 +93,7 @@ def parallelepipeds(lo: np.ndarray, hi: np.ndarray, k: int) -> tuple[np.ndarray,
 
 
 def build_tree(triangles: np.ndarray, k: int = 18, leaf_size: int = 4, aabb_levels: int = 2,
-               split: str = "median") -> Tree:
+               split: str = "sah") -> Tree:
     """Build a tree over triangles (m, 3, 3) float64 (degenerate ones are kept: they cannot collide)."""
     if split not in SPLITS:
         raise ValueError(f"unknown split rule {split!r}; choose one of {', '.join(SPLITS)}")

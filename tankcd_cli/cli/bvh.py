@@ -19,8 +19,8 @@ from tankcd_cli.cli.options import verbosity_options
               help="k-DOP type (6 is the AABB).")
 @click.option("--aabb-levels", type=click.IntRange(0, 64), default=2, show_default=True,
               help="Top levels that use only the AABB (the paper's hybrid); 0: all k-DOP.")
-@click.option("--split", type=click.Choice(["median", "sah"]), default="median", show_default=True,
-              help="Split rule: median of the longest axis, or the surface-area heuristic.")
+@click.option("--split", type=click.Choice(["median", "sah"]), default="sah", show_default=True,
+              help="Split rule: the surface-area heuristic, or the median of the longest axis.")
 @click.option("--leaf-size", type=click.IntRange(1, 64), default=4, show_default=True, help="Triangles per leaf.")
 @click.option("--up", type=click.Choice(["z", "y"]), default="z", help="Up axis of MODEL.")
 @click.option("--force", is_flag=True, help="With --scene: rebuild even up-to-date trees.")

@@ -22,7 +22,7 @@ yaw_deg = 0.0                # turn about +z, counter-clockwise
 [collision]                  # optional: how obstacle trees are built
 k = 18                       # k-DOP type: 6, 14, 18, 26
 aabb_levels = 2              # top levels that use only the AABB
-split = "median"             # or "sah"
+split = "sah"                # or "median"
 leaf_size = 4
 ```
 
@@ -55,7 +55,7 @@ class ObstacleSpec:
 class CollisionSettings:
     k: int = 18
     aabb_levels: int = 2
-    split: str = "median"
+    split: str = "sah"
     leaf_size: int = 4
 
 
@@ -171,7 +171,7 @@ def load_scene(path: str) -> Scene:
     levels = col.get("aabb_levels", 2)
     if not isinstance(levels, int) or isinstance(levels, bool) or levels < 0:
         raise InputError(path, f"aabb_levels must be a whole number >= 0, got {levels!r}", where="[collision] aabb_levels")
-    split = _choice(col, "split", ("median", "sah"), "median", path, "[collision]")
+    split = _choice(col, "split", ("median", "sah"), "sah", path, "[collision]")
     leaf = col.get("leaf_size", 4)
     if not isinstance(leaf, int) or isinstance(leaf, bool) or not 1 <= leaf <= 64:
         raise InputError(path, f"leaf_size must be a whole number from 1 to 64, got {leaf!r}", where="[collision] leaf_size")

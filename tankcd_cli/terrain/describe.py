@@ -19,8 +19,11 @@ def describe_store(path: str) -> dict:
         raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
     import h5py as _h5
 
-    with _h5.File(path, "r") as h5:
-        kind = h5.attrs.get("format")
+    try:
+        with _h5.File(path, "r") as h5:
+            kind = h5.attrs.get("format")
+    except (OSError, ValueError) as exc:
+        raise InputError(path, f"cannot read as HDF5: {str(exc).splitlines()[0][:200]}") from None
     if kind == "tankcd-bvh":
         from tankcd_cli.bvh.store import read_tree
 
