@@ -151,3 +151,28 @@ def test_build_is_sound_on_many_triangles():
         assert (tree.lo[inner] <= tree.lo[child]).all() and (tree.hi[inner] >= tree.hi[child]).all()
     d = tree.describe()
     assert d["aabb_nodes"] == 3 and json.dumps(d)
+
+
+def test_agrees_with_python_fcl_when_installed():
+    fcl = pytest.importorskip("fcl")
+    A, _ = vehicle_mesh(vehicle_preset("t72"), 1)
+    B = np.concatenate([box([x, y, 0], [x + 4, y + 4, 5], 2) for x in (0, 8, 16) for y in (0, 8)])
+    rng = np.random.default_rng(7)
+    R = Rotation.random(300, random_state=7).as_matrix()
+    t = np.column_stack([rng.uniform(-4, 24, 300), rng.uniform(-4, 16, 300), rng.uniform(-1, 6, 300)])
+    ours = collide(build_tree(A), build_tree(B), R, t).hit
+
+    def model(tris):
+        v = tris.reshape(-1, 3)
+        m = fcl.BVHModel()
+        m.beginModel(len(v), len(tris))
+        m.addSubModel(v, np.arange(len(v)).reshape(-1, 3))
+        m.endModel()
+        return m
+    oa, ob = fcl.CollisionObject(model(A), fcl.Transform()), fcl.CollisionObject(model(B), fcl.Transform())
+    theirs = np.zeros(300, dtype=bool)
+    for i in range(300):
+        oa.setTransform(fcl.Transform(R[i], t[i]))
+        theirs[i] = fcl.collide(oa, ob, fcl.CollisionRequest(), fcl.CollisionResult()) > 0
+    assert ours.mean() > 0.1
+    np.testing.assert_array_equal(ours, theirs)
