@@ -34,8 +34,7 @@ def _walk(R, tv, f, g, shift, a_tri, a_idx, a_left, a_right, a_start, a_count, a
     cap = pairs.shape[0]
     P = np.empty((3, 3))
     out = np.empty(3)
-    lo = np.empty(K)
-    hi = np.empty(K)
+    scratch = np.empty((6, 3))
     sp = 0
     stack[0, 0] = 0
     stack[0, 1] = 0
@@ -75,7 +74,7 @@ def _walk(R, tv, f, g, shift, a_tri, a_idx, a_left, a_right, a_start, a_count, a
                                    + R[m, 2] * a_tri[ta, v, 2] + tv[m])
                 for tb in range(b_start[b], b_start[b] + b_count[b]):
                     tri_tests += 1
-                    if tri_tri(P, b_tri[tb], out):
+                    if tri_tri(P, b_tri[tb], out, scratch):
                         if found < cap:
                             pairs[found, 0] = a_idx[ta]
                             pairs[found, 1] = b_idx[tb]

@@ -23,6 +23,7 @@ _AXES = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
 _CORNERS = [(1, 1, 1), (1, -1, -1), (1, 1, -1), (1, -1, 1)]
 _EDGES = [(1, 1, 0), (1, -1, 0), (1, 0, 1), (1, 0, -1), (0, 1, 1), (0, 1, -1)]
 KS = (6, 14, 18, 26)
+MAX_TRIPLES = 2  # the axes and one diagonal triple: each more tightens little and costs a third more
 
 
 def directions(k: int) -> np.ndarray:
@@ -46,7 +47,7 @@ def triples(k: int) -> np.ndarray:
         for b in range(a + 1, len(extra)):
             for c in range(b + 1, len(extra)):
                 t = [extra[a], extra[b], extra[c]]
-                if abs(np.linalg.det(d[t])) > 0.3 and len(chosen) < 4:
+                if abs(np.linalg.det(d[t])) > 0.3 and len(chosen) < MAX_TRIPLES:
                     chosen.append(t)
     return np.array(chosen, dtype=np.int64)
 

@@ -141,8 +141,11 @@ def _plane_crossing(T, d, out_a, out_b):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def tri_tri(P, Q, out):  # pragma: no cover - compiled
-    """Whether closed triangles P and Q (3, 3) meet; if so, ``out`` (3,) receives a common point."""
+def tri_tri(P, Q, out, scratch=None):  # pragma: no cover - compiled
+    """Whether closed triangles P and Q (3, 3) meet; if so, ``out`` (3,) receives a common point.
+
+    ``scratch`` (6, 3), if given, saves the small allocations in hot loops.
+    """
     e1 = _sub(Q[1], Q[0])
     e2 = _sub(Q[2], Q[0])
     nqx, nqy, nqz = _cross(e1[0], e1[1], e1[2], e2[0], e2[1], e2[2])
@@ -158,8 +161,8 @@ def tri_tri(P, Q, out):  # pragma: no cover - compiled
     npn = np.sqrt(npx * npx + npy * npy + npz * npz)
     if nq == 0.0 or npn == 0.0:
         return False  # a degenerate triangle has no interior: callers drop them
-    dp = np.empty(3)
-    dq = np.empty(3)
+    dp = np.empty(3) if scratch is None else scratch[4]
+    dq = np.empty(3) if scratch is None else scratch[5]
     for a in range(3):
         dp[a] = (nqx * (P[a, 0] - Q[0, 0]) + nqy * (P[a, 1] - Q[0, 1]) + nqz * (P[a, 2] - Q[0, 2])) / nq
         if abs(dp[a]) <= REL_EPS * scale:
@@ -175,10 +178,12 @@ def tri_tri(P, Q, out):  # pragma: no cover - compiled
     if dp[0] == 0.0 and dp[1] == 0.0 and dp[2] == 0.0:
         return _coplanar(P, Q, nqx, nqy, nqz, scale, out)
     # both straddle: the segments where each meets the other's plane lie on one line
-    pa = np.empty(3)
-    pb = np.empty(3)
-    qa = np.empty(3)
-    qb = np.empty(3)
+    if scratch is None:
+        scratch = np.empty((6, 3))
+    pa = scratch[0]
+    pb = scratch[1]
+    qa = scratch[2]
+    qb = scratch[3]
     _plane_crossing(P, dp, pa, pb)
     _plane_crossing(Q, dq, qa, qb)
     lx, ly, lz = _cross(npx, npy, npz, nqx, nqy, nqz)
