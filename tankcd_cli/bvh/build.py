@@ -180,8 +180,8 @@ def _sah_cut(triangles, perm, elem, owner, key, lo, hi, axis, count):
     bin_lo = bin_lo.reshape(nodes, SAH_BINS, 3)
     bin_hi = bin_hi.reshape(nodes, SAH_BINS, 3)
 
-    def area(l, h):
-        e = np.where(np.isfinite(h - l), np.maximum(h - l, 0), 0)
+    def area(low, high):
+        e = np.where(np.isfinite(high - low), np.maximum(high - low, 0), 0)
         return 2 * (e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 0] * e[..., 2])
     left_lo = np.minimum.accumulate(bin_lo, axis=1)
     left_hi = np.maximum.accumulate(bin_hi, axis=1)

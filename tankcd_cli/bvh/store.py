@@ -45,20 +45,9 @@ def write_tree(path: str, tree: Tree, part: np.ndarray | None = None) -> None:
 
 def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
     """The tree and its per-triangle part labels (None if absent)."""
-    import h5py
+    from tankcd_cli.io.h5 import open_h5
 
-    try:
-        h5 = h5py.File(path, "r")
-    except FileNotFoundError:
-        raise InputError(path, "no such file") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"cannot read as HDF5: {str(exc).splitlines()[0][:200]}") from None
-    with h5:
-        if h5.attrs.get("format") != FORMAT:
-            raise InputError(path, "HDF5 file is not a tankcd tree (no format attribute 'tankcd-bvh')")
-        version = int(h5.attrs.get("format_version", -1))
-        if version != FORMAT_VERSION:
-            raise InputError(path, f"tree format version {version}; this tankcd reads version {FORMAT_VERSION}: build it again")
+    with open_h5(path, FORMAT, FORMAT_VERSION, "tankcd tree", "build it again") as h5:
         try:
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
             nodes = {name: h5[f"nodes/{name}"][()] for name in ("lo", "hi", "left", "right", "start", "count", "depth")}

@@ -133,22 +133,9 @@ def read_store(path: str) -> TerrainStore:
 
 
 def _open(path: str):
-    import h5py
+    from tankcd_cli.io.h5 import open_h5
 
-    try:
-        h5 = h5py.File(path, "r")
-    except FileNotFoundError:
-        raise InputError(path, "no such file") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"cannot read as HDF5: {str(exc).splitlines()[0][:200]}") from None
-    if h5.attrs.get("format") != FORMAT:
-        h5.close()
-        raise InputError(path, "HDF5 file is not a tankcd terrain store (no format attribute 'tankcd-terrain')")
-    version = int(h5.attrs.get("format_version", -1))
-    if version != FORMAT_VERSION:
-        h5.close()
-        raise InputError(path, f"terrain store format version {version}; this tankcd reads version {FORMAT_VERSION}: run classify again")
-    return h5
+    return open_h5(path, FORMAT, FORMAT_VERSION, "tankcd terrain store", "run classify again")
 
 
 def _plain(value):

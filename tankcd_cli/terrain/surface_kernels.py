@@ -60,6 +60,20 @@ def _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face):  # pra
     return best
 
 
+@njit(cache=True)
+def locate_one(x, y, V, F, plane, origin, size, ny, nx, start, cell_face):  # pragma: no cover - compiled
+    """The face under one local point, -1 if none (the highest on overhangs)."""
+    row, col = cell_of(x, y, origin, size, ny, nx)
+    best = _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face)
+    if best < 0:
+        # a point on a cell's border may lie only in a neighbour's triangle
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                if best < 0 and (dr != 0 or dc != 0):
+                    best = _best_in_cell(x, y, row + dr, col + dc, V, F, plane, ny, nx, start, cell_face)
+    return best
+
+
 @njit(cache=True, parallel=True)
 def locate_faces(px, py, V, F, plane, origin, size, ny, nx, start, cell_face):  # pragma: no cover - compiled
     """Face under each local point, -1 if none; on overhangs the highest face."""
@@ -69,15 +83,7 @@ def locate_faces(px, py, V, F, plane, origin, size, ny, nx, start, cell_face):  
         y = py[i]
         if not (np.isfinite(x) and np.isfinite(y)):
             continue
-        row, col = cell_of(x, y, origin, size, ny, nx)
-        best = _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face)
-        if best < 0:
-            # a point on a cell's border may lie only in a neighbour's triangle
-            for dr in range(-1, 2):
-                for dc in range(-1, 2):
-                    if best < 0 and (dr != 0 or dc != 0):
-                        best = _best_in_cell(x, y, row + dr, col + dc, V, F, plane, ny, nx, start, cell_face)
-        out[i] = best
+        out[i] = locate_one(x, y, V, F, plane, origin, size, ny, nx, start, cell_face)
     return out
 
 
@@ -150,13 +156,7 @@ def heights_slopes(px, py, post_z, post_origin, post_size, V, F, plane, origin, 
                         gx[i] = (ne - nw) / post_size[0]
                         gy[i] = (nw - sw) / post_size[1]
                     continue
-        row, col = cell_of(x, y, origin, size, ny, nx)
-        best = _best_in_cell(x, y, row, col, V, F, plane, ny, nx, start, cell_face)
-        if best < 0:
-            for dr in range(-1, 2):
-                for dc in range(-1, 2):
-                    if best < 0 and (dr != 0 or dc != 0):
-                        best = _best_in_cell(x, y, row + dr, col + dc, V, F, plane, ny, nx, start, cell_face)
+        best = locate_one(x, y, V, F, plane, origin, size, ny, nx, start, cell_face)
         if best >= 0:
             z[i] = plane[best, 0] + plane[best, 1] * x + plane[best, 2] * y
             gx[i] = plane[best, 1]
