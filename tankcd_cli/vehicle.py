@@ -21,7 +21,8 @@ states a value directly):
   (estimate). Heights of the trunnion (1.75 m), the deck (1.35 m) and the
   drum axes (1.20 m) are estimates chosen so that, turned to the rear, the
   barrel clears the drums level and meets them at full depression, as the
-  paper describes.
+  paper describes. The drums sit side by side 1.0 m apart (a 0.12 m gap
+  between their ends, narrower than the barrel).
 - T-55: width 3.27 m; DCS World chassis data (contact stations 3.96 m apart,
   gauge 2.60 m); 100 mm D-10T, tube about 5.35 m; elevation -5 to +18 deg
   (estimates); hull length 6.20 m, height 2.32 m, ground clearance 0.425 m
@@ -119,7 +120,7 @@ def _t72() -> Vehicle:
                    hull_length=6.86, hull_width=3.46, hull_height=2.19, deck_height=1.35, ground_clearance=0.49,
                    turret_x=-0.35, trunnion_forward=0.45, trunnion_height=1.75, gun_length=6.0, gun_radius=0.11,
                    gun_min_deg=-6.0, gun_max_deg=14.0, fuel_drums=True, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.55, drum_z=1.20)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20)
 
 
 def _t55() -> Vehicle:
@@ -128,7 +129,7 @@ def _t55() -> Vehicle:
                    hull_length=6.20, hull_width=3.27, hull_height=2.32, deck_height=1.40, ground_clearance=0.425,
                    turret_x=-0.20, trunnion_forward=0.40, trunnion_height=1.80, gun_length=5.35, gun_radius=0.10,
                    gun_min_deg=-5.0, gun_max_deg=18.0, fuel_drums=True, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.55, drum_z=1.25)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.25)
 
 
 def _m1() -> Vehicle:
@@ -137,7 +138,7 @@ def _m1() -> Vehicle:
                    hull_length=7.92, hull_width=3.66, hull_height=2.44, deck_height=1.40, ground_clearance=0.48,
                    turret_x=-0.40, trunnion_forward=0.55, trunnion_height=1.90, gun_length=5.28, gun_radius=0.11,
                    gun_min_deg=-10.0, gun_max_deg=20.0, fuel_drums=False, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.55, drum_z=1.20)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20)
 
 
 PRESETS: dict[str, Vehicle] = {"t72": _t72(), "t55": _t55(), "m1": _m1()}
