@@ -140,3 +140,19 @@ def test_barrel_kinematics():
     muzzle = c + h * a
     assert muzzle[0] == pytest.approx([t72.turret_x + t72.trunnion_forward + t72.gun_length, 0, t72.trunnion_height])
     assert muzzle[1, 0] == pytest.approx(t72.turret_x) and muzzle[1, 2] > t72.trunnion_height
+
+
+def test_envelope_command_csv_and_png(run, tmp_path):
+    result = run("envelope", "--step", "10", "--png", "env.png")
+    assert result.exit_code == 0, result.stderr
+    lines = result.stdout.strip().splitlines()
+    assert lines[0] == "azimuth_deg,min_elevation_deg,limited_by,checked"
+    rows = [line.split(",") for line in lines[1:]]
+    assert len(rows) == 36
+    rear = [r for r in rows if float(r[0]) == 180.0][0]
+    assert rear[2].startswith("drum") and -6.0 < float(rear[1]) < 0.0 and rear[3] == "true"
+    front = [r for r in rows if float(r[0]) == 0.0][0]
+    assert front[1:3] == ["-6.00", "gun"]
+    assert (tmp_path / "env.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    m1 = run("envelope", "--vehicle", "m1", "--step", "30")
+    assert all(line.endswith(",gun,true") for line in m1.stdout.strip().splitlines()[1:])
