@@ -68,3 +68,36 @@ def envelope_png(vehicle, env, path: str) -> None:
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
+
+
+def replay_map_png(store, path_xy, marks, path: str) -> None:
+    """The replayed path over the class map, with events marked by kind."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.tri import Triangulation
+
+    v, f = store.vertices, store.faces
+    origin = v[:, :2].min(axis=0)
+    tri = Triangulation(v[:, 0] - origin[0], v[:, 1] - origin[1], f)
+    fig, ax = plt.subplots(figsize=(10, 7), constrained_layout=True)
+    cmap = ListedColormap(["#dcedc8", "#fff3c4", "#ffcdd2"])
+    ax.tripcolor(tri, facecolors=store.vertex_class[f].max(axis=1), cmap=cmap,
+                 norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3))
+    ax.plot(path_xy[:, 0] - origin[0], path_xy[:, 1] - origin[1], color="#1565c0", lw=1.5, label="path")
+    style = {"obstacle": ("X", "#b71c1c", "hit an obstacle"), "internal": ("o", "#6a1b9a", "gun against a drum"),
+             "terrain": ("v", "#e65100", "hull bottom on the ground"), "off_terrain": ("s", "#424242", "off the terrain")}
+    for kind, (marker, colour, label) in style.items():
+        pts = np.array([(x, y) for k, x, y in marks if k == kind])
+        if len(pts):
+            ax.scatter(pts[:, 0] - origin[0], pts[:, 1] - origin[1], marker=marker, s=36, color=colour,
+                       label=f"{label} ({len(pts)})", zorder=3)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"x - {origin[0]:.0f} m (east)")
+    ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
+    ax.set_title("replay over the region classes (green flat, yellow general, red uneven)", fontsize=10)
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)

@@ -18,6 +18,7 @@ COMMANDS = {
     "info": ("tankcd_cli.cli.info", "Describe a terrain store, a tree or a scene."),
     "bvh": ("tankcd_cli.cli.bvh", "Build a serialized bounding-volume tree of a model or a scene's obstacles."),
     "collide": ("tankcd_cli.cli.collide", "Test the vehicle at given poses against the scene's obstacles."),
+    "demo": ("tankcd_cli.cli.demo", "Run the whole pipeline on the bundled sample battlefield."),
     "envelope": ("tankcd_cli.cli.envelope", "Lowest safe gun elevation per turret azimuth (the rear fuel drums)."),
     "replay": ("tankcd_cli.cli.replay", "Replay a trajectory over a terrain: one pose per row."),
 }

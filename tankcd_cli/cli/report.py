@@ -31,5 +31,14 @@ class Reporter:
                 click.echo(f"{prefix}: {text} ({self.elapsed():.1f} s)", err=True)
         return stage
 
+    def bar(self, text: str | None) -> None:
+        """A progress line rewritten in place, only on a terminal; None ends it."""
+        if not self.interactive or self.verbosity < 0:
+            return
+        if text is None:
+            click.echo("\r\033[K", err=True, nl=False)
+        else:
+            click.echo(f"\r{text}\033[K", err=True, nl=False)
+
     def elapsed(self) -> float:
         return time.perf_counter() - self.started

@@ -45,30 +45,39 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
         start_line = lineno + 1
         lineno += len(lines)
         rows, cells = [], []
+        error = None
         for k, line in enumerate(lines):
             body = line.rstrip("\r\n")
             if not body.strip():
                 continue
             parts = body.split(",")
             if len(parts) != width:
-                raise InputError(name, f"expected {width} columns as in the header, found {len(parts)}",
-                                 where=f"line {start_line + k}")
+                error = InputError(name, f"expected {width} columns as in the header, found {len(parts)}",
+                                   where=f"line {start_line + k}")
+                break
             rows.append(start_line + k)
             cells.append([parts[i] for i in cols])
-        if not cells:
-            continue
         if blank_cols:
             for row in cells:
                 for j in blank_cols:
                     if not row[j].strip():
                         row[j] = "nan"
-        try:
-            values = np.array(cells, dtype=np.float64)
-        except ValueError:
-            values = None
-        if values is None or not _finite_where_needed(values, blank_cols, cells):
-            _raise_first_bad(cells, rows, wanted, name, blank_cols)
-        yield rows, wanted, values
+        values = None
+        if cells:
+            try:
+                values = np.array(cells, dtype=np.float64)
+            except ValueError:
+                values = None
+            if values is None or not _finite_where_needed(values, blank_cols, cells):
+                bad, bad_error = _first_bad(cells, rows, wanted, name, blank_cols)
+                error = bad_error
+                rows, cells = rows[:bad], cells[:bad]
+                values = np.array(cells, dtype=np.float64).reshape(len(cells), len(wanted))
+        # the rows before a bad one are still delivered (and written) before the error stops the run
+        if values is not None and len(rows):
+            yield rows, wanted, values
+        if error is not None:
+            raise error
 
 
 def _finite_where_needed(values, blank_cols, cells) -> bool:
@@ -84,7 +93,8 @@ def _finite_where_needed(values, blank_cols, cells) -> bool:
     return True
 
 
-def _raise_first_bad(cells, rows, wanted, name, blank_cols):
+def _first_bad(cells, rows, wanted, name, blank_cols):
+    """Index of the first bad row and the error naming its line and column."""
     for k, row in enumerate(cells):
         for j, text in enumerate(row):
             if j in blank_cols and text == "nan":
@@ -92,8 +102,7 @@ def _raise_first_bad(cells, rows, wanted, name, blank_cols):
             try:
                 value = float(text)
             except ValueError:
-                raise InputError(name, f"not a number: {text.strip()[:40]!r}",
-                                 where=f"line {rows[k]} column {wanted[j]}") from None
+                return k, InputError(name, f"not a number: {text.strip()[:40]!r}", where=f"line {rows[k]} column {wanted[j]}")
             if not np.isfinite(value):
-                raise InputError(name, f"non-finite value {text.strip()!r}", where=f"line {rows[k]} column {wanted[j]}")
-    raise InputError(name, "unparseable rows")  # pragma: no cover
+                return k, InputError(name, f"non-finite value {text.strip()!r}", where=f"line {rows[k]} column {wanted[j]}")
+    return len(cells), InputError(name, "unparseable rows")  # pragma: no cover

@@ -58,11 +58,15 @@ def _chunks(fh, name: str, chunk_rows: int) -> Iterator[TrajectoryChunk]:
     for rows, wanted, values in numeric_chunks(fh, name, REQUIRED, OPTIONAL, chunk_rows):
         t = values[:, 0]
         order_bad = np.flatnonzero(np.diff(np.concatenate([[last_t], t])) < 0)
+        error = None
         if len(order_bad):
             k = int(order_bad[0])
             prev = last_t if k == 0 else t[k - 1]
-            raise InputError(name, f"time goes back ({t[k]!r} after {prev!r}); t must be non-decreasing",
-                             where=f"line {rows[k]} column t")
+            error = InputError(name, f"time goes back ({t[k]!r} after {prev!r}); t must be non-decreasing",
+                               where=f"line {rows[k]} column t")
+            values, rows, t = values[:k], rows[:k], t[:k]
+            if k == 0:
+                raise error
         last_t = t[-1]
         n = len(t)
         turret = values[:, wanted.index("turret_deg")] if "turret_deg" in wanted else np.zeros(n)
@@ -70,3 +74,5 @@ def _chunks(fh, name: str, chunk_rows: int) -> Iterator[TrajectoryChunk]:
         yield TrajectoryChunk(np.arange(step, step + n), rows[0], t, values[:, 1], values[:, 2], values[:, 3],
                               turret, gun, any(c in wanted for c in OPTIONAL))
         step += n
+        if error is not None:
+            raise error

@@ -1,20 +1,62 @@
-"""The streaming replay pipeline: trajectory chunks in, pose chunks out."""
+"""The streaming replay pipeline: trajectory chunks in, pose chunks and events out.
+
+Per chunk (vectorized within it): match the poses, then only the effects the
+scene calls for (``Scene.effects``): the hull bottom against the terrain
+always; the vehicle against obstacles only if the scene has obstacles (broad
+phase on world boxes first); the gun against the rear drums only if drums are
+fitted and the trajectory moves the turret or gun. Work a scene does not call
+for costs nothing: no tree is loaded, no column computed.
+
+Memory is bounded by the chunk (65 536 rows by default: a few tens of MB of
+arrays) plus the terrain and trees, whatever the trajectory's length.
+"""
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
 import numpy as np
 
-from tankcd_cli.matching.match import Poses, match
+from tankcd_cli.matching.match import OFF, OK, Poses, match
 from tankcd_cli.vehicle import Vehicle
+
+HULL_CONTACT_TOLERANCE = 0.01  # m: ground this far above the hull bottom is a terrain contact
+
+
+@dataclass
+class Event:
+    step: int
+    t: float
+    kind: str
+    a: str
+    b: str
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass
+class ReplaySetup:
+    """Everything a replay needs, loaded once: the terrain surface, the vehicle, and per effect its data."""
+
+    surface: object
+    vehicle: Vehicle
+    effects: dict
+    obstacles: list = field(default_factory=list)
+    vehicle_tree: object = None
+    vehicle_parts: np.ndarray | None = None
+    part_names: tuple = ()
+    seconds: dict = field(default_factory=lambda: {"matching": 0.0, "terrain": 0.0, "obstacles": 0.0, "internal": 0.0})
 
 
 def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehicle: Vehicle | None = None,
-                         progress: Callable[[str], None] | None = None):
-    """A TerrainSurface from a store, or from any terrain input classified on the fly."""
+                         progress: Callable[[str], None] | None = None, cache: bool = False):
+    """A TerrainSurface from a store, or from any terrain input classified on the fly
+    (and, with ``cache``, saved as a store beside it)."""
+    import os
+
     from tankcd_cli.terrain.classify import classify_terrain, load_terrain
-    from tankcd_cli.terrain.store import is_store, read_store
+    from tankcd_cli.terrain.store import is_store, read_store, write_store
     from tankcd_cli.terrain.surface import TerrainSurface
 
     say = progress or (lambda s: None)
@@ -22,14 +64,104 @@ def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehic
         say(f"reading terrain store {path}")
         store = read_store(path)
     else:
+        cached = os.path.splitext(path)[0] + ".h5"
+        raw = load_terrain(path, up=up, fmt=fmt)
+        if cache and os.path.exists(cached) and is_store(cached):
+            from tankcd_cli.terrain.store import read_attrs
+
+            if read_attrs(cached).get("source_sha256") == raw.sha256:
+                say(f"reading cached store {cached}")
+                return TerrainSurface.from_store(read_store(cached)), None
         say(f"classifying {path} on the fly")
-        store = classify_terrain(load_terrain(path, up=up, fmt=fmt), vehicle=vehicle, progress=say)
+        store = classify_terrain(raw, vehicle=vehicle, progress=say)
+        if cache:
+            from tankcd_cli.io.atomic import atomic_path
+
+            with atomic_path(cached, ".h5") as tmp:
+                write_store(tmp, store)
+            say(f"cached the store as {cached}")
     return TerrainSurface.from_store(store), store
 
 
-def replay_poses(surface, vehicle: Vehicle, chunks, matcher: str = "auto", measure: bool = True
-                 ) -> Iterator[tuple[object, Poses]]:
-    """Match every trajectory chunk; yields (chunk, poses) in order."""
+def prepare(surface, vehicle: Vehicle, scene=None, turret_moves: bool = False,
+            progress: Callable[[str], None] | None = None) -> ReplaySetup:
+    """Load only what the scene's effects need."""
+    effects = scene.effects(turret_moves) if scene is not None else {"terrain_contact": True, "obstacles": False,
+                                                                     "internal": bool(vehicle.fuel_drums and turret_moves)}
+    setup = ReplaySetup(surface, vehicle, effects)
+    if effects["obstacles"]:
+        from tankcd_cli.collision.obstacles import load_obstacles, vehicle_tree
+
+        setup.obstacles = load_obstacles(scene, cache=True, progress=progress)
+        setup.vehicle_tree, setup.vehicle_parts, setup.part_names = vehicle_tree(scene)
+    return setup
+
+
+def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator[tuple[object, Poses, list]]:
+    """Match every trajectory chunk and run the enabled effects; yields (chunk, poses, events) in order."""
     for chunk in chunks:
-        poses = match(surface, vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=matcher, measure=measure)
-        yield chunk, poses
+        t0 = time.perf_counter()
+        poses = match(setup.surface, setup.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=matcher)
+        setup.seconds["matching"] += time.perf_counter() - t0
+        events = []
+        off = np.flatnonzero(poses.status != OK)
+        for i in off:
+            events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "off_terrain", "vehicle", "terrain",
+                                {"status": "off" if poses.status[i] == OFF else "partly_off"}))
+        good = np.flatnonzero(poses.status != OFF)
+        if setup.effects["terrain_contact"] and len(good):
+            t0 = time.perf_counter()
+            events += _hull_bottom(setup, chunk, poses, good)
+            setup.seconds["terrain"] += time.perf_counter() - t0
+        if setup.effects["obstacles"] and len(good):
+            t0 = time.perf_counter()
+            events += _obstacles(setup, chunk, poses, good)
+            setup.seconds["obstacles"] += time.perf_counter() - t0
+        if setup.effects["internal"]:
+            t0 = time.perf_counter()
+            events += _internal(setup, chunk)
+            setup.seconds["internal"] += time.perf_counter() - t0
+        events.sort(key=lambda e: e.step)
+        yield chunk, poses, events
+
+
+def hull_bottom_points(vehicle: Vehicle, along: int = 9, across: int = 5) -> np.ndarray:
+    """Points (k, 3) of the hull's bottom face in the vehicle frame (at ground-clearance height)."""
+    u = np.linspace(-vehicle.hull_length / 2, vehicle.hull_length / 2, along)
+    v = np.linspace(-vehicle.hull_width / 2, vehicle.hull_width / 2, across)
+    U, V = np.meshgrid(u, v)
+    return np.column_stack([U.ravel(), V.ravel(), np.full(U.size, vehicle.ground_clearance)])
+
+
+def _hull_bottom(setup, chunk, poses, idx):
+    pts = hull_bottom_points(setup.vehicle)
+    R = poses.rotation[idx]
+    world = np.einsum("nij,kj->nki", R, pts) + poses.position[idx][:, None, :]
+    ground, _, _ = setup.surface.height_slope(world[..., 0], world[..., 1])
+    depth = np.nan_to_num(ground - world[..., 2], nan=-np.inf).max(axis=1)
+    events = []
+    for i, d in zip(idx, depth):
+        if d > HULL_CONTACT_TOLERANCE:
+            events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "terrain", "hull", "terrain",
+                                {"depth": round(float(d), 4)}))
+    return events
+
+
+def _obstacles(setup, chunk, poses, idx):
+    from tankcd_cli.collision.obstacles import collide_obstacles
+
+    hits = collide_obstacles(setup.vehicle_tree, setup.vehicle_parts, setup.obstacles, poses.rotation[idx],
+                             poses.position[idx])
+    return [Event(int(chunk.step[idx[p]]), float(chunk.t[idx[p]]), "obstacle", setup.part_names[part],
+                  setup.obstacles[o].name, {"point": [round(float(c), 4) for c in point], "contacts": int(n)})
+            for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts)]
+
+
+def _internal(setup, chunk):
+    from tankcd_cli.collision.internal import DRUMS, gun_hits_drums
+
+    hit = gun_hits_drums(setup.vehicle, np.radians(chunk.turret_deg), np.radians(chunk.gun_deg))
+    rows, drums = np.nonzero(hit)
+    return [Event(int(chunk.step[r]), float(chunk.t[r]), "internal", "gun", DRUMS[d],
+                  {"turret_deg": round(float(chunk.turret_deg[r]), 3), "gun_deg": round(float(chunk.gun_deg[r]), 3)})
+            for r, d in zip(rows, drums)]
