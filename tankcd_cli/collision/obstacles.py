@@ -14,7 +14,6 @@ from tankcd_cli.bvh.build import Tree, build_tree
 from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.store import read_tree, write_tree
 from tankcd_cli.errors import InputError
-from tankcd_cli.geometry import kdop
 from tankcd_cli.replay.scene import CollisionSettings, ObstacleSpec, Scene
 from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
 
@@ -125,13 +124,12 @@ def collide_obstacles(moving: Tree, parts: np.ndarray, obstacles: list[Obstacle]
     if not obstacles or n == 0:
         empty = np.zeros(0, dtype=np.int64)
         return ObstacleHits(empty, empty, empty, np.zeros((0, 3)), empty, 0, 0, 0)
-    # the vehicle's world AABB at each pose (conservative: its root k-DOP moved)
-    lo, hi = [], []
-    for R, t in zip(rotation, translation):
-        a, b = kdop.rotated_bound(moving.lo[:1], moving.hi[:1], moving.k, R, t)
-        lo.append(a[0, :3])
-        hi.append(b[0, :3])
-    lo, hi = np.array(lo), np.array(hi)
+    # the vehicle's world AABB at each pose: its root box moved (centre R c + t, half-widths |R| h)
+    centre = 0.5 * (moving.lo[0, :3] + moving.hi[0, :3])
+    half = 0.5 * (moving.hi[0, :3] - moving.lo[0, :3])
+    world_centre = rotation @ centre + translation
+    world_half = np.abs(rotation) @ half
+    lo, hi = world_centre - world_half, world_centre + world_half
     rows = {k: [] for k in ("pose", "obstacle", "part", "point", "contacts")}
     node_tests = tri_tests = broad = 0
     for j, ob in enumerate(obstacles):

@@ -13,31 +13,28 @@ def header() -> str:
     return ",".join(COLUMNS) + "\n"
 
 
+_ROW = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,%s,%.4f,%.4f,%s\n"
+_ROW_NO_MEASURE = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,%s,,,%s\n"
+
+
 def format_rows(step, t, poses, matcher_names, status_names) -> str:
     """CSV text of a chunk of poses. Numbers a pose does not have (status ``off``) are left empty."""
     deg = np.degrees
-    cols = [step, t, poses.position[:, 0], poses.position[:, 1], poses.position[:, 2], deg(poses.roll),
-            deg(poses.pitch), deg(poses.yaw), poses.quaternion[:, 0], poses.quaternion[:, 1],
-            poses.quaternion[:, 2], poses.quaternion[:, 3]]
-    fmts = ["%d", "%.6f", "%.4f", "%.4f", "%.4f", "%.5f", "%.5f", "%.5f", "%.8f", "%.8f", "%.8f", "%.8f"]
-    text_cols = []
-    for values, fmt in zip(cols, fmts):
-        values = np.asarray(values)
-        strs = np.char.mod(fmt, values) if values.dtype.kind != "f" else _fmt_float(values, fmt)
-        text_cols.append(strs)
-    text_cols.append(np.array([REGION_NAMES.get(int(r), "unknown") for r in poses.region], dtype=object))
-    text_cols.append(np.asarray(matcher_names, dtype=object)[poses.matcher])
-    text_cols.append(_fmt_float(poses.penetration, "%.4f"))
-    text_cols.append(_fmt_float(poses.gap, "%.4f"))
-    text_cols.append(np.asarray(status_names, dtype=object)[poses.status])
-    rows = zip(*[c.tolist() for c in text_cols])
-    return "".join(",".join(r) + "\n" for r in rows)
-
-
-def _fmt_float(values: np.ndarray, fmt: str) -> np.ndarray:
-    out = np.char.mod(fmt, np.nan_to_num(values, nan=0.0)).astype(object)
-    out[~np.isfinite(values)] = ""
-    return out
+    numbers = np.column_stack([t, poses.position, deg(poses.roll), deg(poses.pitch), deg(poses.yaw),
+                               poses.quaternion, poses.penetration, poses.gap])
+    region = [REGION_NAMES.get(int(r), "unknown") for r in poses.region.tolist()]
+    matcher = [matcher_names[m] for m in poses.matcher.tolist()]
+    status = [status_names[s] for s in poses.status.tolist()]
+    finite = np.isfinite(numbers).all(axis=1)
+    out = []
+    for i, (k, row) in enumerate(zip(np.asarray(step).tolist(), numbers.tolist())):
+        if finite[i]:
+            out.append(_ROW % (k, *row[:11], region[i], matcher[i], row[11], row[12], status[i]))
+        elif np.isfinite(numbers[i, :11]).all():
+            out.append(_ROW_NO_MEASURE % (k, *row[:11], region[i], matcher[i], status[i]))
+        else:  # no pose: the row says why (status), its numbers stay empty
+            out.append(f"{k},{row[0]:.6f},{row[1]:.4f},{row[2]:.4f},,,,{row[6]:.5f},,,,,{region[i]},{matcher[i]},,,{status[i]}\n")
+    return "".join(out)
 
 
 POSE_REQUIRED = ("x", "y", "z")
