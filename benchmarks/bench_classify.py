@@ -32,6 +32,8 @@ import time
 
 import numpy as np
 
+from _report import save_report
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -197,11 +199,7 @@ def main():
             lines.append(f"| {size} x {size} OBJ mesh | {fmt_times(time_command(cmd, 3))} | irregular-mesh path: merge, buckets |")
         help_times = time_command([sys.executable, "-m", "tankcd_cli", "--help"], 5)
         lines += ["", f"`tankcd --help`: {fmt_times(help_times)} s.", ""]
-    text = "\n".join(lines)
-    print(text)
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as fh:
-        fh.write(text + "\n")
+    save_report("\n".join(lines), args.out)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from _report import save_report
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -146,11 +148,7 @@ def main():
         lines += ["", "Split rule: the surface-area heuristic unless the row says median.", "",
                   f"Tree file of the town (k = 18, hybrid 2): {size / 1e6:.1f} MB; save {save:.2f} s, "
                       f"load {load:.3f} s, build {build18:.2f} s (load / build = {load / build18:.2f}).", ""]
-    text = "\n".join(lines)
-    print(text)
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as fh:
-        fh.write(text + "\n")
+    save_report("\n".join(lines), args.out)
 
 
 def _peer(name, tank, world, R, t, truth):

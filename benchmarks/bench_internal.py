@@ -17,6 +17,8 @@ import time
 
 import numpy as np
 
+from _report import save_report
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -63,11 +65,7 @@ def main():
               f"Envelope (1 deg azimuth steps, 0.01 deg bisection, exact test): {env_t:.2f} s; the projection "
               f"test's envelope is up to {np.max(limp[both] - lim[both]):.2f} deg more restrictive "
               f"(drums limit {env['limited'].sum()} of 360 azimuths exactly, {env_p['limited'].sum()} by projection).", ""]
-    text = "\n".join(lines)
-    print(text)
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as fh:
-        fh.write(text + "\n")
+    save_report("\n".join(lines), args.out)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,8 @@ import time
 
 import numpy as np
 
+from _report import save_report
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -123,11 +125,7 @@ def main():
     lines += ["", "Pose only: the matcher alone (auto includes its region lookup under every footprint); "
               "with penetration and gap: plus the exact footprint pass and the region column, as `replay` "
               "writes them. The peer column counts only the ray casts (the plane arithmetic would add to it)."]
-    text = "\n".join(lines)
-    print(text)
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as fh:
-        fh.write(text + "\n")
+    save_report("\n".join(lines), args.out)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,8 @@ import time
 
 import numpy as np
 
+from _report import save_report
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLE = os.path.join(os.path.dirname(HERE), "sample_data")
 
@@ -90,11 +92,7 @@ def main():
             lines.append(f"| {name} | {med:.2f} ({lo:.2f}-{hi:.2f}) | {a.rows / med:,.0f} | {sec['matching']:.2f} s | "
                          f"{sec['terrain']:.2f} s | {sec['obstacles']:.2f} s | {sec['internal']:.2f} s | "
                          f"{sum(s['collisions'].values()):,} |")
-    text = "\n".join(lines + [""])
-    print(text)
-    os.makedirs(os.path.dirname(a.out), exist_ok=True)
-    with open(a.out, "w") as fh:
-        fh.write(text)
+    save_report("\n".join(lines + [""]), a.out)
 
 
 if __name__ == "__main__":
