@@ -11,6 +11,10 @@ def describe_store(path: str) -> dict:
 
     from tankcd_cli.terrain.store import is_store, read_attrs
 
+    import os
+
+    if not os.path.exists(path):
+        raise InputError(path, "no such file")
     if not is_store(path):
         if path.lower().endswith(".toml"):
             from tankcd_cli.replay.scene import load_scene
