@@ -75,3 +75,11 @@ def test_region_under_takes_the_worst_class():
     assert region[0] == UNEVEN and region[1] == 0
     off = surface.region_under(np.array([500.0]), np.array([0.0]), np.array([0.0]), 4.28, 3.37)
     assert off[0] == 255
+
+
+def test_locate_names_the_face_under_each_point():
+    V, F, _ = S.jittered_mesh(S.gaussian_hill(2.0, 4.0), 6.0, 1.0, seed=4)
+    surface = S.surface_of(S.mesh_terrain(V, F))
+    centroids = V[F].mean(axis=1)
+    np.testing.assert_array_equal(surface.locate(centroids[:, 0], centroids[:, 1]), np.arange(len(F)))
+    assert surface.locate(np.array([100.0]), np.array([0.0]))[0] == -1
