@@ -132,7 +132,7 @@ def build_tree(triangles: np.ndarray, k: int = 18, leaf_size: int = 4, aabb_leve
         order = np.lexsort((key, owner))
         perm[elem] = perm[elem[order]]
         key = key[order]
-        cut = _sah_cut(triangles, perm, elem, owner, key, lo, hi, axis, c) if split == "sah" else c // 2
+        cut = _sah_cut(tri_lo, tri_hi, perm, elem, owner, key, lo, hi, axis, c) if split == "sah" else c // 2
         cut = np.clip(cut, 1, c - 1)
         lid = n + 2 * np.arange(len(ids))
         rid = lid + 1
@@ -162,7 +162,7 @@ def build_tree(triangles: np.ndarray, k: int = 18, leaf_size: int = 4, aabb_leve
                 int(aabb_levels), split, int(leaf_size))
 
 
-def _sah_cut(triangles, perm, elem, owner, key, lo, hi, axis, count):
+def _sah_cut(tri_lo, tri_hi, perm, elem, owner, key, lo, hi, axis, count):
     """Binned SAH cut (number of elements going left) for every node being split."""
     nodes = len(count)
     span = hi[np.arange(nodes), axis] - lo[np.arange(nodes), axis]
@@ -170,12 +170,14 @@ def _sah_cut(triangles, perm, elem, owner, key, lo, hi, axis, count):
     safe = np.where(span > 0, span, 1.0)
     b = np.clip(((key - base[owner]) / safe[owner] * SAH_BINS).astype(np.int64), 0, SAH_BINS - 1)
     slot = owner * SAH_BINS + b
-    tri = triangles[perm[elem]]
-    tlo, thi = tri.min(axis=1), tri.max(axis=1)
+    tlo, thi = tri_lo[perm[elem], :3], tri_hi[perm[elem], :3]  # the triangles' AABBs: the k-DOPs' first slabs
     bin_lo = np.full((nodes * SAH_BINS, 3), np.inf)
     bin_hi = np.full((nodes * SAH_BINS, 3), -np.inf)
-    np.minimum.at(bin_lo, slot, tlo)
-    np.maximum.at(bin_hi, slot, thi)
+    # the elements are sorted by node and, within a node, by the key the bins cut: so by slot,
+    # and each slot's elements are one run (reduceat, not the much slower ufunc.at)
+    first = np.flatnonzero(np.diff(slot, prepend=-1))
+    bin_lo[slot[first]] = np.minimum.reduceat(tlo, first, axis=0)
+    bin_hi[slot[first]] = np.maximum.reduceat(thi, first, axis=0)
     bin_n = np.bincount(slot, minlength=nodes * SAH_BINS).reshape(nodes, SAH_BINS)
     bin_lo = bin_lo.reshape(nodes, SAH_BINS, 3)
     bin_hi = bin_hi.reshape(nodes, SAH_BINS, 3)

@@ -144,48 +144,53 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
     out = np.full((npose, 3), np.nan)
     covered = np.zeros(npose)
     status = np.zeros(npose, np.int64)
-    for i in prange(npose):
-        co = np.cos(yaw[i])
-        si = np.sin(yaw[i])
+    block = 64  # poses per task: the scratch buffers are allocated once per block, not per pose
+    for b in prange((npose + block - 1) // block):
         cap = 512
-        while True:
-            bu = np.empty(cap)
-            bv = np.empty(cap)
-            bz = np.empty(cap)
-            used = 0
-            area = 0.0
-            for q in range(2):
-                used, a = _patch_points(cx[i], cy[i], co, si, quads[i, q], V, F, plane, origin, size, ny, nx,
-                                        start, cell_face, bu, bv, bz, used)
-                area += a
-                if used < 0:
+        bu = np.empty(cap)
+        bv = np.empty(cap)
+        bz = np.empty(cap)
+        for i in range(b * block, min((b + 1) * block, npose)):
+            co = np.cos(yaw[i])
+            si = np.sin(yaw[i])
+            while True:
+                used = 0
+                area = 0.0
+                for q in range(2):
+                    used, a = _patch_points(cx[i], cy[i], co, si, quads[i, q], V, F, plane, origin, size, ny, nx,
+                                            start, cell_face, bu, bv, bz, used)
+                    area += a
+                    if used < 0:
+                        break
+                if used >= 0:
                     break
-            if used >= 0:
-                break
-            cap *= 4
-        patch_area = 0.0
-        for q in range(2):
-            a2 = 0.0
-            for k in range(4):
-                j = (k + 1) % 4
-                a2 += quads[i, q, k, 0] * quads[i, q, j, 1] - quads[i, q, j, 0] * quads[i, q, k, 1]
-            patch_area += 0.5 * abs(a2)
-        covered[i] = area / patch_area if patch_area > 0 else 0.0
-        if mode == 0:
-            a, b, c, st = support_plane(bu, bv, bz, used, eps)
-            out[i, 0] = a
-            out[i, 1] = b
-            out[i, 2] = c
-            status[i] = st
-        else:
-            worst = -np.inf
-            a = planes_in[i, 0]
-            b = planes_in[i, 1]
-            c = planes_in[i, 2]
-            for k in range(used):
-                h = bz[k] - (a + b * bu[k] + c * bv[k])
-                if h > worst:
-                    worst = h
-            out[i, 0] = worst
-            status[i] = 0 if used > 0 else 1
+                cap *= 4  # a patch over many small triangles: grow the buffers and collect again
+                bu = np.empty(cap)
+                bv = np.empty(cap)
+                bz = np.empty(cap)
+            patch_area = 0.0
+            for q in range(2):
+                a2 = 0.0
+                for k in range(4):
+                    j = (k + 1) % 4
+                    a2 += quads[i, q, k, 0] * quads[i, q, j, 1] - quads[i, q, j, 0] * quads[i, q, k, 1]
+                patch_area += 0.5 * abs(a2)
+            covered[i] = area / patch_area if patch_area > 0 else 0.0
+            if mode == 0:
+                a, bb, c, st = support_plane(bu, bv, bz, used, eps)
+                out[i, 0] = a
+                out[i, 1] = bb
+                out[i, 2] = c
+                status[i] = st
+            else:
+                worst = -np.inf
+                a = planes_in[i, 0]
+                bb = planes_in[i, 1]
+                c = planes_in[i, 2]
+                for k in range(used):
+                    h = bz[k] - (a + bb * bu[k] + c * bv[k])
+                    if h > worst:
+                        worst = h
+                out[i, 0] = worst
+                status[i] = 0 if used > 0 else 1
     return out, covered, status
