@@ -83,3 +83,21 @@ def test_locate_names_the_face_under_each_point():
     centroids = V[F].mean(axis=1)
     np.testing.assert_array_equal(surface.locate(centroids[:, 0], centroids[:, 1]), np.arange(len(F)))
     assert surface.locate(np.array([100.0]), np.array([0.0]))[0] == -1
+
+
+def test_ground_above_body_points_matches_height_queries():
+    from tankcd_cli.matching.pose import rotation_matrix
+
+    rng = np.random.default_rng(6)
+    Z = rng.normal(0, 0.4, (30, 30))
+    Z[5:8, 5:8] = np.nan
+    surface = S.surface_of(S.dem_terrain(Z, origin=(500000.0, 4500000.0)))
+    n = 200
+    R = rotation_matrix(rng.normal(0, 0.2, n), rng.normal(0, 0.2, n), rng.uniform(-3, 3, n))
+    pos = np.column_stack([500000 + rng.uniform(0, 29, n), 4500000 + rng.uniform(0, 29, n), rng.normal(0, 0.5, n)])
+    pts = rng.uniform(-3, 3, (12, 3))
+    got = surface.ground_above(R, pos, pts)
+    world = pts @ R.transpose(0, 2, 1) + pos[:, None, :]
+    ground, _, _ = surface.height_normal(world[..., 0], world[..., 1])
+    want = np.nan_to_num(ground - world[..., 2], nan=-np.inf).max(axis=1)
+    np.testing.assert_allclose(got, want, atol=1e-9)

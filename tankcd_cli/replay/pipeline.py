@@ -134,11 +134,7 @@ def hull_bottom_points(vehicle: Vehicle, along: int = 9, across: int = 5) -> np.
 
 
 def _hull_bottom(setup, chunk, poses, idx):
-    pts = hull_bottom_points(setup.vehicle)
-    R = poses.rotation[idx]
-    world = pts @ R.transpose(0, 2, 1) + poses.position[idx][:, None, :]
-    ground, _, _ = setup.surface.height_slope(world[..., 0], world[..., 1])
-    depth = np.nan_to_num(ground - world[..., 2], nan=-np.inf).max(axis=1)
+    depth = setup.surface.ground_above(poses.rotation[idx], poses.position[idx], hull_bottom_points(setup.vehicle))
     events = []
     for i, d in zip(idx, depth):
         if d > HULL_CONTACT_TOLERANCE:

@@ -99,6 +99,17 @@ class TerrainSurface:
                                    self.cell_shape[0], self.cell_shape[1], self.cell_start, self.cell_face)
         return z.reshape(shape), gx.reshape(shape), gy.reshape(shape)
 
+    def ground_above(self, rotation: np.ndarray, position: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """How far the ground rises above body points (k, 3) placed at poses (rotation (N, 3, 3),
+        world position (N, 3)), m (N,): the largest ground - z over the points on terrain (-inf if none)."""
+        from tankcd_cli.terrain.surface_kernels import highest_above
+
+        local = np.asarray(position, dtype=float) - [self.origin[0], self.origin[1], 0.0]
+        return highest_above(np.ascontiguousarray(rotation, dtype=float), np.ascontiguousarray(local),
+                             np.ascontiguousarray(points, dtype=float), self.post_z, self.post_origin, self.post_size,
+                             self.vertices, self.faces, self.plane, self.cell_origin, self.cell_size,
+                             self.cell_shape[0], self.cell_shape[1], self.cell_start, self.cell_face)
+
     def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points.
 

@@ -123,42 +123,61 @@ def heights_slopes(px, py, post_z, post_origin, post_size, V, F, plane, origin, 
     z = np.full(n, np.nan)
     gx = np.full(n, np.nan)
     gy = np.full(n, np.nan)
+    for i in prange(n):
+        z[i], gx[i], gy[i] = height_one(px[i], py[i], post_z, post_origin, post_size, V, F, plane, origin, size,
+                                        ny, nx, start, cell_face)
+    return z, gx, gy
+
+
+@njit(cache=True)
+def height_one(x, y, post_z, post_origin, post_size, V, F, plane, origin, size, ny, nx, start, cell_face):  # pragma: no cover - compiled
+    """Height and gradient at one local point (NaN off the terrain): see ``heights_slopes``."""
+    if not (np.isfinite(x) and np.isfinite(y)):
+        return np.nan, np.nan, np.nan
     rows = post_z.shape[0]
     cols = post_z.shape[1]
+    if rows >= 2 and cols >= 2:
+        u = (x - post_origin[0]) / post_size[0]
+        v = (y - post_origin[1]) / post_size[1]
+        c = int(np.floor(u))
+        r = int(np.floor(v))
+        if c == cols - 1 and u <= cols - 1 + 1e-9:
+            c = cols - 2
+        if r == rows - 1 and v <= rows - 1 + 1e-9:
+            r = rows - 2
+        if 0 <= c < cols - 1 and 0 <= r < rows - 1:
+            sw = post_z[r, c]
+            se = post_z[r, c + 1]
+            ne = post_z[r + 1, c + 1]
+            nw = post_z[r + 1, c]
+            if np.isfinite(sw) and np.isfinite(se) and np.isfinite(ne) and np.isfinite(nw):
+                fx = u - c
+                fy = v - r
+                if fx >= fy:
+                    return sw + fx * (se - sw) + fy * (ne - se), (se - sw) / post_size[0], (ne - se) / post_size[1]
+                return sw + fy * (nw - sw) + fx * (ne - nw), (ne - nw) / post_size[0], (nw - sw) / post_size[1]
+    best = locate_one(x, y, V, F, plane, origin, size, ny, nx, start, cell_face)
+    if best < 0:
+        return np.nan, np.nan, np.nan
+    return plane[best, 0] + plane[best, 1] * x + plane[best, 2] * y, plane[best, 1], plane[best, 2]
+
+
+@njit(cache=True, parallel=True)
+def highest_above(R, position, points, post_z, post_origin, post_size, V, F, plane, origin, size, ny, nx, start,
+                  cell_face):  # pragma: no cover - compiled
+    """For each pose, how far the ground rises above the body points (k, 3) moved by x -> R x + p
+    (local coordinates): max over the points on terrain of ground - z; -inf if none is on terrain."""
+    n = R.shape[0]
+    out = np.full(n, -np.inf)
     for i in prange(n):
-        x = px[i]
-        y = py[i]
-        if not (np.isfinite(x) and np.isfinite(y)):
-            continue
-        if rows >= 2 and cols >= 2:
-            u = (x - post_origin[0]) / post_size[0]
-            v = (y - post_origin[1]) / post_size[1]
-            c = int(np.floor(u))
-            r = int(np.floor(v))
-            if c == cols - 1 and u <= cols - 1 + 1e-9:
-                c = cols - 2
-            if r == rows - 1 and v <= rows - 1 + 1e-9:
-                r = rows - 2
-            if 0 <= c < cols - 1 and 0 <= r < rows - 1:
-                sw = post_z[r, c]
-                se = post_z[r, c + 1]
-                ne = post_z[r + 1, c + 1]
-                nw = post_z[r + 1, c]
-                if np.isfinite(sw) and np.isfinite(se) and np.isfinite(ne) and np.isfinite(nw):
-                    fx = u - c
-                    fy = v - r
-                    if fx >= fy:
-                        z[i] = sw + fx * (se - sw) + fy * (ne - se)
-                        gx[i] = (se - sw) / post_size[0]
-                        gy[i] = (ne - se) / post_size[1]
-                    else:
-                        z[i] = sw + fy * (nw - sw) + fx * (ne - nw)
-                        gx[i] = (ne - nw) / post_size[0]
-                        gy[i] = (nw - sw) / post_size[1]
-                    continue
-        best = locate_one(x, y, V, F, plane, origin, size, ny, nx, start, cell_face)
-        if best >= 0:
-            z[i] = plane[best, 0] + plane[best, 1] * x + plane[best, 2] * y
-            gx[i] = plane[best, 1]
-            gy[i] = plane[best, 2]
-    return z, gx, gy
+        worst = -np.inf
+        for k in range(points.shape[0]):
+            wx = R[i, 0, 0] * points[k, 0] + R[i, 0, 1] * points[k, 1] + R[i, 0, 2] * points[k, 2] + position[i, 0]
+            wy = R[i, 1, 0] * points[k, 0] + R[i, 1, 1] * points[k, 1] + R[i, 1, 2] * points[k, 2] + position[i, 1]
+            wz = R[i, 2, 0] * points[k, 0] + R[i, 2, 1] * points[k, 1] + R[i, 2, 2] * points[k, 2] + position[i, 2]
+            g, _, _ = height_one(wx, wy, post_z, post_origin, post_size, V, F, plane, origin, size, ny, nx, start,
+                                 cell_face)
+            if np.isfinite(g) and g - wz > worst:
+                worst = g - wz
+        out[i] = worst
+    return out
