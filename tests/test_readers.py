@@ -150,3 +150,25 @@ def test_no_permission(tmp_path):
     path.chmod(0)
     with pytest.raises(InputError, match="permission denied"):
         read_terrain(str(path))
+
+
+@pytest.mark.parametrize("body", [
+    "v 0 0 0\nv 1 0 0\nv 0 1 0.5\nv 1 1 0.25\nf 1 2 3\nf 2 4 3\n",
+    "# comment\no thing\nv 0 0 0\nv 1 0 0\nv 0 1 0.5\nv 1 1 0.25\nvt 0 0\nvn 0 0 1\ns off\nf 1/1/1 2/1/1 3/1/1\nf 2//1 4//1 3//1\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0.5\nv 1 1 0.25\nf 1 2 4 3\n",  # a quad: the full reader
+    "v 0 0 0\nv 1 0 0\nv 0 1 0.5\nv 1 1 0.25\nf -4 -3 -2\nf -3 -1 -2\n",  # relative indices: the full reader
+])
+def test_simple_obj_reader_agrees_with_trimesh(tmp_path, body):
+    import trimesh
+
+    from tankcd_cli.io.terrain_readers import read_simple_obj
+
+    path = tmp_path / "m.obj"
+    path.write_text(body)
+    raw = read_terrain(str(path))
+    ref = trimesh.load(str(path), force="mesh", process=False)
+    ours = np.sort(raw.vertices[raw.faces].reshape(-1, 3), axis=0)
+    theirs = np.sort(np.asarray(ref.vertices)[np.asarray(ref.faces)].reshape(-1, 3), axis=0)
+    np.testing.assert_allclose(ours, theirs)
+    simple = read_simple_obj(body.encode())
+    assert (simple is None) == ("f 1 2 4 3" in body or "f -4" in body)

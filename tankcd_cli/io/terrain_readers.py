@@ -272,7 +272,43 @@ def _locate_bad_token(lines: list[str], body_start: int, name: str) -> None:
 
 # --- meshes ------------------------------------------------------------------
 
+def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and triangles of a plain OBJ (``v x y z`` and triangular ``f a b c``, indices
+    with or without ``/vt/vn``), or None when the file needs a full reader (polygons, negative
+    indices, unparseable lines). Saves importing trimesh (most of a second) for the common case.
+    """
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    lines = text.splitlines()
+    v_lines = [ln[2:] for ln in lines if ln.startswith("v ")]
+    f_lines = [ln[2:] for ln in lines if ln.startswith("f ")]
+    if not v_lines or not f_lines:
+        return None
+    try:
+        v_tokens = " ".join(v_lines).split()
+        if len(v_tokens) != 3 * len(v_lines):  # colours, weights: let the full reader decide
+            return None
+        vertices = np.array(v_tokens, dtype=np.float64).reshape(-1, 3)
+        f_tokens = " ".join(f_lines).split()
+        if len(f_tokens) != 3 * len(f_lines):  # polygons
+            return None
+        if "/" in f_lines[0] or any("/" in t for t in f_tokens[:3]):
+            f_tokens = [t.split("/", 1)[0] for t in f_tokens]
+        faces = np.array(f_tokens, dtype=np.int64).reshape(-1, 3)
+    except ValueError:
+        return None
+    if (faces <= 0).any():  # relative (negative) indices: the full reader resolves them
+        return None
+    return vertices, faces - 1
+
+
 def _read_trimesh(data: bytes, fmt: str, name: str) -> tuple[np.ndarray, np.ndarray]:
+    if fmt == "obj":
+        simple = read_simple_obj(data)
+        if simple is not None:
+            return simple
     import trimesh
 
     try:
