@@ -109,13 +109,14 @@ def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator
             events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "off_terrain", "vehicle", "terrain",
                                 {"status": "off" if poses.status[i] == OFF else "partly_off"}))
         good = np.flatnonzero(poses.status != OFF)
+        rotation = poses.rotation[good] if len(good) else None  # once, for every effect that needs it
         if setup.effects["terrain_contact"] and len(good):
             t0 = time.perf_counter()
-            events += _hull_bottom(setup, chunk, poses, good)
+            events += _hull_bottom(setup, chunk, poses, good, rotation)
             setup.seconds["terrain"] += time.perf_counter() - t0
         if setup.effects["obstacles"] and len(good):
             t0 = time.perf_counter()
-            events += _obstacles(setup, chunk, poses, good)
+            events += _obstacles(setup, chunk, poses, good, rotation)
             setup.seconds["obstacles"] += time.perf_counter() - t0
         if setup.effects["internal"]:
             t0 = time.perf_counter()
@@ -133,21 +134,17 @@ def hull_bottom_points(vehicle: Vehicle, along: int = 9, across: int = 5) -> np.
     return np.column_stack([U.ravel(), V.ravel(), np.full(U.size, vehicle.ground_clearance)])
 
 
-def _hull_bottom(setup, chunk, poses, idx):
-    depth = setup.surface.ground_above(poses.rotation[idx], poses.position[idx], hull_bottom_points(setup.vehicle))
-    events = []
-    for i, d in zip(idx, depth):
-        if d > HULL_CONTACT_TOLERANCE:
-            events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "terrain", "hull", "terrain",
-                                {"depth": round(float(d), 4)}))
-    return events
+def _hull_bottom(setup, chunk, poses, idx, rotation):
+    depth = setup.surface.ground_above(rotation, poses.position[idx], hull_bottom_points(setup.vehicle))
+    hit = np.flatnonzero(depth > HULL_CONTACT_TOLERANCE)
+    return [Event(int(chunk.step[idx[k]]), float(chunk.t[idx[k]]), "terrain", "hull", "terrain",
+                  {"depth": round(float(depth[k]), 4)}) for k in hit]
 
 
-def _obstacles(setup, chunk, poses, idx):
+def _obstacles(setup, chunk, poses, idx, rotation):
     from tankcd_cli.collision.obstacles import collide_obstacles
 
-    hits = collide_obstacles(setup.vehicle_tree, setup.vehicle_parts, setup.obstacles, poses.rotation[idx],
-                             poses.position[idx])
+    hits = collide_obstacles(setup.vehicle_tree, setup.vehicle_parts, setup.obstacles, rotation, poses.position[idx])
     return [Event(int(chunk.step[idx[p]]), float(chunk.t[idx[p]]), "obstacle", setup.part_names[part],
                   setup.obstacles[o].name, {"point": [round(float(c), 4) for c in point], "contacts": int(n)})
             for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts)]
