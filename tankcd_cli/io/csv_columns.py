@@ -44,6 +44,10 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
             return
         start_line = lineno + 1
         lineno += len(lines)
+        values = _well_formed_values(lines, width, cols)
+        if values is not None:
+            yield list(range(start_line, start_line + len(lines))), wanted, values
+            continue
         rows, cells = [], []
         error = None
         for k, line in enumerate(lines):
@@ -78,6 +82,33 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
             yield rows, wanted, values
         if error is not None:
             raise error
+
+
+def _well_formed_values(lines: list, width: int, cols: list):
+    """The chunk's wanted columns (rows, len(cols)) parsed in one C call, or None.
+
+    Only for the common case: every line has exactly ``width`` cells, all finite
+    numbers. Anything else (blank lines or cells, text, NaN) returns None and is
+    read cell by cell, which names the first bad line and column.
+    """
+    commas = width - 1
+    if any(line.count(",") != commas for line in lines):
+        return None
+    text = "".join(lines)
+    if "\r" in text:
+        text = text.replace("\r\n", "\n")
+        if "\r" in text:  # a stray carriage return inside a line: let the careful path judge it
+            return None
+    try:
+        flat = np.fromstring(text.replace("\n", ","), sep=",")
+    except ValueError:
+        return None
+    if flat.size != len(lines) * width:
+        return None
+    values = flat.reshape(len(lines), width)[:, cols]
+    if not np.isfinite(values).all():
+        return None
+    return np.ascontiguousarray(values)
 
 
 def _finite_where_needed(values, blank_cols, cells) -> bool:

@@ -17,8 +17,35 @@ _ROW = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,%s,%.4f,%.4
 _ROW_NO_MEASURE = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,%s,,,%s\n"
 
 
+_DECIMALS = np.array([0, 6, 4, 4, 4, 5, 5, 5, 8, 8, 8, 8, 4, 4])
+_REGION_LABELS = ("flat", "general", "uneven", "unknown")
+# output columns in COLUMNS order: (0, j) is number j, (1, j) label column j (region, matcher, status)
+_LAYOUT = np.array([(0, j) for j in range(12)] + [(1, 0), (1, 1), (0, 12), (0, 13), (1, 2)])
+
+
 def format_rows(step, t, poses, matcher_names, status_names) -> str:
     """CSV text of a chunk of poses. Numbers a pose does not have (status ``off``) are left empty."""
+    from tankcd_cli.io.fixed_text import table_text
+
+    deg = np.degrees
+    numbers = np.column_stack([np.asarray(step, dtype=np.float64), t, poses.position, deg(poses.roll),
+                               deg(poses.pitch), deg(poses.yaw), poses.quaternion, poses.penetration, poses.gap])
+    posed = np.isfinite(numbers[:, 1:12]).all(axis=1)
+    numbers[~posed] = np.where(np.isin(np.arange(14), [0, 1, 2, 3, 7]), numbers[~posed], np.nan)
+    numbers[~np.isfinite(numbers[:, 12:14]).all(axis=1), 12:14] = np.nan
+    region = np.asarray(poses.region, dtype=np.int64)
+    codes = np.column_stack([np.where((region >= 0) & (region < 3), region, 3),
+                             len(_REGION_LABELS) + np.asarray(poses.matcher, dtype=np.int64),
+                             len(_REGION_LABELS) + len(matcher_names) + np.asarray(poses.status, dtype=np.int64)])
+    text = table_text(numbers, _DECIMALS, codes, [*_REGION_LABELS, *matcher_names, *status_names],
+                      _LAYOUT[:, 0], _LAYOUT[:, 1])
+    if text is None:  # a number too large for fixed point (far beyond any terrain): printf does it
+        return format_rows_printf(step, t, poses, matcher_names, status_names)
+    return text
+
+
+def format_rows_printf(step, t, poses, matcher_names, status_names) -> str:
+    """``format_rows`` by Python's printf-style formatting: the reference the compiled writer is tested against."""
     deg = np.degrees
     numbers = np.column_stack([t, poses.position, deg(poses.roll), deg(poses.pitch), deg(poses.yaw),
                                poses.quaternion, poses.penetration, poses.gap])

@@ -56,8 +56,13 @@ def _clip(pu, pv, pz, count, au, av, bu, bv, ou, ov, oz):  # pragma: no cover - 
 
 
 @njit(cache=True)
-def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start, cell_face, out_u, out_v, out_z, used):  # pragma: no cover - compiled
-    """Append the clipped-triangle corners under one patch; returns (count, covered area)."""
+def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once, cand,
+                  pu, pv, pz, ou, ov, oz, out_u, out_v, out_z, used):  # pragma: no cover - compiled
+    """Append the clipped-triangle corners under one patch; returns (count, covered area).
+
+    cand and pu .. oz are the caller's scratch (cand grows here if too small); listed_once
+    says no face is listed in two cells (a DEM's cells), so no sort is needed to skip repeats.
+    """
     # world (local) corners and their bounding box
     xmin = np.inf
     xmax = -np.inf
@@ -80,7 +85,8 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
     for r in range(r0, r1 + 1):
         for c in range(c0, c1 + 1):
             total += start[r * nx + c + 1] - start[r * nx + c]
-    cand = np.empty(total, np.int64)
+    if total > cand.shape[0]:
+        cand = np.empty(total, np.int64)
     t = 0
     for r in range(r0, r1 + 1):
         for c in range(c0, c1 + 1):
@@ -88,17 +94,12 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
             for s in range(start[cell], start[cell + 1]):
                 cand[t] = cell_face[s]
                 t += 1
-    cand = np.sort(cand)
-    pu = np.empty(MAX_POLY)
-    pv = np.empty(MAX_POLY)
-    pz = np.empty(MAX_POLY)
-    ou = np.empty(MAX_POLY)
-    ov = np.empty(MAX_POLY)
-    oz = np.empty(MAX_POLY)
+    if not listed_once:
+        cand[:total].sort()
     area = 0.0
     for s in range(total):
         f = cand[s]
-        if s > 0 and f == cand[s - 1]:
+        if not listed_once and s > 0 and f == cand[s - 1]:
             continue  # a triangle listed in several cells
         if np.isnan(plane[f, 1]):
             continue
@@ -132,7 +133,8 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
 
 
 @njit(cache=True, parallel=True)
-def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx, start, cell_face, planes_in, eps):  # pragma: no cover - compiled
+def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once,
+                    planes_in, eps):  # pragma: no cover - compiled
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
     centre; mode 1, the highest ground above ``planes_in`` (signed, m).
 
@@ -150,6 +152,13 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
         bu = np.empty(cap)
         bv = np.empty(cap)
         bz = np.empty(cap)
+        cand = np.empty(256, np.int64)
+        pu = np.empty(MAX_POLY)
+        pv = np.empty(MAX_POLY)
+        pz = np.empty(MAX_POLY)
+        ou = np.empty(MAX_POLY)
+        ov = np.empty(MAX_POLY)
+        oz = np.empty(MAX_POLY)
         for i in range(b * block, min((b + 1) * block, npose)):
             co = np.cos(yaw[i])
             si = np.sin(yaw[i])
@@ -158,7 +167,8 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
                 area = 0.0
                 for q in range(2):
                     used, a = _patch_points(cx[i], cy[i], co, si, quads[i, q], V, F, plane, origin, size, ny, nx,
-                                            start, cell_face, bu, bv, bz, used)
+                                            start, cell_face, listed_once, cand, pu, pv, pz, ou, ov, oz,
+                                            bu, bv, bz, used)
                     area += a
                     if used < 0:
                         break

@@ -222,7 +222,7 @@ def _footprint(surface, mode, x, y, yaw, quads, planes_in):
     return footprint_batch(mode, lx, ly, yaw, np.ascontiguousarray(quads), surface.vertices, surface.faces,
                            surface.plane, surface.cell_origin, surface.cell_size, surface.cell_shape[0],
                            surface.cell_shape[1], surface.cell_start, surface.cell_face,
-                           np.ascontiguousarray(planes_in), EPS_XY)
+                           surface.post_z.size > 0, np.ascontiguousarray(planes_in), EPS_XY)
 
 
 def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):
