@@ -21,6 +21,7 @@ COMMANDS = {
     "demo": ("tankcd_cli.cli.demo", "Run the whole pipeline on the bundled sample battlefield."),
     "envelope": ("tankcd_cli.cli.envelope", "Lowest safe gun elevation per turret azimuth (the rear fuel drums)."),
     "replay": ("tankcd_cli.cli.replay", "Replay a trajectory over a terrain: one pose per row."),
+    "tradeoff": ("tankcd_cli.cli.tradeoff", "Measure what accuracy costs in time: tables, CSV and plots."),
 }
 
 EXIT_DONE, EXIT_COLLISION, EXIT_USAGE, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3, 4

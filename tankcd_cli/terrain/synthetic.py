@@ -183,3 +183,29 @@ def surface_of(raw, vehicle=None):
     from tankcd_cli.terrain.surface import TerrainSurface
 
     return TerrainSurface.from_store(classify_terrain(raw, vehicle=vehicle))
+
+
+def obstacle_course(spacing: float = 0.5, seed: int = 0) -> Array:
+    """Heights (rows, cols) of a 120 m x 80 m test ground (row 0 south, ``spacing`` m posts).
+
+    West to east: rolling ground; three knife-edge crests (triangular ridges
+    0.6 to 1.2 m high, sharp at the top) at different angles; an anti-tank
+    ditch 3 m wide at the top and 1.5 m deep with steep walls; a 0.3 m
+    vertical-looking step (one post spacing); shell craters with rims.
+    Survey noise of 2 mm. Matching is judged here where it is hardest.
+    """
+    rng = np.random.default_rng(seed)
+    xs = np.arange(0.0, 120.0 + spacing / 2, spacing)
+    ys = np.arange(0.0, 80.0 + spacing / 2, spacing)
+    x, y = np.meshgrid(xs, ys)
+    z = 0.4 * np.sin(2 * np.pi * x / 37) * np.cos(2 * np.pi * y / 29)
+    for x0, angle, height, half_base in ((20, 0.0, 0.6, 2.0), (30, 0.4, 1.0, 3.0), (42, -0.3, 1.2, 2.5)):
+        d = np.abs((x - x0) * np.cos(angle) + (y - 40) * np.sin(angle))
+        z += np.maximum(0.0, height * (1 - d / half_base))
+    d = np.abs(x - 60)
+    z -= 1.5 * np.clip((1.5 - d) / 0.5, 0.0, 1.0)  # flat bottom 2 m wide, walls 0.5 m across
+    z += np.where(x > 75, 0.3, 0.0)
+    for cx, cy, radius, depth in ((90, 20, 4.0, 1.2), (100, 55, 6.0, 1.8), (110, 30, 3.0, 0.9)):
+        r = np.hypot(x - cx, y - cy)
+        z += np.where(r < radius, -depth * (1 - (r / radius) ** 2) ** 2, 0.0) + 0.4 * np.exp(-(((r - radius) / 1.2) ** 2))
+    return z + rng.normal(0.0, 0.002, z.shape)

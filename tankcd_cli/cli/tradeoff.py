@@ -1,0 +1,36 @@
+"""tankcd tradeoff: what accuracy costs in time, as a reproducible report."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from tankcd_cli.cli.options import verbosity_options
+
+
+@click.command(short_help="Measure what accuracy costs in time: tables, CSV and plots.")
+@click.option("--scene", type=click.Path(dir_okay=False), default=None,
+              help="Measure on this scene's terrain, vehicle and obstacles (default: the sample battlefield).")
+@click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
+              help="Trajectory CSV for the headline (default: the sample patrol, or a drive over the scene's terrain).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="tankcd-tradeoff", show_default=True,
+              help="Directory for tradeoff.md, tradeoff.csv and tradeoff.png.")
+@click.option("--quick", is_flag=True, help="Small inputs and 3 repeats (under a minute, for CI); the full run "
+                                            "takes about 10 minutes.")
+@verbosity_options
+@click.pass_obj
+def tradeoff(report, scene, trajectory, out_dir, quick):
+    """Run every variant of every stage on the same inputs, each judged against an independent
+    truth: curvature methods (analytic surfaces), matchers and a three-point tripod (the
+    rigid-hull reference), tree layouts and python-fcl/coal where installed (brute force), the
+    two-plane internal test (the exact cylinder test), and auto against always-reference on a
+    whole replay (the headline). Writes OUT/tradeoff.md, tradeoff.csv and tradeoff.png."""
+    from tankcd_cli.tradeoff.report import run_tradeoff
+
+    res = run_tradeoff(out_dir, scene, trajectory, quick, progress=report.progress("tradeoff"),
+                       command="tankcd " + " ".join(sys.argv[2:]) if len(sys.argv) > 1 else "tankcd tradeoff")
+    h = res.headline
+    report.info(f"tradeoff: auto is {h['speedup']:.1f}x faster than reference for a median attitude error of "
+                f"{h['attitude_error_median_deg']:.2f} deg; wrote tradeoff.md, tradeoff.csv, tradeoff.png in "
+                f"{out_dir} ({report.elapsed():.1f} s)")

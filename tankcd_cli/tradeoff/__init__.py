@@ -1,0 +1,6 @@
+"""What accuracy costs in time: every variant of every stage on the same inputs, against an independent truth.
+
+``measure`` runs the stages and returns records (one per variant and
+measure) plus one (time, error) point per variant for the plots; ``write``
+turns them into ``tradeoff.md``, ``tradeoff.csv`` and ``tradeoff.png``.
+"""

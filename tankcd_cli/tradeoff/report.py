@@ -1,0 +1,277 @@
+"""Run every stage on one scene and write tradeoff.md, tradeoff.csv and tradeoff.png."""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import io
+import os
+import tempfile
+from typing import Callable
+
+import numpy as np
+
+from tankcd_cli.tradeoff.measure import FULL, QUICK, Results
+
+STAGES = ("curvature", "matching", "collision", "internal")
+
+
+def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | None = None, quick: bool = False,
+                 progress: Callable[[str], None] | None = None, command: str = "tankcd tradeoff") -> Results:
+    """Measure every stage on the scene (default: the sample battlefield) and write the report into out_dir."""
+    from tankcd_cli.collision.obstacles import placed_triangles
+    from tankcd_cli.replay.pipeline import load_terrain_surface
+    from tankcd_cli.replay.scene import load_scene
+    from tankcd_cli.terrain import synthetic
+    from tankcd_cli.tradeoff import measure
+
+    say = progress or (lambda s: None)
+    budget = QUICK if quick else FULL
+    res = Results()
+    res.machine = measure.machine()
+    with tempfile.TemporaryDirectory(prefix="tankcd-tradeoff-") as tmp:
+        if scene_path is None:
+            from tankcd_cli.sample import write_sample
+
+            say("writing the sample battlefield")
+            write_sample(tmp)
+            scene_path = os.path.join(tmp, "scene.toml")
+            if trajectory is None:
+                trajectory = os.path.join(tmp, "patrol.csv")
+            scene_name = "sample battlefield"
+        else:
+            scene_name = os.path.basename(scene_path)
+        scene = load_scene(scene_path)
+        if scene.terrain_path is None:
+            from tankcd_cli.errors import InputError
+
+            raise InputError(scene_path, "names no [terrain] path: the trade-offs are measured on a terrain")
+        vehicle = scene.vehicle
+        say(f"terrain: {scene.terrain_path}")
+        surface, _ = load_terrain_surface(scene.terrain_path, up=scene.terrain_up, vehicle=vehicle)
+        obstacle_tris = [placed_triangles(spec)[0] for spec in scene.obstacles]
+        if trajectory is not None:
+            x, y, yaw = _trajectory_xy(trajectory)
+            traj_name = os.path.basename(trajectory)
+        else:
+            x, y, yaw = _lawnmower(surface, vehicle)
+            traj_name = "a lawnmower drive over the terrain"
+        res.inputs = {"scene": scene_name, "terrain": os.path.basename(scene.terrain_path), "vehicle": vehicle.name,
+                      "obstacles": [spec.name for spec in scene.obstacles], "trajectory": traj_name,
+                      "mode": "quick" if quick else "full", "repeats": budget.repeats, "command": command,
+                      "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+        course = synthetic.surface_of(synthetic.dem_terrain(synthetic.obstacle_course(0.5), name="obstacle course",
+                                                            spacing=0.5), vehicle)
+        measure.headline_stage(res, surface, vehicle, x, y, yaw, budget, say, traj_name)
+        measure.curvature_stage(res, vehicle, budget, say)
+        measure.matching_stage(res, [(scene_name, surface), ("obstacle course (crests, ditch, step, craters)", course)],
+                               vehicle, budget, say)
+        measure.collision_stage(res, surface, vehicle, obstacle_tris, budget, say)
+        measure.internal_stage(res, vehicle, budget, say)
+    write_report(res, out_dir)
+    return res
+
+
+def _trajectory_xy(path: str):
+    from tankcd_cli.io.trajectory import read_trajectory
+
+    chunks = list(read_trajectory(path))
+    if not chunks:
+        from tankcd_cli.errors import InputError
+
+        raise InputError(path, "has no rows: the headline needs a trajectory to replay")
+    cat = lambda name: np.concatenate([getattr(c, name) for c in chunks])  # noqa: E731
+    return cat("x"), cat("y"), np.radians(cat("yaw_deg"))
+
+
+def _lawnmower(surface, vehicle, lanes: int = 6, step: float = 0.5):
+    """Back-and-forth lanes across the terrain, ``step`` m apart along each lane."""
+    lo = surface.vertices[:, :2].min(axis=0) + surface.origin + vehicle.hull_length
+    hi = surface.vertices[:, :2].max(axis=0) + surface.origin - vehicle.hull_length
+    xs, ys, yaws = [], [], []
+    for k, lane_y in enumerate(np.linspace(lo[1], hi[1], lanes)):
+        x = np.arange(lo[0], hi[0], step)
+        if k % 2:
+            x = x[::-1]
+        xs.append(x)
+        ys.append(np.full(len(x), lane_y))
+        yaws.append(np.full(len(x), np.pi if k % 2 else 0.0))
+    return np.concatenate(xs), np.concatenate(ys), np.concatenate(yaws)
+
+
+# --- writing ------------------------------------------------------------------------------
+
+CSV_COLUMNS = ("stage", "case", "variant", "measure", "value", "unit", "spread_lo", "spread_hi", "truth")
+
+
+def write_report(res: Results, out_dir: str) -> None:
+    """tradeoff.csv, tradeoff.md and tradeoff.png into out_dir, each written atomically."""
+    from tankcd_cli.io.atomic import atomic_path
+
+    os.makedirs(out_dir, exist_ok=True)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for r in res.records:
+        w.writerow([r.stage, r.case, r.variant, r.measure, _num(r.value), r.unit, _num(r.spread_lo), _num(r.spread_hi),
+                    r.truth])
+    with atomic_path(os.path.join(out_dir, "tradeoff.csv"), ".csv") as tmp:
+        with open(tmp, "w") as fh:
+            fh.write(buf.getvalue())
+    with atomic_path(os.path.join(out_dir, "tradeoff.png"), ".png") as tmp:
+        plot(res, tmp)
+    with atomic_path(os.path.join(out_dir, "tradeoff.md"), ".md") as tmp:
+        with open(tmp, "w") as fh:
+            fh.write(markdown(res))
+
+
+def _num(v: float) -> str:
+    return "" if v is None or not np.isfinite(v) else f"{v:.6g}"
+
+
+def fmt_value(value: float, unit: str) -> str:
+    if not np.isfinite(value):
+        return "-"
+    if unit == "s":
+        if value < 1e-3:
+            return f"{value * 1e6:.3g} us"
+        return f"{value * 1e3:.3g} ms" if value < 1 else f"{value:.3g} s"
+    if unit == "1":
+        return f"{value:.3g}"
+    return f"{value:.3g} {unit}"
+
+
+def headline_table(res: Results) -> str:
+    h = res.headline
+    if not h:
+        return ""
+    lines = [f"Headline: `auto` (two, four or six key points by region class) against always `reference`, "
+             f"replaying {h['trajectory']} ({h['poses']:,} poses, penetration and gap measured as replay does).", "",
+             "| | auto | reference |", "| --- | --- | --- |",
+             f"| time (median, min-max) | {fmt_value(h['auto_seconds'], 's')} ({fmt_value(h['auto_spread'][0], 's')}"
+             f"-{fmt_value(h['auto_spread'][1], 's')}) | {fmt_value(h['reference_seconds'], 's')} "
+             f"({fmt_value(h['reference_spread'][0], 's')}-{fmt_value(h['reference_spread'][1], 's')}) |",
+             f"| time per pose | {fmt_value(h['auto_seconds'] / h['poses'], 's')} | "
+             f"{fmt_value(h['reference_seconds'] / h['poses'], 's')} |",
+             f"| attitude error median / p95 / max | {h['attitude_error_median_deg']:.3g} / "
+             f"{h['attitude_error_p95_deg']:.3g} / {h['attitude_error_max_deg']:.3g} deg | 0 (the truth) |",
+             f"| height error median / p95 / max | {h['height_error_median_m'] * 1000:.3g} / "
+             f"{h['height_error_p95_m'] * 1000:.3g} / {h['height_error_max_m'] * 1000:.3g} mm | 0 (the truth) |",
+             f"| penetration p95 | {h['penetration_p95_auto_m'] * 1000:.3g} mm | "
+             f"{h['penetration_p95_reference_m'] * 1000:.3g} mm |", "",
+             f"**auto is {h['speedup']:.1f}x faster ({100 * h['time_saved_share']:.0f} % of the time saved) for a median "
+             f"attitude error of {h['attitude_error_median_deg']:.2f} deg and a median height error of "
+             f"{h['height_error_median_m'] * 1000:.1f} mm.** Matchers auto chose: "
+             + ", ".join(f"{m} {c:,}" for m, c in h["matchers_used"].items()) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def markdown(res: Results) -> str:
+    m, inp = res.machine, res.inputs
+    out = ["# What accuracy costs in time", "",
+           f"{inp.get('date', '')}, `{inp.get('command', '')}` ({inp.get('mode')} mode: times are medians of "
+           f"{inp.get('repeats')} runs after a warm-up, min-max in brackets).", "",
+           f"Machine: {m.get('cpu')}, {m.get('cores')} cores ({m.get('threads')} numba threads), {m.get('os')}. "
+           f"Versions: tankcd {m.get('tankcd')}, Python {m.get('python')}, numpy {m.get('numpy')}, "
+           f"scipy {m.get('scipy')}, numba {m.get('numba')}, python-fcl {m.get('python-fcl')}, coal {m.get('coal')}.", "",
+           f"Inputs: scene {inp.get('scene')} (terrain {inp.get('terrain')}, vehicle {inp.get('vehicle')}, obstacles "
+           f"{', '.join(inp.get('obstacles') or []) or 'none'}), trajectory {inp.get('trajectory')}; generated analytic "
+           "surfaces and an obstacle course.", "", headline_table(res),
+           "![error versus time](tradeoff.png)", ""]
+    notes = {
+        "curvature": "Error against the closed-form H (interior: more than 3 m from the border); class_changed_share "
+                     "is the share of vertices whose region class differs from the class the exact H gives.",
+        "matching": "Against the reference on the same poses, per region class; penetration and gap are each "
+                    "variant's own (ground above its plane under the tracks, wheel stations above the ground). "
+                    "Jitter: attitude change from one step to the next along a straight drive (no truth needed: "
+                    "a large maximum is a jump). Time per pose without penetration and gap (replay adds about the "
+                    "same footprint pass to every variant).",
+        "collision": "Every layout finds exactly the brute-force contacts (disagreement 0); they differ in work: "
+                     "node-pair and leaf (triangle-pair) tests, and the share of triangle tests whose volumes overlapped "
+                     "but whose triangles do not touch. Peers are queried pose by pose from Python.",
+        "internal": "The paper's two-plane projection against the exact cylinder test over a grid of turret "
+                    "azimuths and gun elevations: the projection may raise false alarms, and must never miss.",
+    }
+    for stage in STAGES:
+        recs = [r for r in res.records if r.stage == stage]
+        if not recs:
+            out += [f"## {stage}", "", "Skipped (the scene does not call for it).", ""]
+            continue
+        out += [f"## {stage}", "", notes[stage], "", f"Truth: {recs[0].truth}.", ""]
+        cases = list(dict.fromkeys(r.case for r in recs))
+        for case in cases:
+            rows = [r for r in recs if r.case == case]
+            measures = list(dict.fromkeys(r.measure for r in rows))
+            variants = list(dict.fromkeys(r.variant for r in rows))
+            out += [f"**{case}**", "", "| variant | " + " | ".join(measures) + " |",
+                    "| --- |" + " --- |" * len(measures)]
+            for v in variants:
+                cells = []
+                for ms in measures:
+                    hit = [r for r in rows if r.variant == v and r.measure == ms]
+                    if not hit:
+                        cells.append("")
+                        continue
+                    r = hit[0]
+                    text = fmt_value(r.value, r.unit)
+                    if np.isfinite(r.spread_lo):
+                        text += f" ({fmt_value(r.spread_lo, r.unit)}-{fmt_value(r.spread_hi, r.unit)})"
+                    cells.append(text)
+                out.append(f"| {v} | " + " | ".join(cells) + " |")
+            out.append("")
+    return "\n".join(out)
+
+
+def pareto(points: list) -> list:
+    """The points no other point beats on both time and error, fastest first."""
+    front, best = [], np.inf
+    for p in sorted(points, key=lambda p: (p.seconds, p.error)):
+        if p.error < best:
+            front.append(p)
+            best = p.error
+    return front
+
+
+SHORT = {"AABB only": "AABB", "k-DOP 14 only": "k14", "k-DOP 18 only": "k18", "k-DOP 26 only": "k26",
+         "hybrid 1 AABB level": "hyb1", "hybrid 2 AABB levels": "hyb2", "hybrid 3 AABB levels": "hyb3",
+         "hybrid 4 AABB levels": "hyb4"}
+
+
+def plot(res: Results, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    stages = [s for s in STAGES if any(p.stage == s for p in res.points)]
+    fig, axes = plt.subplots(1, max(len(stages), 1), figsize=(4.6 * max(len(stages), 1), 4.4), squeeze=False)
+    for ax, stage in zip(axes[0], stages):
+        pts = [p for p in res.points if p.stage == stage]
+        positive = [p.error for p in pts if p.error > 0]
+        floor = (min(positive) / 10) if positive else 1e-6
+        shown = [max(p.error, floor) for p in pts]
+        front = pareto(pts)
+        fx = [p.seconds for p in front]
+        fy = [max(p.error, floor) for p in front]
+        ax.step(fx, fy, where="post", color="0.6", lw=1, zorder=1, label="Pareto front")
+        for k, (p, y) in enumerate(zip(pts, shown)):
+            on_front = p in front
+            marker = "D" if p.error <= 0 else "o"
+            ax.errorbar(p.seconds, y, xerr=[[p.seconds - p.seconds_lo], [p.seconds_hi - p.seconds]], fmt=marker,
+                        color="C3" if on_front else "C0", ms=6, capsize=2, zorder=2)
+            label = SHORT.get(p.variant, p.variant) + (" (truth)" if p.is_truth else (" (0)" if p.error <= 0 else ""))
+            # alternate the labels above and below: variants of equal cost sit on top of each other
+            ax.annotate(label, (p.seconds, y), textcoords="offset points", xytext=(5, 4 if k % 2 == 0 else -10),
+                        fontsize=7)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        query, err = res.axes.get(stage, ("query", "error"))
+        ax.set_xlabel(f"seconds per {query} (median, min-max)")
+        ax.set_ylabel(err, fontsize=8)
+        ax.set_title(stage)
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(fontsize=7, loc="best")
+    fig.suptitle("What accuracy costs in time (red: on the Pareto front; zero error drawn at the floor)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
