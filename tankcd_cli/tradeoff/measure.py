@@ -129,7 +129,7 @@ def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
 
     truth = "closed-form H of the analytic surface"
     res.axes["curvature"] = ("vertex", "median |H - H_true| / median |H_true|")
-    fields = [synthetic.gaussian_hill(2.0, 8.0), synthetic.sinusoid(0.8, 30.0, 24.0), synthetic.sphere_cap(60.0)]
+    fields = [synthetic.gaussian_hill(2.0, 8.0), synthetic.sinusoid(0.8, 30.0, 24.0), synthetic.sphere_cap(150.0)]
     thresholds = default_thresholds(vehicle)
     half = budget.curvature_half_extent
     errors = {m: [] for m in METHODS}

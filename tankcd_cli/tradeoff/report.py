@@ -242,6 +242,7 @@ def plot(res: Results, path: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     stages = [s for s in STAGES if any(p.stage == s for p in res.points)]
     fig, axes = plt.subplots(1, max(len(stages), 1), figsize=(4.6 * max(len(stages), 1), 4.4), squeeze=False)
@@ -265,6 +266,8 @@ def plot(res: Results, path: str) -> None:
                         fontsize=7)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):  # label the decades only: minor labels collide on short ranges
+            axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         query, err = res.axes.get(stage, ("query", "error"))
         ax.set_xlabel(f"seconds per {query} (median, min-max)")
         ax.set_ylabel(err, fontsize=8)
