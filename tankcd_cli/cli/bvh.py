@@ -10,10 +10,10 @@ from tankcd_cli.cli.options import verbosity_options
 
 
 @click.command(short_help="Build a serialized bounding-volume tree of a model or of a scene's obstacles.")
-@click.argument("model", required=False, type=click.Path(dir_okay=False))
+@click.argument("model", required=False, type=click.Path())
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="Output tree (default: MODEL's stem + .bvh.h5 beside it).")
-@click.option("--scene", type=click.Path(dir_okay=False), default=None,
+@click.option("--scene", type=click.Path(), default=None,
               help="Build (or refresh) the cached trees of every obstacle of this scene instead.")
 @click.option("--k", "k", type=click.Choice(["6", "14", "18", "26"]), default="18", show_default=True,
               help="k-DOP type (6 is the AABB).")

@@ -8,8 +8,8 @@ from tankcd_cli.cli.options import verbosity_options
 
 
 @click.command(short_help="Test the vehicle at given poses against the scene's obstacles.")
-@click.option("--scene", required=True, type=click.Path(dir_okay=False), help="Scene TOML.")
-@click.option("--poses", "poses_path", required=True, type=click.Path(dir_okay=False, allow_dash=True),
+@click.option("--scene", required=True, type=click.Path(), help="Scene TOML.")
+@click.option("--poses", "poses_path", required=True, type=click.Path(allow_dash=True),
               help="Poses CSV (x, y, z and roll/pitch/yaw_deg or qw..qz; - for stdin).")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default="-",
               show_default=True, help="Events JSON Lines output (- for stdout).")

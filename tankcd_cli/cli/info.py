@@ -10,7 +10,7 @@ from tankcd_cli.cli.options import verbosity_options
 
 
 @click.command(short_help="Describe a store.")
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
 @verbosity_options
 @click.pass_obj

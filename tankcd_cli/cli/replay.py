@@ -11,7 +11,7 @@ from tankcd_cli.cli.options import vehicle_option, verbosity_options
 
 @click.command(short_help="Replay a trajectory: poses to stdout or --poses, events to --events.")
 @click.argument("trajectory", type=click.Path(allow_dash=True))
-@click.option("--scene", type=click.Path(dir_okay=False), default=None,
+@click.option("--scene", type=click.Path(), default=None,
               help="Scene TOML: terrain, vehicle, obstacles; it decides which effects run.")
 @click.option("--terrain", "terrain", type=click.Path(), default=None,
               help="Terrain store, or any terrain input (classified on the fly), instead of a scene.")
@@ -58,7 +58,9 @@ def replay(report, trajectory, scene, terrain, poses_path, events_path, matcher,
 
         sc = load_scene(scene)
         if sc.terrain_path is None:
-            raise click.UsageError(f"{scene} names no [terrain] path")
+            from tankcd_cli.errors import InputError
+
+            raise InputError(scene, "names no [terrain] path; replay needs a terrain", where="[terrain] path")
         vehicle, terrain, up = sc.vehicle, sc.terrain_path, sc.terrain_up
     else:
         vehicle = vehicle_preset(vehicle_name)

@@ -10,9 +10,9 @@ from tankcd_cli.cli.options import verbosity_options
 
 
 @click.command(short_help="Measure what accuracy costs in time: tables, CSV and plots.")
-@click.option("--scene", type=click.Path(dir_okay=False), default=None,
+@click.option("--scene", type=click.Path(), default=None,
               help="Measure on this scene's terrain, vehicle and obstacles (default: the sample battlefield).")
-@click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
+@click.option("--trajectory", type=click.Path(), default=None,
               help="Trajectory CSV for the headline (default: the sample patrol, or a drive over the scene's terrain).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="tankcd-tradeoff", show_default=True,
               help="Directory for tradeoff.md, tradeoff.csv and tradeoff.png.")

@@ -61,19 +61,21 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
                 break
             rows.append(start_line + k)
             cells.append([parts[i] for i in cols])
+        blank = np.zeros((len(cells), len(wanted)), dtype=bool)  # empty cells (allowed in blank_ok columns)
         if blank_cols:
-            for row in cells:
+            for r, row in enumerate(cells):
                 for j in blank_cols:
                     if not row[j].strip():
                         row[j] = "nan"
+                        blank[r, j] = True
         values = None
         if cells:
             try:
                 values = np.array(cells, dtype=np.float64)
             except ValueError:
                 values = None
-            if values is None or not _finite_where_needed(values, blank_cols, cells):
-                bad, bad_error = _first_bad(cells, rows, wanted, name, blank_cols)
+            if values is None or not np.isfinite(values[~blank]).all():
+                bad, bad_error = _first_bad(cells, rows, wanted, name, blank)
                 error = bad_error
                 rows, cells = rows[:bad], cells[:bad]
                 values = np.array(cells, dtype=np.float64).reshape(len(cells), len(wanted))
@@ -111,24 +113,11 @@ def _well_formed_values(lines: list, width: int, cols: list):
     return np.ascontiguousarray(values)
 
 
-def _finite_where_needed(values, blank_cols, cells) -> bool:
-    need = np.ones(values.shape[1], dtype=bool)
-    need[blank_cols] = False
-    if not np.isfinite(values[:, need]).all():
-        return False
-    # blank-able columns: empty is fine, a written nan or inf is not
-    for j in blank_cols:
-        bad = ~np.isfinite(values[:, j])
-        if bad.any() and any(cells[r][j] != "nan" for r in np.flatnonzero(bad)):
-            return False
-    return True
-
-
-def _first_bad(cells, rows, wanted, name, blank_cols):
-    """Index of the first bad row and the error naming its line and column."""
+def _first_bad(cells, rows, wanted, name, blank):
+    """Index of the first bad row and the error naming its line and column (blank: (rows, cols) empty cells)."""
     for k, row in enumerate(cells):
         for j, text in enumerate(row):
-            if j in blank_cols and text == "nan":
+            if blank[k, j]:
                 continue
             try:
                 value = float(text)

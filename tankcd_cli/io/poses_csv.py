@@ -103,6 +103,8 @@ def read_poses(path: str, chunk_rows: int = 65536):
             t = col.get("t", np.full(n, np.nan))
             first += n
             yield step, t, R, position, valid
+    except UnicodeDecodeError:
+        raise InputError(name, "not UTF-8 text (poses are a CSV file)") from None
     finally:
         if path != "-":
             fh.close()

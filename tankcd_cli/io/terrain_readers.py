@@ -10,6 +10,7 @@ that keeps the grid structure for O(1) height queries later on.
 from __future__ import annotations
 
 import hashlib
+import math
 import io
 import os
 from dataclasses import dataclass
@@ -304,11 +305,38 @@ def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
     return vertices, faces - 1
 
 
+def _check_obj_lines(data: bytes, name: str) -> None:
+    """Reject the vertex and face lines a full reader would skip or misread (it drops short faces silently)."""
+    text = data.decode("utf-8", errors="replace")
+    for number, line in enumerate(text.splitlines(), start=1):
+        tokens = line.split()
+        if not tokens or tokens[0] not in ("v", "f"):
+            continue
+        if tokens[0] == "v":
+            try:
+                xyz = [float(t) for t in tokens[1:4]]
+            except ValueError:
+                xyz = []
+            if len(xyz) < 3 or not all(math.isfinite(c) for c in xyz):
+                raise InputError(name, f"a vertex needs three finite numbers: {line.strip()[:60]!r}", where=f"line {number}")
+        else:
+            ok = len(tokens) >= 4
+            for t in tokens[1:]:
+                head = t.split("/", 1)[0]
+                ok = ok and head.lstrip("-").isdigit() and int(head) != 0
+            if not ok:
+                raise InputError(name, f"a face needs three or more vertex indices (from 1, or negative): "
+                                       f"{line.strip()[:60]!r}", where=f"line {number}")
+
+
 def _read_trimesh(data: bytes, fmt: str, name: str) -> tuple[np.ndarray, np.ndarray]:
     if fmt == "obj":
+        if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark would hide the first line's keyword
+            data = data[3:]
         simple = read_simple_obj(data)
         if simple is not None:
             return simple
+        _check_obj_lines(data, name)
     import trimesh
 
     try:

@@ -96,7 +96,9 @@ def load_scene(path: str) -> Scene:
 
     try:
         with open(path, "rb") as fh:
-            data = tomllib.load(fh)
+            raw = fh.read()
+        # editors on Windows write a byte-order mark, which TOML does not allow
+        data = tomllib.loads(raw.decode("utf-8-sig"))
     except FileNotFoundError:
         raise InputError(path, "no such file") from None
     except IsADirectoryError:
