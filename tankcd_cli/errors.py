@@ -19,4 +19,19 @@ class InputError(Exception):
     def one_line(self) -> str:
         parts = [p for p in (self.source, self.where) if p]
         parts.append(self.what)
-        return ": ".join(str(p) for p in parts).replace("\n", " ")
+        return printable(": ".join(str(p) for p in parts))
+
+
+def printable(text: str) -> str:
+    """One line of text whatever the input held: line breaks become spaces, other control
+    characters and undecodable bytes (surrogates) their escapes."""
+    text = text.replace("\r\n", " ").replace("\n", " ")
+    out = []
+    for ch in text:
+        code = ord(ch)
+        if code < 0x20 or code == 0x7f or 0x80 <= code < 0xa0 or ch in "\u2028\u2029\x1c\x1d\x1e\x85" \
+                or 0xd800 <= code < 0xe000:
+            out.append(f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}")
+        else:
+            out.append(ch)
+    return "".join(out)

@@ -47,8 +47,11 @@ def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
     """The tree and its per-triangle part labels (None if absent)."""
     from tankcd_cli.io.h5 import open_h5
 
-    with open_h5(path, FORMAT, FORMAT_VERSION, "tankcd tree", "build it again") as h5:
-        try:
+    from tankcd_cli.io.h5 import check_indices, read_errors
+
+    what = "tankcd tree"
+    with open_h5(path, FORMAT, FORMAT_VERSION, what, "build it again") as h5, read_errors(path, what):
+        if True:  # (the block reads every array; read_errors names whatever fails)
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
             nodes = {name: h5[f"nodes/{name}"][()] for name in ("lo", "hi", "left", "right", "start", "count", "depth")}
             tree = Tree(h5["triangles"][()], h5["source_index"][()], k=int(attrs["k"]),
@@ -57,6 +60,19 @@ def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
                                                                   if k not in ("k", "aabb_levels", "split", "leaf_size")},
                         **nodes)
             part = h5["part"][()] if "part" in h5 else None
-        except KeyError as exc:
-            raise InputError(path, f"not a complete tankcd tree (missing {exc.args[0] if exc.args else 'data'})") from None
+    # the traversal trusts these without bounds checks
+    m, count = len(tree.triangles), len(tree.lo)
+    check_indices(path, what, tree.left, count, "child")
+    check_indices(path, what, tree.right, count, "child")
+    check_indices(path, what, tree.source_index, 1 << 62, "source")
+    if (tree.triangles.ndim != 3 or tree.triangles.shape[1:] != (3, 3) or not np.isfinite(tree.triangles).all()
+            or (tree.start < 0).any() or (tree.count < 0).any() or (tree.start + tree.count > m).any()
+            or len(tree.source_index) != m or any(len(a) != count for a in (tree.hi, tree.left, tree.right,
+                                                                             tree.start, tree.count, tree.depth))):
+        raise InputError(path, f"damaged {what}: inconsistent node or triangle arrays")
+    inner = np.flatnonzero(tree.left >= 0)
+    if ((tree.right[inner] < 0).any() or (tree.left[inner] <= inner).any() or (tree.right[inner] <= inner).any()
+            or (tree.depth[tree.left[inner]] != tree.depth[inner] + 1).any()
+            or (tree.depth[tree.right[inner]] != tree.depth[inner] + 1).any() or (count and tree.depth[0] != 0)):
+        raise InputError(path, f"damaged {what}: the nodes do not form a tree")
     return tree, part

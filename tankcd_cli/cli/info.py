@@ -36,4 +36,6 @@ def _fmt(value) -> str:
         return ", ".join(_fmt(v) for v in value)
     if isinstance(value, dict):
         return ", ".join(f"{k} {_fmt(v)}" for k, v in value.items())
-    return str(value)
+    from tankcd_cli.errors import printable
+
+    return printable(str(value))

@@ -108,6 +108,9 @@ def _read_bytes(path: str, name: str) -> bytes:
             stream.close()
 
 
+MAX_COORDINATE = 1e9  # m
+
+
 def _check_arrays(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
     if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
         raise InputError(name, "no vertices")
@@ -117,6 +120,13 @@ def _check_arrays(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise InputError(name, f"non-finite coordinate {vertices[i].tolist()} ({int(bad.sum())} such vertices)", where=f"vertex {i + 1}")
+    # no terrain in metres reaches a million kilometres; such numbers are a unit or parse error
+    # (and would overflow the squared distances of the neighbour searches)
+    huge = (np.abs(vertices) > MAX_COORDINATE).any(axis=1)
+    if huge.any():
+        i = int(np.flatnonzero(huge)[0])
+        raise InputError(name, f"coordinate beyond {MAX_COORDINATE:.0e} m {vertices[i].tolist()} "
+                               f"({int(huge.sum())} such vertices)", where=f"vertex {i + 1}")
     out = (faces < 0) | (faces >= len(vertices))
     if out.any():
         i = int(np.flatnonzero(out.any(axis=1))[0])
@@ -298,7 +308,7 @@ def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
         if "/" in f_lines[0] or any("/" in t for t in f_tokens[:3]):
             f_tokens = [t.split("/", 1)[0] for t in f_tokens]
         faces = np.array(f_tokens, dtype=np.int64).reshape(-1, 3)
-    except ValueError:
+    except (ValueError, OverflowError):
         return None
     if (faces <= 0).any():  # relative (negative) indices: the full reader resolves them
         return None
@@ -323,7 +333,7 @@ def _check_obj_lines(data: bytes, name: str) -> None:
             ok = len(tokens) >= 4
             for t in tokens[1:]:
                 head = t.split("/", 1)[0]
-                ok = ok and head.lstrip("-").isdigit() and int(head) != 0
+                ok = ok and head.lstrip("-").isdigit() and 0 < abs(int(head)) < 2**31
             if not ok:
                 raise InputError(name, f"a face needs three or more vertex indices (from 1, or negative): "
                                        f"{line.strip()[:60]!r}", where=f"line {number}")

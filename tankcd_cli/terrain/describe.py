@@ -21,13 +21,13 @@ def describe_store(path: str) -> dict:
 
             return load_scene(path).describe()
         raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
-    import h5py as _h5
+    from tankcd_cli.io.h5 import read_errors
 
-    try:
-        with _h5.File(path, "r") as h5:
+    with read_errors(path, "HDF5 file"):
+        with h5py.File(path, "r") as h5:
             kind = h5.attrs.get("format")
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"cannot read as HDF5: {str(exc).splitlines()[0][:200]}") from None
+    if isinstance(kind, bytes):
+        kind = kind.decode("utf-8", "replace")
     if kind == "tankcd-bvh":
         from tankcd_cli.bvh.store import read_tree
 
@@ -36,37 +36,40 @@ def describe_store(path: str) -> dict:
         facts.update({k: v for k, v in tree.attrs.items() if k in ("source", "source_sha256", "placement", "tankcd_version")})
         facts.update(tree.describe())
         return facts
-    a = read_attrs(path)
-    with h5py.File(path, "r") as h5:
-        n = h5["mesh/vertices"].shape[0]
-        m = h5["mesh/faces"].shape[0]
-        raster = h5["classes/raster"].shape
-        grid = h5["grid/vertex"].shape if "grid/vertex" in h5 else None
-    lo, hi = a.get("extent_min", [0, 0, 0]), a.get("extent_max", [0, 0, 0])
-    return {
-        "file": path,
-        "kind": "terrain store (format %s v%s)" % (a.get("format"), a.get("format_version")),
-        "source": a.get("source"),
-        "source sha256": a.get("source_sha256"),
-        "source format": a.get("source_format"),
-        "written by": f"tankcd {a.get('tankcd_version')} at {a.get('created_utc')}",
-        "vertices": n,
-        "faces": m,
-        "DEM grid": f"{grid[0]} x {grid[1]} posts" if grid else "no (irregular mesh: triangle buckets)",
-        "extent x": [lo[0], hi[0]],
-        "extent y": [lo[1], hi[1]],
-        "extent z": [lo[2], hi[2]],
-        "curvature method": a.get("curvature_method"),
-        "boundary treatment": a.get("boundary_treatment"),
-        "class average": a.get("class_average"),
-        "vehicle": a.get("vehicle"),
-        "threshold flat": a.get("threshold_flat"),
-        "threshold uneven": a.get("threshold_uneven"),
-        "thresholds from": a.get("threshold_derivation"),
-        "area flat": f"{a.get('share_flat', 0):.1%}",
-        "area general": f"{a.get('share_general', 0):.1%}",
-        "area uneven": f"{a.get('share_uneven', 0):.1%}",
-        "class raster": f"{raster[0]} x {raster[1]} cells",
-        "clean-up": (f"{a.get('merged_vertices')} merged, {a.get('unreferenced_vertices')} unreferenced vertices; "
-                     f"{a.get('degenerate_faces')} degenerate, {a.get('repeated_faces')} repeated faces dropped"),
-    }
+    from tankcd_cli.io.h5 import read_errors
+
+    with read_errors(path, "tankcd terrain store"):
+        a = read_attrs(path)
+        with h5py.File(path, "r") as h5:
+            n = h5["mesh/vertices"].shape[0]
+            m = h5["mesh/faces"].shape[0]
+            raster = h5["classes/raster"].shape
+            grid = h5["grid/vertex"].shape if "grid/vertex" in h5 else None
+        lo, hi = a.get("extent_min", [0, 0, 0]), a.get("extent_max", [0, 0, 0])
+        return {
+            "file": path,
+            "kind": "terrain store (format %s v%s)" % (a.get("format"), a.get("format_version")),
+            "source": a.get("source"),
+            "source sha256": a.get("source_sha256"),
+            "source format": a.get("source_format"),
+            "written by": f"tankcd {a.get('tankcd_version')} at {a.get('created_utc')}",
+            "vertices": n,
+            "faces": m,
+            "DEM grid": f"{grid[0]} x {grid[1]} posts" if grid else "no (irregular mesh: triangle buckets)",
+            "extent x": [lo[0], hi[0]],
+            "extent y": [lo[1], hi[1]],
+            "extent z": [lo[2], hi[2]],
+            "curvature method": a.get("curvature_method"),
+            "boundary treatment": a.get("boundary_treatment"),
+            "class average": a.get("class_average"),
+            "vehicle": a.get("vehicle"),
+            "threshold flat": a.get("threshold_flat"),
+            "threshold uneven": a.get("threshold_uneven"),
+            "thresholds from": a.get("threshold_derivation"),
+            "area flat": f"{a.get('share_flat', 0):.1%}",
+            "area general": f"{a.get('share_general', 0):.1%}",
+            "area uneven": f"{a.get('share_uneven', 0):.1%}",
+            "class raster": f"{raster[0]} x {raster[1]} cells",
+            "clean-up": (f"{a.get('merged_vertices')} merged, {a.get('unreferenced_vertices')} unreferenced vertices; "
+                         f"{a.get('degenerate_faces')} degenerate, {a.get('repeated_faces')} repeated faces dropped"),
+        }

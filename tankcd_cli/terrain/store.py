@@ -95,8 +95,10 @@ def is_store(path: str) -> bool:
 def read_attrs(path: str) -> dict:
     """Root attributes of a store, without reading its arrays."""
 
+    from tankcd_cli.io.h5 import read_errors
+
     h5 = _open(path)
-    with h5:
+    with h5, read_errors(path, "tankcd terrain store"):
         return {k: _plain(v) for k, v in h5.attrs.items()}
 
 
@@ -105,9 +107,12 @@ def read_store(path: str) -> TerrainStore:
     from tankcd_cli.io.terrain_readers import Grid
     from tankcd_cli.terrain.locate import TriangleBuckets
 
+    from tankcd_cli.io.h5 import check_indices, read_errors
+
+    what = "tankcd terrain store"
     h5 = _open(path)
-    with h5:
-        try:
+    with h5, read_errors(path, what):
+        if True:  # (the block reads every array; read_errors names whatever fails)
             attrs = {k: _plain(v) for k, v in h5.attrs.items()}
             buckets = None
             if "index" in h5:
@@ -127,9 +132,34 @@ def read_store(path: str) -> TerrainStore:
                 footprint_raster=h5["curvature/footprint_raster"][()],
                 raster_origin=np.asarray(raster.attrs["origin"]), raster_cell=float(raster.attrs["cell"]),
                 buckets=buckets, grid=grid, attrs=attrs)
-        except KeyError as exc:
-            raise InputError(path, f"not a complete tankcd terrain store (missing {exc.args[0] if exc.args else 'data'})") from None
+    _check_store(path, what, store)
     return store
+
+
+def _check_store(path: str, what: str, s: TerrainStore) -> None:
+    """Shapes and indices that the compiled kernels trust without bounds checks."""
+    from tankcd_cli.io.h5 import check_indices
+
+    n = len(s.vertices)
+    if s.vertices.ndim != 2 or s.vertices.shape[1] != 3 or s.faces.ndim != 2 or s.faces.shape[1] != 3:
+        raise InputError(path, f"damaged {what}: mesh arrays have the wrong shape")
+    if not np.isfinite(s.vertices).all():
+        raise InputError(path, f"damaged {what}: non-finite vertex coordinates")
+    check_indices(path, what, s.faces, n, "face")
+    if s.faces.size and s.faces.min() < 0:
+        raise InputError(path, f"damaged {what}: negative face indices")
+    for name in ("mean_curvature", "footprint_curvature", "vertex_class"):
+        if len(getattr(s, name)) != n:
+            raise InputError(path, f"damaged {what}: {name} has {len(getattr(s, name))} values for {n} vertices")
+    if s.class_raster.ndim != 2 or not np.isfinite(s.raster_cell) or s.raster_cell <= 0:
+        raise InputError(path, f"damaged {what}: bad class raster")
+    if s.buckets is not None:
+        check_indices(path, what, s.buckets.face, len(s.faces), "bucket face")
+        if len(s.buckets.start) != int(np.prod(s.buckets.shape)) + 1 or (np.diff(s.buckets.start) < 0).any() \
+                or s.buckets.start[-1] != len(s.buckets.face) or s.buckets.start[0] != 0:
+            raise InputError(path, f"damaged {what}: bad triangle buckets")
+    if s.grid is not None:
+        check_indices(path, what, s.grid.vertex, n, "grid post")
 
 
 def _open(path: str):

@@ -135,3 +135,40 @@ def test_malformed_hdf5(fmt, shape, files, run, tmp_path):
     res = run("replay", files["trajectory"], "--terrain", bad, "--poses", tmp_path / "p.csv")
     assert res.exit_code == 3 and len(res.stderr.strip().splitlines()) == 1, res.stderr
     assert not (tmp_path / "p.csv").exists()
+
+
+# --- regressions: crashes the fuzzer found (each was an internal error, exit 4) ----------------
+
+@pytest.mark.parametrize("fmt, text", [
+    ("obj", inputs.OBJ.replace("f 1 2 8", "f 1 2 " + "9" * 40)),  # an index beyond int64
+    ("obj", inputs.OBJ.replace("v 4.0 0.0", "v 4.0 -0.1e309", 1)),  # finite, but beyond any terrain
+    ("asc", inputs.ASC.replace("100.000", "1e300", 1)),
+    ("trajectory", inputs.TRAJECTORY.replace("t,x", "t\x0bx", 1)),  # a control character in the message
+])
+def test_fuzzer_regressions_text(fmt, text, files, run, tmp_path):
+    bad = tmp_path / ("bad." + {"trajectory": "csv"}.get(fmt, fmt))
+    bad.write_text(text)
+    _check(run, fmt, bad, files, tmp_path / "out.x", {3})
+
+
+def test_store_with_undecodable_attribute_text(files, run, tmp_path):
+    import shutil
+
+    import h5py
+
+    bad = tmp_path / "odd.h5"
+    shutil.copy(files["store"], bad)
+    with h5py.File(bad, "a") as h5:
+        h5.attrs["source"] = np.bytes_(b"\xff\xfe/terrain\x0b.asc")
+    res = run("info", bad)
+    assert res.exit_code in (0, 3) and "internal error" not in res.stderr
+    assert len(res.stdout.splitlines()) > 5 if res.exit_code == 0 else True
+
+
+@pytest.mark.parametrize("fmt", ["store", "tree"])
+def test_hdf5_truncated_anywhere(fmt, files, run, tmp_path):
+    good = files[fmt].read_bytes()
+    for k in range(1, 16):
+        bad = tmp_path / f"cut{k}.h5"
+        bad.write_bytes(good[: len(good) * k // 16])
+        _check(run, fmt, bad, files, tmp_path / "out.x", {3})
