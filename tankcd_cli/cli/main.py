@@ -57,15 +57,31 @@ class LazyGroup(click.Group):
         except BrokenPipeError:
             _quiet_broken_pipe()
             ctx.exit(EXIT_DONE)
-        except KeyboardInterrupt:
-            click.echo("tankcd: interrupted", err=True)
-            ctx.exit(130)
+        except (KeyboardInterrupt, SystemError) as exc:
+            # a signal that lands inside a compiled kernel surfaces as SystemError wrapping it
+            inner = exc
+            for _ in range(20):
+                if not isinstance(inner, SystemError):
+                    break
+                inner = inner.__cause__ or inner.__context__
+            if not isinstance(inner, KeyboardInterrupt):
+                return self._internal_error(ctx, exc)
+            exc = inner
+            terminated = isinstance(exc, Terminated)
+            click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
+            ctx.exit(143 if terminated else 130)
         except Exception as exc:  # a bug: say so, ask for a report
-            first = str(exc).splitlines()[0] if str(exc) else ""
-            click.echo(f"tankcd: internal error: {type(exc).__name__}: {first} "
-                       "(this is a bug; please report it with the command and input; -v shows the traceback)", err=True)
-            _traceback_if_verbose(ctx)
-            ctx.exit(EXIT_INTERNAL)
+            self._internal_error(ctx, exc)
+
+    @staticmethod
+    def _internal_error(ctx, exc):
+        from tankcd_cli.errors import printable
+
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        click.echo(printable(f"tankcd: internal error: {type(exc).__name__}: {first} ")
+                   + "(this is a bug; please report it with the command and input; -v shows the traceback)", err=True)
+        _traceback_if_verbose(ctx)
+        ctx.exit(EXIT_INTERNAL)
 
 
 def _traceback_if_verbose(ctx) -> None:
@@ -101,8 +117,19 @@ def cli(ctx, verbose, quiet):
     ctx.obj = Reporter(-1 if quiet else verbose)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Python runs next so that every ``finally`` (temporary outputs) runs."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None):
     """Console-script entry point."""
+    import signal
+
+    signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         cli.main(args=argv, prog_name="tankcd")
     except BrokenPipeError:
