@@ -10,7 +10,7 @@ from tankcd_cli.cli.options import vehicle_option, verbosity_options
 
 
 @click.command(short_help="Replay a trajectory: poses to stdout or --poses, events to --events.")
-@click.argument("trajectory", type=click.Path(allow_dash=True))
+@click.argument("trajectories", nargs=-1, required=True)
 @click.option("--scene", type=click.Path(), default=None,
               help="Scene TOML: terrain, vehicle, obstacles; it decides which effects run.")
 @click.option("--terrain", "terrain", type=click.Path(), default=None,
@@ -26,29 +26,42 @@ from tankcd_cli.cli.options import vehicle_option, verbosity_options
 @click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
 @click.option("--fail-on-collision", is_flag=True, help="Exit 1 when any collision (obstacle, internal, terrain) occurs.")
 @click.option("--summary", "summary_json", is_flag=True, help="Print the closing summary as one JSON line on stderr.")
+@click.option("--out-dir", type=click.Path(file_okay=False), default=None,
+              help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
+@click.option("--jobs", type=click.IntRange(1, 512), default=None,
+              help="Fleet mode: parallel processes (default: the number of cores).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
 @verbosity_options
 @click.pass_obj
-def replay(report, trajectory, scene, terrain, poses_path, events_path, matcher, vehicle_name, up, cache,
-           fail_on_collision, summary_json):
+def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, vehicle_name, up, cache,
+           fail_on_collision, summary_json, out_dir, jobs, scheduler):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
-    motion, no gun checks; the hull bottom against the terrain always)."""
+    motion, no gun checks; the hull bottom against the terrain always).
+
+    Fleets: several trajectories, globs ('runs/*.csv') or list files (@runs.txt) with --out-dir
+    replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl, in parallel (--jobs) or on a
+    Dask cluster (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
+    others; the exit code is 3 (bad input) or 4 (internal error) if any failed."""
+    fleet_mode = out_dir is not None or jobs is not None or scheduler is not None or len(trajectories) > 1 \
+        or any(t.startswith("@") or any(ch in t for ch in "*?[") for t in trajectories)
+    if (scene is None) == (terrain is None):
+        raise click.UsageError("give --scene or --terrain (one of them)")
+    if fleet_mode:
+        return _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
+                      fail_on_collision, summary_json)
+    trajectory = trajectories[0]
     import itertools
     import json
 
-    import numpy as np
-
     from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.io.events import event_line
-    from tankcd_cli.io.poses_csv import format_rows, header
     from tankcd_cli.io.trajectory import read_trajectory
-    from tankcd_cli.matching.match import MATCHERS, STATUS
-    from tankcd_cli.replay.pipeline import load_terrain_surface, prepare, replay_chunks
+    from tankcd_cli.replay.pipeline import load_terrain_surface, prepare
+    from tankcd_cli.replay.run import new_counts, summary, write_replay
     from tankcd_cli.vehicle import vehicle_preset
 
-    if (scene is None) == (terrain is None):
-        raise click.UsageError("give --scene or --terrain (one of them)")
     if events_path == "-" and poses_path == "-":
         raise click.UsageError("poses already go to stdout: give --poses FILE to send events there")
     step = report.progress("replay")
@@ -70,22 +83,11 @@ def replay(report, trajectory, scene, terrain, poses_path, events_path, matcher,
     first = next(chunks, None)
     turret_moves = bool(first is not None and first.has_turret)
     setup = prepare(surface, vehicle, sc, turret_moves, progress=step)
-    counts = {"rows": 0, "status": np.zeros(len(STATUS), int), "matcher": np.zeros(len(MATCHERS), int),
-              "events": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0}}
+    counts = new_counts()
 
     def write_all(out, ev_out):
-        out.write(header())
-        for chunk, poses, events in replay_chunks(setup, itertools.chain([first] if first else [], chunks), matcher):
-            out.write(format_rows(chunk.step, chunk.t, poses, MATCHERS, STATUS))
-            out.flush()
-            for e in events:
-                counts["events"][e.kind] += 1
-                if ev_out is not None:
-                    ev_out.write(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
-            counts["rows"] += len(chunk)
-            counts["status"] += np.bincount(poses.status, minlength=len(STATUS))
-            counts["matcher"] += np.bincount(poses.matcher, minlength=len(MATCHERS))
-            report.bar(f"replay: {counts['rows']:,} rows")
+        stream = itertools.chain([first] if first else [], chunks)
+        write_replay(setup, stream, matcher, out, ev_out, counts, on_chunk=lambda n: report.bar(f"replay: {n:,} rows"))
         report.bar(None)
 
     def with_events(out):
@@ -104,18 +106,62 @@ def replay(report, trajectory, scene, terrain, poses_path, events_path, matcher,
         with atomic_path(poses_path, ".csv") as tmp:
             with open(tmp, "w", newline="") as out:
                 with_events(out)
-    collisions = sum(counts["events"][k] for k in ("obstacle", "internal", "terrain"))
-    summary = {"rows": counts["rows"], "collisions": {k: counts["events"][k] for k in ("obstacle", "internal", "terrain")},
-               "off_terrain": counts["events"]["off_terrain"], "effects": setup.effects,
-               "matchers": {name: int(c) for name, c in zip(MATCHERS, counts["matcher"]) if c},
-               "seconds": round(report.elapsed(), 3),
-               "seconds_by_effect": {k: round(v, 3) for k, v in setup.seconds.items()}}
+    result = summary(counts, setup, report.elapsed())
+    collisions = sum(result["collisions"].values())
     if summary_json:
-        click.echo(json.dumps(summary), err=True)
+        click.echo(json.dumps(result), err=True)
     else:
-        kinds = ", ".join(f"{k} {v}" for k, v in summary["collisions"].items())
+        kinds = ", ".join(f"{k} {v}" for k, v in result["collisions"].items())
         ran = ", ".join(k for k, v in setup.effects.items() if v)
-        report.info(f"replay: {counts['rows']:,} rows; collisions: {kinds}; off terrain {summary['off_terrain']}; "
+        report.info(f"replay: {counts['rows']:,} rows; collisions: {kinds}; off terrain {result['off_terrain']}; "
                     f"effects: {ran} ({report.elapsed():.2f} s)")
     if fail_on_collision and collisions:
         click.get_current_context().exit(1)
+
+
+def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
+           fail_on_collision, summary_json):
+    import json
+    import os
+
+    from tankcd_cli.replay.fleet import World, classified_world, expand_trajectories, plan_tasks, run_fleet, write_summary
+
+    if out_dir is None:
+        raise click.UsageError("several trajectories need --out-dir (one poses and one events file each)")
+    if "-" in trajectories:
+        raise click.UsageError("a fleet reads files, not standard input")
+    paths = expand_trajectories(list(trajectories))
+    os.makedirs(out_dir, exist_ok=True)
+    tasks = plan_tasks(paths, out_dir)
+    step = report.progress("replay")
+    world = World(os.path.abspath(scene) if scene else None, os.path.abspath(terrain) if terrain else None,
+                  vehicle_name, up, matcher)
+    jobs = jobs or os.cpu_count() or 1
+    if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
+        world = classified_world(world, out_dir, step)
+    finished = []
+
+    def on_result(r):
+        finished.append(r)
+        if r["status"] != "ok":
+            click.echo(f"tankcd: error: {r['error']}", err=True)
+        report.bar(f"replay: {len(finished)}/{len(tasks)} trajectories")
+
+    fleet = run_fleet(world, tasks, jobs, scheduler, progress=step, on_result=on_result)
+    report.bar(None)
+    write_summary(os.path.join(out_dir, "fleet.json"), fleet)
+    if summary_json:
+        click.echo(json.dumps({k: v for k, v in fleet.items() if k != "results"}), err=True)
+    else:
+        kinds = ", ".join(f"{k} {v}" for k, v in fleet["collisions"].items())
+        report.info(f"replay: {fleet['ok']}/{fleet['trajectories']} trajectories, {fleet['rows']:,} rows on "
+                    f"{fleet['ran_on']}; collisions: {kinds}; {fleet['failed']} failed; wrote {out_dir}/fleet.json "
+                    f"({report.elapsed():.2f} s)")
+    statuses = {f["status"] for f in fleet["failures"]}
+    ctx = click.get_current_context()
+    if "internal_error" in statuses:
+        ctx.exit(4)
+    if "bad_input" in statuses:
+        ctx.exit(3)
+    if fail_on_collision and sum(fleet["collisions"].values()):
+        ctx.exit(1)

@@ -1,0 +1,283 @@
+"""Replay fleets of trajectories: in parallel processes on one machine, or on a Dask cluster.
+
+The world (terrain surface, vehicle, scene, obstacle trees) is loaded once per
+process, never shipped with a task: a task is three strings (trajectory,
+poses path, events path) plus the world's description. On one machine the
+parent loads the world and forks its workers, which share its arrays
+copy-on-write (read-only: no page is copied); on a cluster every worker loads
+the world from the shared path once and keeps it for all its tasks.
+
+Outputs are written atomically, one poses and one events file per trajectory,
+so a task that dies (worker lost, killed) leaves no partial file, and the
+retry writes the whole file again: no row is lost or written twice.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+import threading
+import time
+from dataclasses import asdict, dataclass
+from typing import Callable
+
+from tankcd_cli.errors import InputError
+
+
+@dataclass(frozen=True)
+class World:
+    """What every task of a fleet replays against (paths, so that it travels as text)."""
+
+    scene: str | None
+    terrain: str | None
+    vehicle: str = "t72"
+    up: str = "z"
+    matcher: str = "auto"
+    store: str | None = None  # the terrain as a classified store, when it had to be classified for the fleet
+
+
+@dataclass(frozen=True)
+class Task:
+    trajectory: str
+    poses: str
+    events: str
+
+
+def expand_trajectories(items: list[str]) -> list[str]:
+    """Paths, globs (``runs/*.csv``) and list files (``@runs.txt``: one path per line, relative to
+    the list, ``#`` comments) into a list of trajectory paths, in the order given, without repeats."""
+    out: list[str] = []
+    for item in items:
+        if item.startswith("@"):
+            listing = item[1:]
+            try:
+                with open(listing, encoding="utf-8-sig") as fh:
+                    lines = [ln.strip() for ln in fh]
+            except OSError as exc:
+                raise InputError(listing, f"cannot read the list of trajectories: {exc.strerror or exc}") from None
+            base = os.path.dirname(os.path.abspath(listing))
+            found = [os.path.join(base, ln) if not os.path.isabs(ln) else ln for ln in lines
+                     if ln and not ln.startswith("#")]
+        elif any(ch in item for ch in "*?["):
+            found = sorted(glob.glob(item, recursive=True))
+            if not found:
+                raise InputError(item, "the pattern matches no file")
+        else:
+            found = [item]
+        for path in found:
+            if path not in out:
+                out.append(path)
+    if not out:
+        raise InputError(",".join(items) or "-", "no trajectories given")
+    return out
+
+
+def plan_tasks(trajectories: list[str], out_dir: str) -> list[Task]:
+    """One task per trajectory, outputs named after the input (``a.csv`` -> ``a.poses.csv``,
+    ``a.events.jsonl``); inputs of the same name from different directories get the directory too."""
+    stems = [os.path.splitext(os.path.basename(p))[0] for p in trajectories]
+    tasks = []
+    for path, stem in zip(trajectories, stems):
+        if stems.count(stem) > 1:
+            parent = os.path.basename(os.path.dirname(os.path.abspath(path))) or "root"
+            stem = f"{parent}__{stem}"
+        out = os.path.abspath(out_dir)  # workers elsewhere (a cluster) may run in another directory
+        tasks.append(Task(os.path.abspath(path), os.path.join(out, f"{stem}.poses.csv"),
+                          os.path.join(out, f"{stem}.events.jsonl")))
+    names = [t.poses for t in tasks]
+    if len(set(names)) != len(names):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise InputError(dup, "two trajectories would write the same output; rename one")
+    return tasks
+
+
+# --- the per-process world ----------------------------------------------------------------
+
+_LOADED: dict = {}  # World -> (surface, vehicle, scene, setup cache): one per process, loaded on first use
+_LOADING = threading.Lock()  # a Dask worker runs tasks in threads: one of them loads, the others wait
+
+
+def load_world(world: World, progress: Callable[[str], None] | None = None):
+    """The world's surface, vehicle and scene, loaded once per process."""
+    with _LOADING:
+        return _load_world_locked(world, progress)
+
+
+def _load_world_locked(world: World, progress):
+    if world not in _LOADED:
+        from tankcd_cli.replay.pipeline import load_terrain_surface
+        from tankcd_cli.vehicle import vehicle_preset
+
+        scene = None
+        if world.scene:
+            from tankcd_cli.replay.scene import load_scene
+
+            scene = load_scene(world.scene)
+            if scene.terrain_path is None:
+                raise InputError(world.scene, "names no [terrain] path; replay needs a terrain", where="[terrain] path")
+            vehicle, terrain, up = scene.vehicle, scene.terrain_path, scene.terrain_up
+        else:
+            vehicle, terrain, up = vehicle_preset(world.vehicle), world.terrain, world.up
+        surface, _ = load_terrain_surface(world.store or terrain, up=up, vehicle=vehicle, progress=progress)
+        _LOADED.clear()  # one world per process: a new one replaces the old
+        _LOADED[world] = (surface, vehicle, scene, _setups(surface, vehicle, scene))
+    return _LOADED[world]
+
+
+def _setups(surface, vehicle, scene) -> dict:
+    """The replay setups for trajectories without and with turret columns (obstacle trees loaded once)."""
+    import dataclasses
+
+    from tankcd_cli.replay.pipeline import prepare
+
+    still = prepare(surface, vehicle, scene, turret_moves=False)
+    moving = dataclasses.replace(still, effects=scene.effects(True) if scene is not None else
+                                 {**still.effects, "internal": bool(vehicle.fuel_drums)},
+                                 seconds={k: 0.0 for k in still.seconds})
+    return {False: still, True: moving}
+
+
+def classified_world(world: World, out_dir: str, progress: Callable[[str], None] | None = None) -> World:
+    """The world with its terrain as a store: a mesh or DEM is classified once, in a child process
+    (so that no compiled kernel has started threads in a parent about to fork), into out_dir."""
+    import subprocess
+    import sys
+
+    from tankcd_cli.terrain.store import is_store
+
+    if world.scene:
+        from tankcd_cli.replay.scene import load_scene
+
+        scene = load_scene(world.scene)
+        terrain, up = scene.terrain_path, scene.terrain_up
+    else:
+        terrain, up = world.terrain, world.up
+    if terrain is None or is_store(terrain):
+        return world
+    store = os.path.join(out_dir, ".fleet-terrain.h5")
+    (progress or (lambda s: None))(f"classifying {terrain} once for the fleet")
+    args = [sys.executable, "-m", "tankcd_cli", "-q", "classify", terrain, "-o", store, "--up", up]
+    if not world.scene:
+        args += ["--vehicle", world.vehicle]
+    proc = subprocess.run(args, capture_output=True, text=True)
+    if proc.returncode != 0:
+        message = (proc.stderr.strip().splitlines() or ["classification failed"])[-1]
+        raise InputError(terrain, message.removeprefix("tankcd: error: ").removeprefix(f"{terrain}: "))
+    import dataclasses
+
+    return dataclasses.replace(world, store=store)
+
+
+def run_task(world: World, task: Task) -> dict:
+    """Replay one trajectory of the fleet; never raises: a failure is reported in the result."""
+    from tankcd_cli.replay.run import replay_to_files
+
+    start = time.perf_counter()
+    result = {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": os.getpid()}
+    try:
+        surface, vehicle, scene, setups = load_world(world)
+        result.update(replay_to_files(surface, vehicle, scene, task.trajectory, task.poses, task.events,
+                                      world.matcher, setups))
+        result["status"] = "ok"
+    except InputError as exc:
+        result.update(status="bad_input", error=exc.one_line())
+    except Exception as exc:  # noqa: BLE001 - a bug in one task must not stop the fleet; it is reported
+        from tankcd_cli.errors import printable
+
+        result.update(status="internal_error", error=printable(f"{type(exc).__name__}: {exc}".splitlines()[0]))
+    result["task_seconds"] = round(time.perf_counter() - start, 3)
+    return result
+
+
+# --- fan-out ------------------------------------------------------------------------------
+
+def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | None = None,
+              progress: Callable[[str], None] | None = None, on_result: Callable[[dict], None] | None = None) -> dict:
+    """Run every task (in-process, in ``jobs`` forked processes, or on the Dask cluster at
+    ``scheduler``) and return the fleet summary."""
+    start = time.perf_counter()
+    say = progress or (lambda s: None)
+    done = on_result or (lambda r: None)
+    results = []
+    if scheduler:
+        results = _on_dask(world, tasks, scheduler, say, done)
+        how = f"dask at {scheduler}"
+    elif jobs <= 1 or len(tasks) == 1:
+        load_world(world, say)
+        for task in tasks:
+            results.append(run_task(world, task))
+            done(results[-1])
+        how = "1 process"
+    else:
+        results = _on_processes(world, tasks, jobs, say, done)
+        how = f"{jobs} processes"
+    results.sort(key=lambda r: [t.trajectory for t in tasks].index(r["trajectory"]))
+    ok = [r for r in results if r["status"] == "ok"]
+    failed = [r for r in results if r["status"] != "ok"]
+    collisions = {k: sum(r["collisions"][k] for r in ok) for k in ("obstacle", "internal", "terrain")}
+    rows = sum(r["rows"] for r in ok)
+    seconds = time.perf_counter() - start
+    return {"trajectories": len(tasks), "ok": len(ok), "failed": len(failed), "rows": rows,
+            "collisions": collisions, "off_terrain": sum(r["off_terrain"] for r in ok),
+            "seconds": round(seconds, 3), "rows_per_second": round(rows / seconds, 1) if seconds > 0 else None,
+            "ran_on": how, "world": asdict(world),
+            "failures": [{"trajectory": r["trajectory"], "status": r["status"], "error": r["error"]} for r in failed],
+            "results": results}
+
+
+def _on_processes(world, tasks, jobs, say, done):
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    # the parent loads the world with numpy only (no compiled kernel has started threads yet),
+    # then forks: the workers see the same arrays, shared copy-on-write and never written
+    load_world(world, say)
+    context = multiprocessing.get_context("fork")
+    results = []
+    threads = max(1, (os.cpu_count() or 1) // jobs)
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_worker_threads,
+                             initargs=(threads,)) as pool:
+        futures = [pool.submit(run_task, world, t) for t in tasks]
+        for fut in as_completed(futures):
+            results.append(fut.result())
+            done(results[-1])
+    return results
+
+
+def _worker_threads(threads: int) -> None:
+    """Each of N workers gets cores / N compiled-kernel threads: no oversubscription."""
+    import numba
+
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
+def _on_dask(world, tasks, scheduler, say, done):
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
+    say(f"connecting to the Dask scheduler at {scheduler}")
+    try:
+        client = Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise InputError(scheduler, f"cannot reach the Dask scheduler: {exc}") from None
+    results = []
+    with client:
+        # a task is a few strings; the world is loaded by each worker from the shared path, once;
+        # a worker lost mid-task has its tasks run again elsewhere (atomic outputs: no partial file)
+        futures = client.map(run_task, [world] * len(tasks), tasks, pure=False, retries=2,
+                             key=[f"tankcd-{os.path.basename(t.poses)}-{k}-{time.time_ns()}" for k, t in enumerate(tasks)])
+        for fut in as_completed(futures):
+            results.append(fut.result())
+            done(results[-1])
+    return results
+
+
+def write_summary(path: str, fleet: dict) -> None:
+    from tankcd_cli.io.atomic import atomic_path
+
+    with atomic_path(path, ".json") as tmp:
+        with open(tmp, "w") as fh:
+            json.dump(fleet, fh, indent=2, default=str)
+            fh.write("\n")

@@ -1,0 +1,92 @@
+"""One replay from chunks to written poses and events, and its summary (shared by `replay` and fleets)."""
+
+from __future__ import annotations
+
+import itertools
+from typing import Callable, Iterable
+
+import numpy as np
+
+from tankcd_cli.replay.pipeline import ReplaySetup
+
+KINDS = ("obstacle", "internal", "terrain")
+
+
+def new_counts() -> dict:
+    from tankcd_cli.matching.match import MATCHERS, STATUS
+
+    return {"rows": 0, "status": np.zeros(len(STATUS), int), "matcher": np.zeros(len(MATCHERS), int),
+            "events": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0}}
+
+
+def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out, counts: dict,
+                 on_chunk: Callable[[int], None] | None = None) -> dict:
+    """Replay the chunks, writing the poses CSV to ``out`` (flushed per chunk) and the events to
+    ``ev_out`` (or only counting them when None); returns ``counts`` updated."""
+    from tankcd_cli.io.events import event_line
+    from tankcd_cli.io.poses_csv import format_rows, header
+    from tankcd_cli.matching.match import MATCHERS, STATUS
+    from tankcd_cli.replay.pipeline import replay_chunks
+
+    out.write(header())
+    for chunk, poses, events in replay_chunks(setup, chunks, matcher):
+        out.write(format_rows(chunk.step, chunk.t, poses, MATCHERS, STATUS))
+        out.flush()
+        for e in events:
+            counts["events"][e.kind] += 1
+            if ev_out is not None:
+                ev_out.write(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+        counts["rows"] += len(chunk)
+        counts["status"] += np.bincount(poses.status, minlength=len(STATUS))
+        counts["matcher"] += np.bincount(poses.matcher, minlength=len(MATCHERS))
+        if on_chunk is not None:
+            on_chunk(counts["rows"])
+    return counts
+
+
+def summary(counts: dict, setup: ReplaySetup, seconds: float) -> dict:
+    """The closing summary: rows, collisions by kind, effects that ran, seconds (also per effect)."""
+    from tankcd_cli.matching.match import MATCHERS
+
+    return {"rows": counts["rows"], "collisions": {k: counts["events"][k] for k in KINDS},
+            "off_terrain": counts["events"]["off_terrain"], "effects": setup.effects,
+            "matchers": {name: int(c) for name, c in zip(MATCHERS, counts["matcher"]) if c},
+            "seconds": round(seconds, 3),
+            "seconds_by_effect": {k: round(v, 3) for k, v in setup.seconds.items()}}
+
+
+def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, events_path: str | None,
+                    matcher: str = "auto", setup_cache: dict | None = None) -> dict:
+    """Replay one trajectory file into a poses file and an events file, both written atomically.
+
+    ``setup_cache`` keeps the loaded effects (obstacle trees) between calls with the same scene.
+    """
+    import time
+
+    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.trajectory import read_trajectory
+    from tankcd_cli.replay.pipeline import prepare
+
+    start = time.perf_counter()
+    chunks = read_trajectory(trajectory)
+    first = next(chunks, None)
+    turret_moves = bool(first is not None and first.has_turret)
+    key = turret_moves
+    if setup_cache is not None and key in setup_cache:
+        setup = setup_cache[key]
+        setup.seconds = {k: 0.0 for k in setup.seconds}
+    else:
+        setup = prepare(surface, vehicle, scene, turret_moves)
+        if setup_cache is not None:
+            setup_cache[key] = setup
+    counts = new_counts()
+    stream = itertools.chain([first] if first else [], chunks)
+    with atomic_path(poses_path, ".csv") as tmp_poses:
+        with open(tmp_poses, "w", newline="") as out:
+            if events_path is None:
+                write_replay(setup, stream, matcher, out, None, counts)
+            else:
+                with atomic_path(events_path, ".jsonl") as tmp_events:
+                    with open(tmp_events, "w") as ev:
+                        write_replay(setup, stream, matcher, out, ev, counts)
+    return summary(counts, setup, time.perf_counter() - start)

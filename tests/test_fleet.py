@@ -1,0 +1,134 @@
+"""Fleets: many trajectories in parallel processes and on a real (local) Dask cluster."""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from tankcd_cli.errors import InputError
+from tankcd_cli.replay.fleet import expand_trajectories, plan_tasks
+
+SAMPLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sample_data")
+
+
+def _trajectory(path, rows, seed):
+    rng = np.random.default_rng(seed)
+    heading = np.cumsum(rng.normal(0, 0.03, rows))
+    x = 500_005 + np.abs((500_120 + np.cumsum(0.5 * np.cos(heading)) - 500_005) % 220 - 110)
+    y = 4_500_005 + np.abs((4_500_080 + np.cumsum(0.5 * np.sin(heading)) - 4_500_005) % 150 - 75)
+    t = np.arange(rows) * 0.1
+    with open(path, "w") as fh:
+        fh.write("t,x,y,yaw_deg,turret_deg,gun_deg\n")
+        np.savetxt(fh, np.column_stack([t, x, y, np.degrees(heading), (t * 12) % 360 - 180, np.full(rows, -5.0)]),
+                   fmt="%.3f", delimiter=",")
+    return path
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("fleet")
+    for name in ("battlefield.asc", "depot.obj", "wall.obj", "scene.toml"):
+        shutil.copy(os.path.join(SAMPLE, name), tmp / name)
+    (tmp / "runs").mkdir()
+    paths = [_trajectory(tmp / "runs" / f"run{k:02d}.csv", 6000, k) for k in range(8)]
+    # the reference: each trajectory replayed alone by the single-trajectory command
+    ref = tmp / "alone"
+    ref.mkdir()
+    for p in paths:
+        stem = p.stem
+        subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "replay", p, "--scene", tmp / "scene.toml", "--poses",
+                        ref / f"{stem}.poses.csv", "--events", ref / f"{stem}.events.jsonl", "--cache"], check=True)
+    return tmp, paths, ref
+
+
+def _same_as_alone(out, ref, names):
+    for name in names:
+        for suffix in (".poses.csv", ".events.jsonl"):
+            assert (out / f"{name}{suffix}").read_bytes() == (ref / f"{name}{suffix}").read_bytes(), name + suffix
+
+
+def test_expand_paths_globs_and_lists(tmp_path):
+    for name in ("a.csv", "b.csv", "c.txt"):
+        (tmp_path / name).write_text("t,x,y,yaw_deg\n")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "a.csv").write_text("t,x,y,yaw_deg\n")
+    (tmp_path / "list.txt").write_text("# the runs\nsub/a.csv\n\nb.csv\n")
+    got = expand_trajectories([str(tmp_path / "*.csv"), "@" + str(tmp_path / "list.txt"), str(tmp_path / "a.csv")])
+    assert got == [str(tmp_path / "a.csv"), str(tmp_path / "b.csv"), str(tmp_path / "sub" / "a.csv")]
+    tasks = plan_tasks(got, str(tmp_path / "out"))
+    names = [os.path.basename(t.poses) for t in tasks]
+    assert names == [f"{tmp_path.name}__a.poses.csv", "b.poses.csv", "sub__a.poses.csv"]
+    with pytest.raises(InputError, match="matches no file"):
+        expand_trajectories([str(tmp_path / "*.nothing")])
+    with pytest.raises(InputError, match="cannot read the list"):
+        expand_trajectories(["@" + str(tmp_path / "missing.txt")])
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_fleet_in_processes_matches_single_runs_and_survives_a_bad_file(fleet, jobs, tmp_path):
+    tmp, paths, ref = fleet
+    bad = tmp_path / "broken.csv"
+    bad.write_text(paths[0].read_text() + "1e9,nan,1,2,3,4\n")
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "tankcd_cli", "replay", str(tmp / "runs" / "*.csv"), bad,
+                           "--scene", tmp / "scene.toml", "--out-dir", out, "--jobs", str(jobs)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 3, proc.stderr  # something failed: the exit code says so
+    assert "broken.csv: line 6002" in proc.stderr
+    _same_as_alone(out, ref, [p.stem for p in paths])
+    assert not (out / "broken.poses.csv").exists() and not (out / "broken.events.jsonl").exists()
+    summary = json.loads((out / "fleet.json").read_text())
+    assert summary["ok"] == len(paths) and summary["failed"] == 1 and summary["rows"] == 6000 * len(paths)
+    assert summary["failures"][0]["trajectory"].endswith("broken.csv")
+    assert len({r["pid"] for r in summary["results"]}) == jobs  # the work really was spread
+
+
+dask = pytest.importorskip("distributed")
+
+
+def _start(args, **kw):
+    return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True, **kw)
+
+
+def test_dask_cluster_with_a_worker_killed_midway(fleet, tmp_path):
+    tmp, paths, ref = fleet
+    info = tmp_path / "scheduler.json"
+    procs = [_start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                     "--scheduler-file", str(info)])]
+    try:
+        for _ in range(100):
+            if info.exists() and info.stat().st_size:
+                break
+            time.sleep(0.1)
+        workers = [_start(["distributed.cli.dask_worker", "--scheduler-file", str(info), "--nthreads", "1",
+                           "--no-nanny", "--no-dashboard"]) for _ in range(2)]
+        procs += workers
+        address = json.loads(info.read_text())["address"]
+        out = tmp_path / "out"
+        run = subprocess.Popen([sys.executable, "-m", "tankcd_cli", "replay", str(tmp / "runs" / "*.csv"),
+                                "--scene", tmp / "scene.toml", "--out-dir", out, "--scheduler", address],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        # kill one worker as soon as the first trajectory is done: the others are queued or running
+        deadline = time.time() + 120
+        while time.time() < deadline and not (out.exists() and list(out.glob("*.poses.csv"))):
+            time.sleep(0.05)
+        os.kill(workers[0].pid, signal.SIGKILL)
+        done_at_kill = len(list(out.glob("*.poses.csv")))
+        assert done_at_kill < len(paths)  # the kill really came in the middle
+        stdout, stderr = run.communicate(timeout=300)
+        assert run.returncode == 0, stderr
+        _same_as_alone(out, ref, [p.stem for p in paths])
+        summary = json.loads((out / "fleet.json").read_text())
+        assert summary["ok"] == len(paths) and summary["rows"] == 6000 * len(paths)
+        assert sorted(r["trajectory"] for r in summary["results"]) == sorted(str(p) for p in paths)  # none twice
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
