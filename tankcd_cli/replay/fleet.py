@@ -169,10 +169,16 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
     return dataclasses.replace(world, store=store)
 
 
-def run_task(world: World, task: Task) -> dict:
-    """Replay one trajectory of the fleet; never raises: a failure is reported in the result."""
+def run_task(world: World, task: Task, kernel_threads: int | None = None) -> dict:
+    """Replay one trajectory of the fleet; never raises: a failure is reported in the result.
+
+    kernel_threads : threads for the compiled kernels of this task (numba's setting is per calling
+    thread, and a Dask worker runs tasks in its own threads); None keeps the process's setting.
+    """
     from tankcd_cli.replay.run import replay_to_files
 
+    if kernel_threads is not None:
+        _worker_threads(kernel_threads)
     start = time.perf_counter()
     result = {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": os.getpid()}
     try:
@@ -266,7 +272,8 @@ def _on_dask(world, tasks, scheduler, say, done):
     with client:
         # a task is a few strings; the world is loaded by each worker from the shared path, once;
         # a worker lost mid-task has its tasks run again elsewhere (atomic outputs: no partial file)
-        futures = client.map(run_task, [world] * len(tasks), tasks, pure=False, retries=2,
+        # one task per worker thread and one kernel thread per task: a cluster runs a worker thread per core
+        futures = client.map(run_task, [world] * len(tasks), tasks, [1] * len(tasks), pure=False, retries=2,
                              key=[f"tankcd-{os.path.basename(t.poses)}-{k}-{time.time_ns()}" for k, t in enumerate(tasks)])
         for fut in as_completed(futures):
             results.append(fut.result())
