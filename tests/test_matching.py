@@ -298,3 +298,33 @@ def test_patch_quads_are_the_tilted_rectangles_seen_from_above():
     h, g, w = T72.track_length / 2, T72.track_gauge / 2, T72.track_width / 2
     corner = np.array([h, g + w, 0.0])
     np.testing.assert_allclose(q[0, 2], (R @ corner)[:2], atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from([0.25, 0.5, 1.0, 3.0]), st.booleans())
+def test_property_dem_arithmetic_equals_clipping_every_triangle(seed, spacing, holes):
+    """The footprint pass reads full DEM cells by arithmetic; clipping every triangle (the general
+    path, used for meshes) is the oracle: same supporting planes, penetration and coverage."""
+    from tankcd_cli.matching.match import _footprint, patch_quads
+
+    rng = np.random.default_rng(seed)
+    n = int(40 / spacing)
+    Z = np.cumsum(rng.normal(0, 0.1 * spacing, (n, n)), axis=1) + np.round(rng.normal(0, 0.05, (n, n)), 1)
+    if holes:
+        Z[rng.integers(0, n, 3), rng.integers(0, n, 3)] = np.nan  # NODATA posts: those patches take the general path
+    surface = S.surface_of(S.dem_terrain(Z, spacing=spacing, origin=(500_000.0, 4_500_000.0)))
+    m = 300
+    x = 500_000 + rng.uniform(-4, 44, m)
+    y = 4_500_000 + rng.uniform(-4, 44, m)
+    x[:40] = 500_000 + np.round(rng.uniform(6, 34, 40) / spacing) * spacing  # on posts, axis-aligned
+    y[:40] = 4_500_000 + np.round(rng.uniform(6, 34, 40) / spacing) * spacing
+    yaw = rng.uniform(-np.pi, np.pi, m)
+    yaw[:40] = rng.choice([0.0, np.pi / 2, np.pi / 4, -np.pi, 3 * np.pi / 4], 40)
+    quads = patch_quads(T72, rng.normal(0, 0.1, m), rng.normal(0, 0.1, m))
+    planes = np.column_stack([rng.normal(0, 1, m), rng.normal(0, 0.1, m), rng.normal(0, 0.1, m)])
+    for mode in (0, 1):
+        fast = _footprint(surface, mode, x, y, yaw, quads, planes, dem=True)
+        slow = _footprint(surface, mode, x, y, yaw, quads, planes, dem=False)
+        np.testing.assert_array_equal(fast[2], slow[2])
+        np.testing.assert_allclose(fast[0], slow[0], atol=1e-9, equal_nan=True)
+        np.testing.assert_allclose(fast[1], slow[1], atol=1e-12)

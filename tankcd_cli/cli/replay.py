@@ -45,8 +45,10 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl, in parallel (--jobs) or on a
     Dask cluster (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
     others; the exit code is 3 (bad input) or 4 (internal error) if any failed."""
+    import os
+
     fleet_mode = out_dir is not None or jobs is not None or scheduler is not None or len(trajectories) > 1 \
-        or any(t.startswith("@") or any(ch in t for ch in "*?[") for t in trajectories)
+        or any((t.startswith("@") or any(ch in t for ch in "*?[")) and not os.path.exists(t) for t in trajectories)
     if (scene is None) == (terrain is None):
         raise click.UsageError("give --scene or --terrain (one of them)")
     if fleet_mode:

@@ -132,9 +132,133 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
     return used, area
 
 
+@njit(cache=True, inline="always")
+def _quad_area(quad):  # pragma: no cover - compiled
+    a2 = 0.0
+    for k in range(4):
+        j = (k + 1) % 4
+        a2 += quad[k, 0] * quad[j, 1] - quad[j, 0] * quad[k, 1]
+    return 0.5 * abs(a2)
+
+
+@njit(cache=True, inline="always")
+def _dem_z(u, v, post_z):  # pragma: no cover - compiled
+    """Height at post-index coordinates (u, v) inside the raster (the SW-NE split of ``heights_slopes``)."""
+    rows = post_z.shape[0]
+    cols = post_z.shape[1]
+    c = min(max(int(np.floor(u)), 0), cols - 2)
+    r = min(max(int(np.floor(v)), 0), rows - 2)
+    fx = u - c
+    fy = v - r
+    sw = post_z[r, c]
+    ne = post_z[r + 1, c + 1]
+    if fx >= fy:
+        se = post_z[r, c + 1]
+        return sw + fx * (se - sw) + fy * (ne - se)
+    nw = post_z[r + 1, c]
+    return sw + fy * (nw - sw) + fx * (ne - nw)
+
+
+@njit(cache=True)
+def _dem_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, out_u, out_v, out_z, used):  # pragma: no cover - compiled
+    """The corners of the DEM triangles clipped to one patch, by arithmetic on the grid.
+
+    For a patch lying wholly on full DEM cells these are exactly the points the clipping
+    finds: the posts inside the patch, the crossings of the patch's sides with the grid
+    lines and cell diagonals, and the patch's corners. Returns the new count, -1 when the
+    buffer is too small, or -2 when the patch needs the general path (it reaches past the
+    grid or over a NODATA post).
+    """
+    rows = post_z.shape[0]
+    cols = post_z.shape[1]
+    ox = post_origin[0]
+    oy = post_origin[1]
+    dx = post_size[0]
+    dy = post_size[1]
+    gu = np.empty(4)
+    gv = np.empty(4)
+    for k in range(4):
+        gu[k] = (cx + co * quad[k, 0] - si * quad[k, 1] - ox) / dx
+        gv[k] = (cy + si * quad[k, 0] + co * quad[k, 1] - oy) / dy
+        if not (0.0 <= gu[k] <= cols - 1 and 0.0 <= gv[k] <= rows - 1):
+            return -2
+    umin = min(min(gu[0], gu[1]), min(gu[2], gu[3]))
+    umax = max(max(gu[0], gu[1]), max(gu[2], gu[3]))
+    vmin = min(min(gv[0], gv[1]), min(gv[2], gv[3]))
+    vmax = max(max(gv[0], gv[1]), max(gv[2], gv[3]))
+    c0 = int(np.floor(umin))
+    c1 = min(int(np.ceil(umax)), cols - 1)
+    r0 = int(np.floor(vmin))
+    r1 = min(int(np.ceil(vmax)), rows - 1)
+    for r in range(r0, r1 + 1):
+        for c in range(c0, c1 + 1):
+            if not np.isfinite(post_z[r, c]):
+                return -2
+    # posts inside the patch (the quad is counter-clockwise in the heading frame)
+    for r in range(r0, r1 + 1):
+        for c in range(c0, c1 + 1):
+            px = ox + c * dx - cx
+            py = oy + r * dy - cy
+            pu = co * px + si * py
+            pv = -si * px + co * py
+            inside = True
+            for k in range(4):
+                j = (k + 1) % 4
+                ex = quad[j, 0] - quad[k, 0]
+                ey = quad[j, 1] - quad[k, 1]
+                if ex * (pv - quad[k, 1]) - ey * (pu - quad[k, 0]) < 0.0:
+                    inside = False
+                    break
+            if inside:
+                if used >= out_u.shape[0]:
+                    return -1
+                out_u[used] = pu
+                out_v[used] = pv
+                out_z[used] = post_z[r, c]
+                used += 1
+    # each side: its corner, then where it crosses grid lines (u, v integer) and diagonals (u - v integer)
+    for k in range(4):
+        j = (k + 1) % 4
+        for family in range(4):
+            if family == 0:
+                a = 0.0
+                b = 0.0
+                lo = 0
+                hi = 0  # the corner itself: t = 0
+            elif family == 1:
+                a = gu[k]
+                b = gu[j]
+            elif family == 2:
+                a = gv[k]
+                b = gv[j]
+            else:
+                a = gu[k] - gv[k]
+                b = gu[j] - gv[j]
+            if family > 0:
+                if a == b:
+                    continue
+                lo = int(np.ceil(min(a, b)))
+                hi = int(np.floor(max(a, b)))
+            for m in range(lo, hi + 1):
+                t = 0.0 if family == 0 else (m - a) / (b - a)
+                if family > 0 and not (0.0 < t < 1.0):
+                    continue
+                qu = quad[k, 0] + t * (quad[j, 0] - quad[k, 0])
+                qv = quad[k, 1] + t * (quad[j, 1] - quad[k, 1])
+                u = gu[k] + t * (gu[j] - gu[k])
+                v = gv[k] + t * (gv[j] - gv[k])
+                if used >= out_u.shape[0]:
+                    return -1
+                out_u[used] = qu
+                out_v[used] = qv
+                out_z[used] = _dem_z(min(max(u, 0.0), cols - 1.0), min(max(v, 0.0), rows - 1.0), post_z)
+                used += 1
+    return used
+
+
 @njit(cache=True, parallel=True)
 def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once,
-                    planes_in, eps):  # pragma: no cover - compiled
+                    post_z, post_origin, post_size, planes_in, eps):  # pragma: no cover - compiled
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
     centre; mode 1, the highest ground above ``planes_in`` (signed, m).
 
@@ -143,6 +267,7 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
     Returns (N, 3) planes or (N,) heights, the covered share of the patches (N,), status (N,).
     """
     npose = cx.shape[0]
+    dem = post_z.shape[0] >= 2 and post_z.shape[1] >= 2
     out = np.full((npose, 3), np.nan)
     covered = np.zeros(npose)
     status = np.zeros(npose, np.int64)
@@ -166,9 +291,17 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
                 used = 0
                 area = 0.0
                 for q in range(2):
-                    used, a = _patch_points(cx[i], cy[i], co, si, quads[i, q], V, F, plane, origin, size, ny, nx,
-                                            start, cell_face, listed_once, cand, pu, pv, pz, ou, ov, oz,
-                                            bu, bv, bz, used)
+                    got = -2
+                    if dem:
+                        got = _dem_patch_points(cx[i], cy[i], co, si, quads[i, q], post_z, post_origin, post_size,
+                                                bu, bv, bz, used)
+                    if got == -2:  # not wholly on full DEM cells: clip the triangles
+                        used, a = _patch_points(cx[i], cy[i], co, si, quads[i, q], V, F, plane, origin, size, ny,
+                                                nx, start, cell_face, listed_once, cand, pu, pv, pz, ou, ov, oz,
+                                                bu, bv, bz, used)
+                    else:
+                        used = got
+                        a = _quad_area(quads[i, q])
                     area += a
                     if used < 0:
                         break
@@ -178,13 +311,7 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
                 bu = np.empty(cap)
                 bv = np.empty(cap)
                 bz = np.empty(cap)
-            patch_area = 0.0
-            for q in range(2):
-                a2 = 0.0
-                for k in range(4):
-                    j = (k + 1) % 4
-                    a2 += quads[i, q, k, 0] * quads[i, q, j, 1] - quads[i, q, j, 0] * quads[i, q, k, 1]
-                patch_area += 0.5 * abs(a2)
+            patch_area = _quad_area(quads[i, 0]) + _quad_area(quads[i, 1])
             covered[i] = area / patch_area if patch_area > 0 else 0.0
             if mode == 0:
                 a, bb, c, st = support_plane(bu, bv, bz, used, eps)

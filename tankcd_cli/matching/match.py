@@ -215,14 +215,17 @@ def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.nda
     return np.stack([xi * cp + eta * sp * sr, eta * cr], axis=-1)
 
 
-def _footprint(surface, mode, x, y, yaw, quads, planes_in):
+def _footprint(surface, mode, x, y, yaw, quads, planes_in, dem: bool = True):
+    """The footprint pass; ``dem`` lets full DEM cells be read by arithmetic (False: clip every
+    triangle, the general path, kept as the oracle the arithmetic is tested against)."""
     from tankcd_cli.matching.footprint import footprint_batch
 
     lx, ly = surface.to_local(x, y)
     return footprint_batch(mode, lx, ly, yaw, np.ascontiguousarray(quads), surface.vertices, surface.faces,
                            surface.plane, surface.cell_origin, surface.cell_size, surface.cell_shape[0],
                            surface.cell_shape[1], surface.cell_start, surface.cell_face,
-                           surface.post_z.size > 0, np.ascontiguousarray(planes_in), EPS_XY)
+                           surface.post_z.size > 0, surface.post_z if dem else np.empty((0, 0)), surface.post_origin,
+                           surface.post_size, np.ascontiguousarray(planes_in), EPS_XY)
 
 
 def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):

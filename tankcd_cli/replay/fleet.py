@@ -49,7 +49,9 @@ def expand_trajectories(items: list[str]) -> list[str]:
     the list, ``#`` comments) into a list of trajectory paths, in the order given, without repeats."""
     out: list[str] = []
     for item in items:
-        if item.startswith("@"):
+        if os.path.exists(item):  # a file whose name happens to hold * ? [ or @ is that file
+            found = [item]
+        elif item.startswith("@"):
             listing = item[1:]
             try:
                 with open(listing, encoding="utf-8-sig") as fh:
