@@ -306,6 +306,32 @@ def footprint_penetration(surface, vehicle, x, y, yaw, planes, roll, pitch):
     return depth, covered
 
 
+def hull_bottom_depth(surface, vehicle, x, y, yaw, planes, roll, pitch, dem: bool = True):
+    """How far the ground rises above the hull's bottom face (N,), m (-inf where none of it is over terrain).
+
+    Exact, like the track patches: the bottom face (hull length x width, at ground clearance,
+    parallel to the support plane) seen from above is a parallelogram, split into a left and a
+    right half, and the highest ground above its plane is found by the same footprint pass.
+    """
+    from tankcd_cli.matching.pose import rotation_matrix
+
+    n = len(x)
+    if n == 0:
+        return np.zeros(0)
+    L, W, h = vehicle.hull_length / 2, vehicle.hull_width / 2, vehicle.ground_clearance
+    corners = np.array([[[-L, 0.0, h], [L, 0.0, h], [L, W, h], [-L, W, h]],
+                        [[-L, -W, h], [L, -W, h], [L, 0.0, h], [-L, 0.0, h]]])
+    M = rotation_matrix(roll, pitch, np.zeros(n))  # the attitude in the heading frame
+    moved = np.einsum("nij,qkj->nqki", M, corners)
+    quads = np.ascontiguousarray(moved[..., :2])
+    # the bottom plane: parallel to the support plane, through the moved centre of the face
+    centre = M[:, :, 2] * h
+    a, b, c = planes[:, 0], planes[:, 1], planes[:, 2]
+    bottom = np.column_stack([a + centre[:, 2] - b * centre[:, 0] - c * centre[:, 1], b, c])
+    out, _, status = _footprint(surface, 1, x, y, yaw, quads, bottom, dem=dem)
+    return np.where(status == 0, out[:, 0], -np.inf)
+
+
 def wheel_gap(surface, vehicle, x, y, yaw, planes):
     """Largest height of the plane above the ground at the six wheel stations (NaN if none is on terrain)."""
     pts = key_points(vehicle, 6)

@@ -135,7 +135,10 @@ def hull_bottom_points(vehicle: Vehicle, along: int = 9, across: int = 5) -> np.
 
 
 def _hull_bottom(setup, chunk, poses, idx, rotation):
-    depth = setup.surface.ground_above(rotation, poses.position[idx], hull_bottom_points(setup.vehicle))
+    from tankcd_cli.matching.match import hull_bottom_depth
+
+    depth = hull_bottom_depth(setup.surface, setup.vehicle, chunk.x[idx], chunk.y[idx], poses.yaw[idx],
+                              poses.plane[idx], poses.roll[idx], poses.pitch[idx])
     hit = np.flatnonzero(depth > HULL_CONTACT_TOLERANCE)
     return [Event(int(chunk.step[idx[k]]), float(chunk.t[idx[k]]), "terrain", "hull", "terrain",
                   {"depth": round(float(depth[k]), 4)}) for k in hit]
