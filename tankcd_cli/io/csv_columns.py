@@ -87,16 +87,22 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
 
 
 def _well_formed_values(lines: list, width: int, cols: list):
-    """The chunk's wanted columns (rows, len(cols)) parsed in one C call, or None.
+    """The chunk's wanted columns (rows, len(cols)) parsed in one compiled or C call, or None.
 
     Only for the common case: every line has exactly ``width`` cells, all finite
     numbers. Anything else (blank lines or cells, text, NaN) returns None and is
     read cell by cell, which names the first bad line and column.
     """
+    from tankcd_cli.io.csv_kernels import _POW10, parse_table
+
+    text = "".join(lines)
+    if text.isascii():
+        values, ok = parse_table(np.frombuffer(text.encode("ascii"), np.uint8), len(lines), width, _POW10)
+        if ok:
+            return np.ascontiguousarray(values[:, cols])
     commas = width - 1
     if any(line.count(",") != commas for line in lines):
         return None
-    text = "".join(lines)
     if "\r" in text:
         text = text.replace("\r\n", "\n")
         if "\r" in text:  # a stray carriage return inside a line: let the careful path judge it
