@@ -45,21 +45,18 @@ def write_tree(path: str, tree: Tree, part: np.ndarray | None = None) -> None:
 
 def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
     """The tree and its per-triangle part labels (None if absent)."""
-    from tankcd_cli.io.h5 import open_h5
-
-    from tankcd_cli.io.h5 import check_indices, read_errors
+    from tankcd_cli.io.h5 import check_indices, open_h5, read_errors
 
     what = "tankcd tree"
     with open_h5(path, FORMAT, FORMAT_VERSION, what, "build it again") as h5, read_errors(path, what):
-        if True:  # (the block reads every array; read_errors names whatever fails)
-            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
-            nodes = {name: h5[f"nodes/{name}"][()] for name in ("lo", "hi", "left", "right", "start", "count", "depth")}
-            tree = Tree(h5["triangles"][()], h5["source_index"][()], k=int(attrs["k"]),
-                        aabb_levels=int(attrs["aabb_levels"]), split=str(attrs["split"]),
-                        leaf_size=int(attrs["leaf_size"]), attrs={k: v for k, v in attrs.items()
-                                                                  if k not in ("k", "aabb_levels", "split", "leaf_size")},
-                        **nodes)
-            part = h5["part"][()] if "part" in h5 else None
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
+        nodes = {name: h5[f"nodes/{name}"][()] for name in ("lo", "hi", "left", "right", "start", "count", "depth")}
+        tree = Tree(h5["triangles"][()], h5["source_index"][()], k=int(attrs["k"]),
+                    aabb_levels=int(attrs["aabb_levels"]), split=str(attrs["split"]),
+                    leaf_size=int(attrs["leaf_size"]), attrs={k: v for k, v in attrs.items()
+                                                              if k not in ("k", "aabb_levels", "split", "leaf_size")},
+                    **nodes)
+        part = h5["part"][()] if "part" in h5 else None
     # the traversal trusts these without bounds checks
     m, count = len(tree.triangles), len(tree.lo)
     check_indices(path, what, tree.left, count, "child")

@@ -7,11 +7,12 @@ from tankcd_cli.errors import InputError
 
 def describe_store(path: str) -> dict:
     """Facts about a store as an ordered dict of plain values."""
+    import os
+
     import h5py
 
+    from tankcd_cli.io.h5 import read_errors
     from tankcd_cli.terrain.store import is_store, read_attrs
-
-    import os
 
     if not os.path.exists(path):
         raise InputError(path, "no such file")
@@ -21,8 +22,6 @@ def describe_store(path: str) -> dict:
 
             return load_scene(path).describe()
         raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
-    from tankcd_cli.io.h5 import read_errors
-
     with read_errors(path, "HDF5 file"):
         with h5py.File(path, "r") as h5:
             kind = h5.attrs.get("format")
@@ -36,8 +35,6 @@ def describe_store(path: str) -> dict:
         facts.update({k: v for k, v in tree.attrs.items() if k in ("source", "source_sha256", "placement", "tankcd_version")})
         facts.update(tree.describe())
         return facts
-    from tankcd_cli.io.h5 import read_errors
-
     with read_errors(path, "tankcd terrain store"):
         a = read_attrs(path)
         with h5py.File(path, "r") as h5:

@@ -104,34 +104,32 @@ def read_attrs(path: str) -> dict:
 
 def read_store(path: str) -> TerrainStore:
     """Read a whole store into memory."""
+    from tankcd_cli.io.h5 import read_errors
     from tankcd_cli.io.terrain_readers import Grid
     from tankcd_cli.terrain.locate import TriangleBuckets
-
-    from tankcd_cli.io.h5 import check_indices, read_errors
 
     what = "tankcd terrain store"
     h5 = _open(path)
     with h5, read_errors(path, what):
-        if True:  # (the block reads every array; read_errors names whatever fails)
-            attrs = {k: _plain(v) for k, v in h5.attrs.items()}
-            buckets = None
-            if "index" in h5:
-                idx = h5["index"]
-                buckets = TriangleBuckets(np.asarray(idx.attrs["origin"]), float(idx.attrs["cell"]),
-                                          tuple(int(s) for s in idx.attrs["shape"]), idx["start"][()],
-                                          idx["face"][()])
-            grid = None
-            if "grid/vertex" in h5:
-                g = h5["grid/vertex"]
-                grid = Grid(np.asarray(g.attrs["origin"]), np.asarray(g.attrs["spacing"]), g[()])
-            raster = h5["classes/raster"]
-            store = TerrainStore(
-                vertices=h5["mesh/vertices"][()], faces=h5["mesh/faces"][()].astype(np.int64),
-                mean_curvature=h5["curvature/mean"][()], footprint_curvature=h5["curvature/footprint"][()],
-                vertex_class=h5["classes/vertex"][()], class_raster=raster[()],
-                footprint_raster=h5["curvature/footprint_raster"][()],
-                raster_origin=np.asarray(raster.attrs["origin"]), raster_cell=float(raster.attrs["cell"]),
-                buckets=buckets, grid=grid, attrs=attrs)
+        attrs = {k: _plain(v) for k, v in h5.attrs.items()}
+        buckets = None
+        if "index" in h5:
+            idx = h5["index"]
+            buckets = TriangleBuckets(np.asarray(idx.attrs["origin"]), float(idx.attrs["cell"]),
+                                      tuple(int(s) for s in idx.attrs["shape"]), idx["start"][()],
+                                      idx["face"][()])
+        grid = None
+        if "grid/vertex" in h5:
+            g = h5["grid/vertex"]
+            grid = Grid(np.asarray(g.attrs["origin"]), np.asarray(g.attrs["spacing"]), g[()])
+        raster = h5["classes/raster"]
+        store = TerrainStore(
+            vertices=h5["mesh/vertices"][()], faces=h5["mesh/faces"][()].astype(np.int64),
+            mean_curvature=h5["curvature/mean"][()], footprint_curvature=h5["curvature/footprint"][()],
+            vertex_class=h5["classes/vertex"][()], class_raster=raster[()],
+            footprint_raster=h5["curvature/footprint_raster"][()],
+            raster_origin=np.asarray(raster.attrs["origin"]), raster_cell=float(raster.attrs["cell"]),
+            buckets=buckets, grid=grid, attrs=attrs)
     _check_store(path, what, store)
     return store
 
