@@ -29,7 +29,7 @@ def tradeoff(report, scene, trajectory, out_dir, quick):
     from tankcd_cli.tradeoff.report import run_tradeoff
 
     res = run_tradeoff(out_dir, scene, trajectory, quick, progress=report.progress("tradeoff"),
-                       command="tankcd " + " ".join(sys.argv[2:]) if len(sys.argv) > 1 else "tankcd tradeoff")
+                       command="tankcd " + " ".join(sys.argv[1:]))
     h = res.headline
     report.info(f"tradeoff: auto is {h['speedup']:.1f}x faster than reference for a median attitude error of "
                 f"{h['attitude_error_median_deg']:.2f} deg; wrote tradeoff.md, tradeoff.csv, tradeoff.png in "
