@@ -89,6 +89,55 @@ def test_fleet_in_processes_matches_single_runs_and_survives_a_bad_file(fleet, j
     assert len({r["pid"] for r in summary["results"]}) == jobs  # the work really was spread
 
 
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+@pytest.mark.parametrize("final_newline", [True, False])
+def test_split_parts_read_as_the_whole_file(tmp_path, newline, final_newline):
+    from tankcd_cli.io.trajectory import read_trajectory, split_trajectory
+
+    rows = [f"{0.1 * k:.1f},{500_010 + k * 0.01:.3f},4500010.000,{k % 360 - 180.0}" for k in range(2500)]
+    for k in (0, 7, 999, 1000, 1001, 2400):  # blank lines, also right at the cuts
+        rows.insert(k, " " if k % 2 else "")
+    path = tmp_path / "t.csv"
+    path.write_bytes(("\n\nt,x,y,yaw_deg" + newline + newline.join(rows) + (newline if final_newline else "")).encode())
+    whole = list(read_trajectory(str(path), chunk_rows=700))
+    for lines in (1000, 1001, 333, 10_000):
+        parts = split_trajectory(str(path), lines)
+        assert sum(p.rows for p in parts) == 2500
+        got = [c for p in parts for c in read_trajectory(str(path), chunk_rows=700, part=p)]
+        for name in ("step", "t", "x", "yaw_deg"):
+            np.testing.assert_array_equal(np.concatenate([getattr(c, name) for c in got]),
+                                          np.concatenate([getattr(c, name) for c in whole]))
+        firsts = {c.first_line for c in whole}
+        assert {c.first_line for c in got} >= {min(firsts)}
+
+
+def test_a_split_trajectory_joins_into_the_single_run_and_names_errors_by_file_line(fleet, tmp_path):
+    tmp, paths, ref = fleet
+    args = [sys.executable, "-m", "tankcd_cli", "replay", "--scene", tmp / "scene.toml", "--jobs", "2",
+            "--split-lines", "1000"]
+    out = tmp_path / "out"
+    proc = subprocess.run(args + [paths[0], paths[1], "--out-dir", out], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    _same_as_alone(out, ref, [paths[0].stem, paths[1].stem])
+    summary = json.loads((out / "fleet.json").read_text())
+    assert [r["parts"] for r in summary["results"]] == [6, 6] and not (out / ".parts").exists()
+    # time going back exactly at a cut, and a bad cell inside a later part: the same errors as a lone run
+    lines = paths[2].read_text().splitlines(keepends=True)
+    back = lines[:]
+    back[2001] = "0.5" + back[2001][back[2001].index(","):]  # line 2002: the first row of the third part
+    bad = lines[:]
+    bad[3500] = bad[3500].replace(",", ",x", 1)
+    for name, text in (("back.csv", back), ("bad.csv", bad)):
+        (tmp_path / name).write_text("".join(text))
+        alone = subprocess.run([sys.executable, "-m", "tankcd_cli", "replay", tmp_path / name, "--scene",
+                                tmp / "scene.toml", "--poses", tmp_path / "alone.csv"], capture_output=True, text=True)
+        split = subprocess.run(args + [tmp_path / name, "--out-dir", tmp_path / f"o-{name}"], capture_output=True,
+                               text=True)
+        assert alone.returncode == split.returncode == 3
+        assert alone.stderr.strip().splitlines()[-1] in split.stderr, (alone.stderr, split.stderr)
+        assert not list((tmp_path / f"o-{name}").glob("*.csv")) and not (tmp_path / f"o-{name}" / ".parts").exists()
+
+
 dask = pytest.importorskip("distributed")
 
 

@@ -32,10 +32,12 @@ from tankcd_cli.cli.options import vehicle_option, verbosity_options
               help="Fleet mode: parallel processes (default: the number of cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
+@click.option("--split-lines", type=click.IntRange(1000, None), default=1_000_000, show_default=True,
+              help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
 @click.pass_obj
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, vehicle_name, up, cache,
-           fail_on_collision, summary_json, out_dir, jobs, scheduler):
+           fail_on_collision, summary_json, out_dir, jobs, scheduler, split_lines):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
@@ -53,7 +55,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         raise click.UsageError("give --scene or --terrain (one of them)")
     if fleet_mode:
         return _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
-                      fail_on_collision, summary_json)
+                      fail_on_collision, summary_json, split_lines)
     trajectory = trajectories[0]
     import itertools
     import json
@@ -122,7 +124,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
 
 def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
-           fail_on_collision, summary_json):
+           fail_on_collision, summary_json, split_lines):
     import json
     import os
 
@@ -134,7 +136,7 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
         raise click.UsageError("a fleet reads files, not standard input")
     paths = expand_trajectories(list(trajectories))
     os.makedirs(out_dir, exist_ok=True)
-    tasks = plan_tasks(paths, out_dir)
+    tasks = plan_tasks(paths, out_dir, split_lines)
     step = report.progress("replay")
     world = World(os.path.abspath(scene) if scene else None, os.path.abspath(terrain) if terrain else None,
                   vehicle_name, up, matcher)
@@ -145,12 +147,12 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
 
     def on_result(r):
         finished.append(r)
-        if r["status"] != "ok":
-            click.echo(f"tankcd: error: {r['error']}", err=True)
-        report.bar(f"replay: {len(finished)}/{len(tasks)} trajectories")
+        report.bar(f"replay: {len(finished)}/{len(tasks)} tasks")
 
     fleet = run_fleet(world, tasks, jobs, scheduler, progress=step, on_result=on_result)
     report.bar(None)
+    for failure in fleet["failures"]:
+        click.echo(f"tankcd: error: {failure['error']}", err=True)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     if summary_json:
         click.echo(json.dumps({k: v for k, v in fleet.items() if k != "results"}), err=True)

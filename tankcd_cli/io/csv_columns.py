@@ -11,11 +11,13 @@ from tankcd_cli.errors import InputError
 
 
 def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: int,
-                   blank_ok: tuple = ()) -> Iterator[tuple[list, list, np.ndarray]]:
+                   blank_ok: tuple = (), line_offset: int | None = None) -> Iterator[tuple[list, list, np.ndarray]]:
     """Yield (line numbers, column names, values (rows, cols)) chunk by chunk.
 
     Header row required, column order free, extra columns ignored. Columns in
     ``blank_ok`` may be empty (NaN); every other cell must be a finite number.
+    ``line_offset``: the file line before the first data line given (for a part of a file
+    read after its header), so that errors name the line of the whole file.
     """
     header_line = fh.readline()
     lineno = 1
@@ -34,6 +36,8 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
     dup = sorted({h for h in header if header.count(h) > 1 and h in required + optional})
     if dup:
         raise InputError(name, f"column {dup[0]} appears twice in the header", where=f"line {lineno}")
+    if line_offset is not None:
+        lineno = line_offset
     wanted = list(required) + [c for c in optional if c in header]
     cols = [header.index(c) for c in wanted]
     width = len(header)

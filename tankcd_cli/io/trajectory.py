@@ -38,8 +38,24 @@ class TrajectoryChunk:
         return len(self.t)
 
 
-def read_trajectory(path: str, chunk_rows: int = 65536) -> Iterator[TrajectoryChunk]:
-    """Yield validated chunks of a trajectory CSV in file order."""
+@dataclass(frozen=True)
+class TrajectoryPart:
+    """Rows of a trajectory file read on their own: bytes [start, end) after the header,
+    ``line_offset`` file lines before them, ``step_offset`` data rows before them, ``rows`` of their own."""
+
+    start: int
+    end: int
+    line_offset: int
+    step_offset: int
+    rows: int
+
+
+def read_trajectory(path: str, chunk_rows: int = 65536, part: TrajectoryPart | None = None) -> Iterator[TrajectoryChunk]:
+    """Yield validated chunks of a trajectory CSV in file order (only ``part``'s rows, if given:
+    steps and line numbers stay those of the whole file)."""
+    if part is not None:
+        yield from _part_chunks(path, chunk_rows, part)
+        return
     name, fh = open_input(path, text=True)
     try:
         yield from _chunks(fh, name, chunk_rows)
@@ -50,19 +66,95 @@ def read_trajectory(path: str, chunk_rows: int = 65536) -> Iterator[TrajectoryCh
             fh.close()
 
 
-def _chunks(fh, name: str, chunk_rows: int) -> Iterator[TrajectoryChunk]:
+def _part_chunks(path: str, chunk_rows: int, part: TrajectoryPart) -> Iterator[TrajectoryChunk]:
+    import io
+
+    name, fh = open_input(path, text=False)
+    try:
+        header = b""
+        while not header.strip():
+            line = fh.readline()
+            if not line:
+                break
+            header = line
+        fh.seek(part.start)
+        body = fh.read(part.end - part.start)
+        try:
+            text = header.decode("utf-8-sig") + body.decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError(name, "not UTF-8 text (a trajectory is a CSV file)") from None
+    finally:
+        fh.close()
+    yield from _chunks(io.StringIO(text, newline=""), name, chunk_rows, part.step_offset, part.line_offset)
+
+
+def split_trajectory(path: str, lines_per_part: int, block: int = 1 << 22) -> list[TrajectoryPart]:
+    """Cut a trajectory file into parts of ``lines_per_part`` lines after its header, counting each
+    part's data rows (lines with content) so that every part knows its first step. One pass over
+    the file in blocks: memory does not grow with it."""
+    parts: list[TrajectoryPart] = []
+    name, fh = open_input(path, text=False)
+    with fh:
+        offset = lines = 0
+        while True:  # the header: the first line with content
+            line = fh.readline()
+            if not line:
+                return []
+            offset += len(line)
+            lines += 1
+            if line.strip():
+                break
+        start, start_line, step = offset, lines, 0
+        rows = count = 0
+        has = False  # the line in progress has content
+        pos = offset
+        while True:
+            data = fh.read(block)
+            if not data:
+                break
+            b = np.frombuffer(data, np.uint8)
+            nl = np.flatnonzero(b == 10)
+            content = np.cumsum(b > 32)
+            if len(nl):
+                begins = np.concatenate([[0], content[nl[:-1]]])
+                line_has = (content[nl] - begins) > 0
+                line_has[0] |= has
+                i = 0
+                while i < len(nl):
+                    take = min(lines_per_part - count, len(nl) - i)
+                    rows += int(line_has[i:i + take].sum())
+                    count += take
+                    i += take
+                    if count == lines_per_part:
+                        end = pos + int(nl[i - 1]) + 1
+                        parts.append(TrajectoryPart(start, end, start_line, step, rows))
+                        step += rows
+                        start_line += count
+                        start, rows, count = end, 0, 0
+                has = bool(content[-1] - content[nl[-1]] > 0)
+            else:
+                has = has or bool(content[-1] > 0)
+            pos += len(data)
+        if pos > start:
+            parts.append(TrajectoryPart(start, pos, start_line, step, rows + (1 if has else 0)))
+    return parts
+
+
+def _chunks(fh, name: str, chunk_rows: int, first_step: int = 0,
+            line_offset: int | None = None) -> Iterator[TrajectoryChunk]:
     from tankcd_cli.io.csv_columns import numeric_chunks
 
-    step = 0
+    step = first_step
     last_t = -np.inf
-    for rows, wanted, values in numeric_chunks(fh, name, REQUIRED, OPTIONAL, chunk_rows):
+    for rows, wanted, values in numeric_chunks(fh, name, REQUIRED, OPTIONAL, chunk_rows, line_offset=line_offset):
         t = values[:, 0]
         order_bad = np.flatnonzero(np.diff(np.concatenate([[last_t], t])) < 0)
         error = None
         if len(order_bad):
             k = int(order_bad[0])
             prev = last_t if k == 0 else t[k - 1]
-            error = InputError(name, f"time goes back ({t[k]!r} after {prev!r}); t must be non-decreasing",
+            error = InputError(name, f"time goes back ({float(t[k])!r} after {float(prev)!r}); "
+                                     "t must be non-decreasing",
                                where=f"line {rows[k]} column t")
             values, rows, t = values[:k], rows[:k], t[:k]
             if k == 0:

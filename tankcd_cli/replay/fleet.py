@@ -39,9 +39,15 @@ class World:
 
 @dataclass(frozen=True)
 class Task:
+    """One unit of work: a trajectory (or a part of one) and where its outputs go. A part writes
+    beside the fleet's outputs and names the whole trajectory's outputs it is joined into."""
+
     trajectory: str
     poses: str
     events: str
+    part: object = None  # tankcd_cli.io.trajectory.TrajectoryPart
+    whole_poses: str | None = None
+    whole_events: str | None = None
 
 
 def expand_trajectories(items: list[str]) -> list[str]:
@@ -75,9 +81,14 @@ def expand_trajectories(items: list[str]) -> list[str]:
     return out
 
 
-def plan_tasks(trajectories: list[str], out_dir: str) -> list[Task]:
+def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = None) -> list[Task]:
     """One task per trajectory, outputs named after the input (``a.csv`` -> ``a.poses.csv``,
-    ``a.events.jsonl``); inputs of the same name from different directories get the directory too."""
+    ``a.events.jsonl``); inputs of the same name from different directories get the directory too.
+
+    A trajectory longer than ``split_lines`` lines becomes one task per part of that many lines
+    (read on their own, joined in order when all are done), so that one huge log can use many
+    workers.
+    """
     stems = [os.path.splitext(os.path.basename(p))[0] for p in trajectories]
     tasks = []
     for path, stem in zip(trajectories, stems):
@@ -91,7 +102,31 @@ def plan_tasks(trajectories: list[str], out_dir: str) -> list[Task]:
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
         raise InputError(dup, "two trajectories would write the same output; rename one")
-    return tasks
+    if not split_lines:
+        return tasks
+    return [piece for task in tasks for piece in _split(task, split_lines)]
+
+
+def _split(task: Task, split_lines: int) -> list[Task]:
+    from tankcd_cli.io.trajectory import split_trajectory
+
+    try:
+        big = os.path.getsize(task.trajectory) > split_lines * 16  # no row is shorter than "t,x,y,yaw" + digits
+    except OSError:
+        return [task]  # the task itself will say what is wrong with the file
+    if not big:
+        return [task]
+    try:
+        parts = split_trajectory(task.trajectory, split_lines)
+    except InputError:
+        return [task]
+    if len(parts) < 2:
+        return [task]
+    folder = os.path.join(os.path.dirname(task.poses), ".parts")
+    stem = os.path.basename(task.poses)[: -len(".poses.csv")]
+    return [Task(task.trajectory, os.path.join(folder, f"{stem}.{k:05d}.poses.csv"),
+                 os.path.join(folder, f"{stem}.{k:05d}.events.jsonl"), part, task.poses, task.events)
+            for k, part in enumerate(parts)]
 
 
 # --- the per-process world ----------------------------------------------------------------
@@ -185,8 +220,13 @@ def run_task(world: World, task: Task, kernel_threads: int | None = None) -> dic
     result = {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": os.getpid()}
     try:
         surface, vehicle, scene, setups = load_world(world)
+        if task.part is not None:
+            os.makedirs(os.path.dirname(task.poses), exist_ok=True)
         result.update(replay_to_files(surface, vehicle, scene, task.trajectory, task.poses, task.events,
-                                      world.matcher, setups))
+                                      world.matcher, setups, part=task.part))
+        if task.part is not None and result["rows"] != task.part.rows:
+            raise RuntimeError(f"part of {task.trajectory} read {result['rows']} rows, the split counted "
+                               f"{task.part.rows}")
         result["status"] = "ok"
     except InputError as exc:
         result.update(status="bad_input", error=exc.one_line())
@@ -220,18 +260,85 @@ def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | N
     else:
         results = _on_processes(world, tasks, jobs, say, done)
         how = f"{jobs} processes"
-    results.sort(key=lambda r: [t.trajectory for t in tasks].index(r["trajectory"]))
+    results = _join_parts(tasks, results)
+    order = list(dict.fromkeys(t.trajectory for t in tasks))
+    results.sort(key=lambda r: order.index(r["trajectory"]))
     ok = [r for r in results if r["status"] == "ok"]
     failed = [r for r in results if r["status"] != "ok"]
     collisions = {k: sum(r["collisions"][k] for r in ok) for k in ("obstacle", "internal", "terrain")}
     rows = sum(r["rows"] for r in ok)
     seconds = time.perf_counter() - start
-    return {"trajectories": len(tasks), "ok": len(ok), "failed": len(failed), "rows": rows,
+    return {"trajectories": len(results), "tasks": len(tasks), "ok": len(ok), "failed": len(failed), "rows": rows,
             "collisions": collisions, "off_terrain": sum(r["off_terrain"] for r in ok),
             "seconds": round(seconds, 3), "rows_per_second": round(rows / seconds, 1) if seconds > 0 else None,
             "ran_on": how, "world": asdict(world),
             "failures": [{"trajectory": r["trajectory"], "status": r["status"], "error": r["error"]} for r in failed],
             "results": results}
+
+
+def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
+    """Join the parts of split trajectories, in order, into their whole outputs (atomically), after
+    checking that time does not go back across a cut; one result per trajectory."""
+    from tankcd_cli.io.atomic import atomic_path
+
+    by_poses = {r["poses"]: r for r in results}
+    whole = [r for r in results if r["poses"] not in {t.poses for t in tasks if t.part is not None}]
+    groups: dict = {}
+    for t in tasks:
+        if t.part is not None:
+            groups.setdefault(t.whole_poses, []).append(t)
+    for target, parts in groups.items():
+        rs = [by_poses[t.poses] for t in parts]
+        first, error = parts[0], None
+        for k, r in enumerate(rs):
+            prev = rs[k - 1] if k else None
+            if prev is not None and prev["status"] == "ok" and r["status"] == "ok" and r["t_first"] is not None \
+                    and prev["t_last"] is not None and r["t_first"] < prev["t_last"]:
+                error = InputError(first.trajectory, f"time goes back ({r['t_first']!r} after {prev['t_last']!r}); "
+                                                     "t must be non-decreasing",
+                                   where=f"line {r['first_line']} column t").one_line()
+                status = "bad_input"
+                break
+            if r["status"] != "ok":
+                error, status = r["error"], r["status"]
+                break
+        joined = {"trajectory": first.trajectory, "poses": target, "events": first.whole_events, "parts": len(parts),
+                  "task_seconds": round(sum(r["task_seconds"] for r in rs), 3), "pid": sorted({r["pid"] for r in rs})}
+        try:
+            if error is None:
+                with atomic_path(target, ".csv") as tmp_poses, atomic_path(first.whole_events, ".jsonl") as tmp_events:
+                    for k, t in enumerate(parts):
+                        _append(tmp_poses, t.poses, skip_header=k > 0)
+                        _append(tmp_events, t.events, skip_header=False)
+                joined.update(status="ok", rows=sum(r["rows"] for r in rs),
+                              collisions={k: sum(r["collisions"][k] for r in rs) for k in rs[0]["collisions"]},
+                              off_terrain=sum(r["off_terrain"] for r in rs), effects=rs[0]["effects"],
+                              seconds=round(sum(r["seconds"] for r in rs), 3))
+            else:
+                joined.update(status=status, error=error)
+        except InputError as exc:
+            joined.update(status="bad_input", error=exc.one_line())
+        finally:
+            for t in parts:
+                for path in (t.poses, t.events):
+                    if os.path.exists(path):
+                        os.unlink(path)
+        whole.append(joined)
+    for folder in {os.path.dirname(t.poses) for t in tasks if t.part is not None}:
+        try:
+            os.rmdir(folder)
+        except OSError:
+            pass  # something else is in it (a killed worker's temporary file): leave it
+    return whole
+
+
+def _append(target: str, source: str, skip_header: bool) -> None:
+    import shutil
+
+    with open(source, "rb") as src, open(target, "ab") as dst:
+        if skip_header:
+            src.readline()
+        shutil.copyfileobj(src, dst, 1 << 20)
 
 
 def _on_processes(world, tasks, jobs, say, done):

@@ -56,10 +56,13 @@ def summary(counts: dict, setup: ReplaySetup, seconds: float) -> dict:
 
 
 def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, events_path: str | None,
-                    matcher: str = "auto", setup_cache: dict | None = None) -> dict:
-    """Replay one trajectory file into a poses file and an events file, both written atomically.
+                    matcher: str = "auto", setup_cache: dict | None = None, part=None) -> dict:
+    """Replay one trajectory file (or one :class:`~tankcd_cli.io.trajectory.TrajectoryPart` of it)
+    into a poses file and an events file, both written atomically.
 
     ``setup_cache`` keeps the loaded effects (obstacle trees) between calls with the same scene.
+    The summary also gives the first row's line and the first and last times, which is what
+    joining parts needs to check that time never goes back across them.
     """
     import time
 
@@ -68,7 +71,7 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
     from tankcd_cli.replay.pipeline import prepare
 
     start = time.perf_counter()
-    chunks = read_trajectory(trajectory)
+    chunks = read_trajectory(trajectory, part=part)
     first = next(chunks, None)
     turret_moves = bool(first is not None and first.has_turret)
     key = turret_moves
@@ -80,7 +83,14 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
         if setup_cache is not None:
             setup_cache[key] = setup
     counts = new_counts()
-    stream = itertools.chain([first] if first else [], chunks)
+    ends = {"first_line": first.first_line if first else None, "t_first": float(first.t[0]) if first else None,
+            "t_last": None}
+
+    def remember_last(chunks):
+        for chunk in chunks:
+            ends["t_last"] = float(chunk.t[-1])
+            yield chunk
+    stream = remember_last(itertools.chain([first] if first else [], chunks))
     with atomic_path(poses_path, ".csv") as tmp_poses:
         with open(tmp_poses, "w", newline="") as out:
             if events_path is None:
@@ -89,4 +99,4 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
                 with atomic_path(events_path, ".jsonl") as tmp_events:
                     with open(tmp_events, "w") as ev:
                         write_replay(setup, stream, matcher, out, ev, counts)
-    return summary(counts, setup, time.perf_counter() - start)
+    return {**summary(counts, setup, time.perf_counter() - start), **ends}
