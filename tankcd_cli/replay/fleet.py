@@ -384,9 +384,17 @@ def _on_dask(world, tasks, scheduler, say, done):
         # one task per worker thread and one kernel thread per task: a cluster runs a worker thread per core
         futures = client.map(run_task, [world] * len(tasks), tasks, [1] * len(tasks), pure=False, retries=2,
                              key=[f"tankcd-{os.path.basename(t.poses)}-{k}-{time.time_ns()}" for k, t in enumerate(tasks)])
+        task_of = dict(zip(futures, tasks))
         for fut in as_completed(futures):
-            results.append(fut.result())
-            done(results[-1])
+            try:
+                result = fut.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the task failed on every worker tried
+                task = task_of[fut]
+                result = {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": None,
+                          "status": "internal_error", "task_seconds": 0.0,
+                          "error": f"{task.trajectory}: lost on the cluster: {type(exc).__name__}: {exc}"[:300]}
+            results.append(result)
+            done(result)
     return results
 
 
