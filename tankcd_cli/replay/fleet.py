@@ -353,11 +353,22 @@ def _on_processes(world, tasks, jobs, say, done):
     threads = max(1, (os.cpu_count() or 1) // jobs)
     with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_worker_threads,
                              initargs=(threads,)) as pool:
-        futures = [pool.submit(run_task, world, t) for t in tasks]
+        futures = {pool.submit(run_task, world, t): t for t in tasks}
         for fut in as_completed(futures):
-            results.append(fut.result())
-            done(results[-1])
+            try:
+                result = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a worker process died (killed, out of memory)
+                result = _lost(futures[fut], exc)
+            results.append(result)
+            done(result)
     return results
+
+
+def _lost(task: Task, exc: BaseException) -> dict:
+    """The result of a task whose worker died under it."""
+    return {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": None,
+            "status": "internal_error", "task_seconds": 0.0,
+            "error": f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300]}
 
 
 def _worker_threads(threads: int) -> None:
@@ -389,10 +400,7 @@ def _on_dask(world, tasks, scheduler, say, done):
             try:
                 result = fut.result()
             except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the task failed on every worker tried
-                task = task_of[fut]
-                result = {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": None,
-                          "status": "internal_error", "task_seconds": 0.0,
-                          "error": f"{task.trajectory}: lost on the cluster: {type(exc).__name__}: {exc}"[:300]}
+                result = _lost(task_of[fut], exc)
             results.append(result)
             done(result)
     return results
