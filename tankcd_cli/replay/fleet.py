@@ -303,7 +303,7 @@ def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
                 error, status = r["error"], r["status"]
                 break
         joined = {"trajectory": first.trajectory, "poses": target, "events": first.whole_events, "parts": len(parts),
-                  "task_seconds": round(sum(r["task_seconds"] for r in rs), 3), "pid": sorted({r["pid"] for r in rs})}
+                  "task_seconds": round(sum(r["task_seconds"] for r in rs), 3), "pid": sorted({r["pid"] for r in rs if r["pid"] is not None})}
         try:
             if error is None:
                 with atomic_path(target, ".csv") as tmp_poses, atomic_path(first.whole_events, ".jsonl") as tmp_events:
