@@ -49,7 +49,9 @@ def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
 
     what = "tankcd tree"
     with open_h5(path, FORMAT, FORMAT_VERSION, what, "build it again") as h5, read_errors(path, what):
-        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h5.attrs.items()}
+        # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in
+        # our conversion would leave it suspended (a later garbage collection in another thread deadlocks)
+        attrs = {k: (v.decode("utf-8", "replace") if isinstance(v, bytes) else v) for k, v in list(h5.attrs.items())}
         nodes = {name: h5[f"nodes/{name}"][()] for name in ("lo", "hi", "left", "right", "start", "count", "depth")}
         tree = Tree(h5["triangles"][()], h5["source_index"][()], k=int(attrs["k"]),
                     aabb_levels=int(attrs["aabb_levels"]), split=str(attrs["split"]),

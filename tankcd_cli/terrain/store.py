@@ -99,7 +99,7 @@ def read_attrs(path: str) -> dict:
 
     h5 = _open(path)
     with h5, read_errors(path, "tankcd terrain store"):
-        return {k: _plain(v) for k, v in h5.attrs.items()}
+        return {k: _plain(v) for k, v in list(h5.attrs.items())}  # list(): see read_store
 
 
 def read_store(path: str) -> TerrainStore:
@@ -111,7 +111,9 @@ def read_store(path: str) -> TerrainStore:
     what = "tankcd terrain store"
     h5 = _open(path)
     with h5, read_errors(path, what):
-        attrs = {k: _plain(v) for k, v in h5.attrs.items()}
+        # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in
+        # _plain would leave it suspended (a later garbage collection in another thread deadlocks)
+        attrs = {k: _plain(v) for k, v in list(h5.attrs.items())}
         buckets = None
         if "index" in h5:
             idx = h5["index"]
