@@ -170,7 +170,7 @@ def _open(path: str):
 
 def _plain(value):
     if isinstance(value, bytes):
-        return value.decode()
+        return value.decode("utf-8", "replace")
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
