@@ -65,12 +65,19 @@ class LazyGroup(click.Group):
                     break
                 inner = inner.__cause__ or inner.__context__
             if not isinstance(inner, KeyboardInterrupt):
-                return self._internal_error(ctx, exc)
+                if _SIGNALLED:  # the signal landed where it could not propagate (e.g. inside the compiler)
+                    inner = Terminated() if _SIGNALLED[-1] == "term" else KeyboardInterrupt()
+                else:
+                    return self._internal_error(ctx, exc)
             exc = inner
             terminated = isinstance(exc, Terminated)
             click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
             ctx.exit(143 if terminated else 130)
         except Exception as exc:  # a bug: say so, ask for a report
+            if _SIGNALLED:  # unless a signal came in and surfaced as some other error (inside numba's compiler)
+                terminated = _SIGNALLED[-1] == "term"
+                click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
+                ctx.exit(143 if terminated else 130)
             self._internal_error(ctx, exc)
 
     @staticmethod
@@ -121,8 +128,19 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where Python runs next so that every ``finally`` (temporary outputs) runs."""
 
 
+# which signals have come in: a signal raised inside a ctypes callback (numba compiling a kernel)
+# is swallowed there and surfaces as an unrelated error; this record lets the exit say what happened
+_SIGNALLED: list = []
+
+
 def _on_sigterm(signum, frame):
+    _SIGNALLED.append("term")
     raise Terminated()
+
+
+def _on_sigint(signum, frame):
+    _SIGNALLED.append("int")
+    raise KeyboardInterrupt()
 
 
 def main(argv=None):
@@ -130,6 +148,7 @@ def main(argv=None):
     import signal
 
     signal.signal(signal.SIGTERM, _on_sigterm)
+    signal.signal(signal.SIGINT, _on_sigint)
     try:
         cli.main(args=argv, prog_name="tankcd")
     except BrokenPipeError:
