@@ -64,24 +64,16 @@ class LazyGroup(click.Group):
                 if not isinstance(inner, SystemError):
                     break
                 inner = inner.__cause__ or inner.__context__
-            if not isinstance(inner, KeyboardInterrupt):
-                if _SIGNALLED:  # the signal landed where it could not propagate (e.g. inside the compiler)
-                    inner = Terminated() if _SIGNALLED[-1] == "term" else KeyboardInterrupt()
-                else:
-                    return self._internal_error(ctx, exc)
-            exc = inner
-            terminated = isinstance(exc, Terminated)
-            click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
-            ctx.exit(143 if terminated else 130)
+            if isinstance(inner, KeyboardInterrupt):
+                _signal_exit(ctx, isinstance(inner, Terminated))
+            self._internal_error(ctx, exc)
         except Exception as exc:  # a bug: say so, ask for a report
-            if _SIGNALLED:  # unless a signal came in and surfaced as some other error (inside numba's compiler)
-                terminated = _SIGNALLED[-1] == "term"
-                click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
-                ctx.exit(143 if terminated else 130)
             self._internal_error(ctx, exc)
 
     @staticmethod
     def _internal_error(ctx, exc):
+        if _SIGNALLED:  # a signal that surfaced as some other error (numba's compiler swallows it)
+            _signal_exit(ctx, _SIGNALLED[-1] == "term")
         from tankcd_cli.errors import printable
 
         first = str(exc).splitlines()[0] if str(exc) else ""
@@ -89,6 +81,11 @@ class LazyGroup(click.Group):
                    + "(this is a bug; please report it with the command and input; -v shows the traceback)", err=True)
         _traceback_if_verbose(ctx)
         ctx.exit(EXIT_INTERNAL)
+
+
+def _signal_exit(ctx, terminated: bool) -> None:
+    click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
+    ctx.exit(143 if terminated else 130)
 
 
 def _traceback_if_verbose(ctx) -> None:
