@@ -152,59 +152,12 @@ def main():
 
 
 def _peer(name, tank, world, R, t, truth):
-    def mesh_arrays(tris):
-        v = tris.reshape(-1, 3)
-        f = np.arange(len(v)).reshape(-1, 3)
-        return v, f
+    from tankcd_cli.tradeoff.measure import peer_query
 
-    va, fa = mesh_arrays(tank)
-    vb, fb = mesh_arrays(world)
-    if name == "fcl":
-        import fcl
-
-        s = time.perf_counter()
-        ma = fcl.BVHModel()
-        ma.beginModel(len(va), len(fa))
-        ma.addSubModel(va, fa)
-        ma.endModel()
-        mb = fcl.BVHModel()
-        mb.beginModel(len(vb), len(fb))
-        mb.addSubModel(vb, fb)
-        mb.endModel()
-        build = time.perf_counter() - s
-        oa = fcl.CollisionObject(ma, fcl.Transform())
-        ob = fcl.CollisionObject(mb, fcl.Transform())
-        req = fcl.CollisionRequest()
-
-        def run():
-            out = np.zeros(len(R), dtype=bool)
-            for i in range(len(R)):
-                oa.setTransform(fcl.Transform(R[i], t[i]))
-                out[i] = fcl.collide(oa, ob, req, fcl.CollisionResult()) > 0
-            return out
-    else:
-        import coal
-
-        s = time.perf_counter()
-        def model(v, f):
-            m = coal.BVHModelOBBRSS()
-            m.beginModel(len(f), len(v))
-            m.addVertices(np.ascontiguousarray(v, dtype=float))
-            m.addTriangles(np.ascontiguousarray(f, dtype=np.int64))
-            m.endModel()
-            return m
-        ma, mb = model(va, fa), model(vb, fb)
-        build = time.perf_counter() - s
-        ob = coal.CollisionObject(mb, coal.Transform3s())
-        req = coal.CollisionRequest()
-
-        def run():
-            out = np.zeros(len(R), dtype=bool)
-            for i in range(len(R)):
-                oa = coal.CollisionObject(ma, coal.Transform3s(R[i], t[i]))
-                res = coal.CollisionResult()
-                out[i] = coal.collide(oa, ob, req, res) > 0
-            return out
+    peer = peer_query(name, tank, world, R, t)
+    if peer is None:
+        raise ImportError(name)
+    run, build = peer
     answer = run()
     q = timed(run, 3)[0]
     return build, q, bool((answer == truth).mean() > 0.99)

@@ -337,12 +337,13 @@ def collision_poses(surface, vehicle, obstacle_tris: list, n: int, rng):
 
 
 def peer_query(name: str, tank_tris: np.ndarray, world_tris: np.ndarray, R: np.ndarray, t: np.ndarray):
-    """A function answering the boolean hits (N,) with a peer library, pose by pose from Python
-    (neither has a batch API); None when the peer is not installed."""
+    """(run, build seconds): ``run()`` answers the boolean hits (N,) with a peer library ("python-fcl"
+    or "coal"), pose by pose from Python (neither has a batch API); None when the peer is not installed."""
     try:
-        mod = __import__("fcl" if name == "python-fcl" else "coal")
+        mod = __import__("fcl" if name in ("python-fcl", "fcl") else "coal")
     except ImportError:
         return None
+    start = time.perf_counter()
 
     def arrays(tris):
         v = tris.reshape(-1, 3).astype(np.float64)
@@ -350,7 +351,7 @@ def peer_query(name: str, tank_tris: np.ndarray, world_tris: np.ndarray, R: np.n
 
     va, fa = arrays(tank_tris)
     vb, fb = arrays(world_tris)
-    if name == "python-fcl":
+    if name in ("python-fcl", "fcl"):
         fcl = mod
         ma = fcl.BVHModel()
         ma.beginModel(len(va), len(fa))
@@ -384,10 +385,11 @@ def peer_query(name: str, tank_tris: np.ndarray, world_tris: np.ndarray, R: np.n
         def one(i):
             res = coal.CollisionResult()
             return coal.collide(ma, coal.Transform3s(R[i], t[i]), mb, identity, req, res) > 0
+    build = time.perf_counter() - start
 
     def run():
         return np.array([one(i) for i in range(len(R))], dtype=bool)
-    return run
+    return run, build
 
 
 def collision_stage(res: Results, surface, vehicle, obstacle_tris: list, budget: Budget, say, seed: int = 9) -> None:
@@ -427,10 +429,11 @@ def collision_stage(res: Results, surface, vehicle, obstacle_tris: list, budget:
         res.records.append(Record("collision", case, label, "time_per_pose", tm / n, "s", truth, lo / n, hi / n))
         res.points.append(Point("collision", label, tm / n, lo / n, hi / n, float(false_pos)))
     for peer in ("python-fcl", "coal"):
-        run = peer_query(peer, tank, world, R, t)
-        if run is None:
+        peer_run = peer_query(peer, tank, world, R, t)
+        if peer_run is None:
             res.records.append(Record("collision", case, peer, "not_installed", float("nan"), "", truth))
             continue
+        run = peer_run[0]
         tm, lo, hi = timed(run, budget.repeats)
         hits = run()
         res.records.append(Record("collision", case, peer, "disagreement_with_truth", float(np.mean(hits[:nb] != brute)),
