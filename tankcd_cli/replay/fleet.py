@@ -261,8 +261,8 @@ def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | N
         results = _on_processes(world, tasks, jobs, say, done)
         how = f"{jobs} processes"
     results = _join_parts(tasks, results)
-    order = list(dict.fromkeys(t.trajectory for t in tasks))
-    results.sort(key=lambda r: order.index(r["trajectory"]))
+    order = {path: k for k, path in enumerate(dict.fromkeys(t.trajectory for t in tasks))}
+    results.sort(key=lambda r: order[r["trajectory"]])
     ok = [r for r in results if r["status"] == "ok"]
     failed = [r for r in results if r["status"] != "ok"]
     collisions = {k: sum(r["collisions"][k] for r in ok) for k in ("obstacle", "internal", "terrain")}
@@ -282,7 +282,8 @@ def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
     from tankcd_cli.io.atomic import atomic_path
 
     by_poses = {r["poses"]: r for r in results}
-    whole = [r for r in results if r["poses"] not in {t.poses for t in tasks if t.part is not None}]
+    part_outputs = {t.poses for t in tasks if t.part is not None}
+    whole = [r for r in results if r["poses"] not in part_outputs]
     groups: dict = {}
     for t in tasks:
         if t.part is not None:
