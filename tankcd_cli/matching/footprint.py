@@ -133,6 +133,119 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
 
 
 @njit(cache=True, inline="always")
+def _append_clipped(cx, cy, co, si, quad, x0, y0, z0, x1, y1, z1, x2, y2, z2, pu, pv, pz, ou, ov, oz, out_u, out_v,
+                    out_z, used):  # pragma: no cover - compiled
+    """Clip one triangle (local x, y, z corners) to the patch and append the corners; returns
+    (new count or -1 when the buffer is too small, clipped area)."""
+    xs = (x0, x1, x2)
+    ys = (y0, y1, y2)
+    zs = (z0, z1, z2)
+    for k in range(3):
+        dx = xs[k] - cx
+        dy = ys[k] - cy
+        pu[k] = co * dx + si * dy
+        pv[k] = -si * dx + co * dy
+        pz[k] = zs[k]
+    n = 3
+    for k in range(4):
+        n = _clip(pu, pv, pz, n, quad[k, 0], quad[k, 1], quad[(k + 1) % 4, 0], quad[(k + 1) % 4, 1], ou, ov, oz)
+        if n == 0:
+            break
+    if n < 3:
+        return used, 0.0
+    a2 = 0.0
+    for k in range(n):
+        j = (k + 1) % n
+        a2 += pu[k] * pv[j] - pu[j] * pv[k]
+    if used + n > out_u.shape[0]:
+        return -1, 0.5 * abs(a2)
+    for k in range(n):
+        out_u[used] = pu[k]
+        out_v[used] = pv[k]
+        out_z[used] = pz[k]
+        used += 1
+    return used, 0.5 * abs(a2)
+
+
+@njit(cache=True)
+def _grid_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, r_off, c_off, pu, pv, pz, ou, ov, oz,
+                       out_u, out_v, out_z, used):  # pragma: no cover - compiled
+    """``_patch_points`` for a DEM held only as posts: each cell's triangles are made from its
+    posts on the fly, as the mesh layout lists them (a full cell split SW-NE into (SW, SE, NE) and
+    (SW, NE, NW); a cell with three valid posts the triangle of those three; fewer, nothing).
+
+    ``post_z`` (rows, cols) south row first, NaN at NODATA, is a window whose post [0, 0] is post
+    [r_off, c_off] of the grid placed by ``post_origin`` (local x, y of the grid's post [0, 0]).
+    Returns (count, covered area); count -1 when the buffer is too small.
+    """
+    rows = post_z.shape[0]
+    cols = post_z.shape[1]
+    xmin = np.inf
+    xmax = -np.inf
+    ymin = np.inf
+    ymax = -np.inf
+    for k in range(4):
+        wx = cx + co * quad[k, 0] - si * quad[k, 1]
+        wy = cy + si * quad[k, 0] + co * quad[k, 1]
+        xmin = min(xmin, wx)
+        xmax = max(xmax, wx)
+        ymin = min(ymin, wy)
+        ymax = max(ymax, wy)
+    ox = post_origin[0]
+    oy = post_origin[1]
+    dx = post_size[0]
+    dy = post_size[1]
+    c0 = max(int(np.floor((xmin - ox) / dx)), c_off)
+    c1 = min(int(np.floor((xmax - ox) / dx)), c_off + cols - 2)
+    r0 = max(int(np.floor((ymin - oy) / dy)), r_off)
+    r1 = min(int(np.floor((ymax - oy) / dy)), r_off + rows - 2)
+    area = 0.0
+    for r in range(r0, r1 + 1):
+        for c in range(c0, c1 + 1):
+            wr = r - r_off
+            wc = c - c_off
+            sw = post_z[wr, wc]
+            se = post_z[wr, wc + 1]
+            ne = post_z[wr + 1, wc + 1]
+            nw = post_z[wr + 1, wc]
+            xw = ox + c * dx
+            xe = ox + (c + 1) * dx
+            ys = oy + r * dy
+            yn = oy + (r + 1) * dy
+            ok_sw = np.isfinite(sw)
+            ok_se = np.isfinite(se)
+            ok_ne = np.isfinite(ne)
+            ok_nw = np.isfinite(nw)
+            count = int(ok_sw) + int(ok_se) + int(ok_ne) + int(ok_nw)
+            a = 0.0
+            if count == 4:
+                used, a = _append_clipped(cx, cy, co, si, quad, xw, ys, sw, xe, ys, se, xe, yn, ne, pu, pv, pz, ou,
+                                          ov, oz, out_u, out_v, out_z, used)
+                area += a
+                if used < 0:
+                    return -1, area
+                used, a = _append_clipped(cx, cy, co, si, quad, xw, ys, sw, xe, yn, ne, xw, yn, nw, pu, pv, pz, ou,
+                                          ov, oz, out_u, out_v, out_z, used)
+            elif count == 3:
+                if not ok_sw:
+                    used, a = _append_clipped(cx, cy, co, si, quad, xe, ys, se, xe, yn, ne, xw, yn, nw, pu, pv, pz,
+                                              ou, ov, oz, out_u, out_v, out_z, used)
+                elif not ok_se:
+                    used, a = _append_clipped(cx, cy, co, si, quad, xw, ys, sw, xe, yn, ne, xw, yn, nw, pu, pv, pz,
+                                              ou, ov, oz, out_u, out_v, out_z, used)
+                elif not ok_ne:
+                    used, a = _append_clipped(cx, cy, co, si, quad, xw, ys, sw, xe, ys, se, xw, yn, nw, pu, pv, pz,
+                                              ou, ov, oz, out_u, out_v, out_z, used)
+                else:
+                    used, a = _append_clipped(cx, cy, co, si, quad, xw, ys, sw, xe, ys, se, xe, yn, ne, pu, pv, pz,
+                                              ou, ov, oz, out_u, out_v, out_z, used)
+            area += a
+            if used < 0:
+                return -1, area
+    return used, area
+
+
+@njit(cache=True, inline="always")
 def _quad_area(quad):  # pragma: no cover - compiled
     a2 = 0.0
     for k in range(4):
@@ -142,14 +255,21 @@ def _quad_area(quad):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _dem_z(u, v, post_z):  # pragma: no cover - compiled
-    """Height at post-index coordinates (u, v) inside the raster (the SW-NE split of ``heights_slopes``)."""
+def _dem_z(u, v, post_z, r_off, c_off):  # pragma: no cover - compiled
+    """Height at post-index coordinates (u, v) inside the raster (the SW-NE split of ``heights_slopes``).
+
+    ``post_z`` may be a window of a larger grid whose post [0, 0] is the grid's post [r_off, c_off]:
+    u, v and the cell arithmetic stay in the whole grid's indices, so a result never depends on
+    which window it was read through.
+    """
     rows = post_z.shape[0]
     cols = post_z.shape[1]
-    c = min(max(int(np.floor(u)), 0), cols - 2)
-    r = min(max(int(np.floor(v)), 0), rows - 2)
+    c = min(max(int(np.floor(u)), c_off), c_off + cols - 2)
+    r = min(max(int(np.floor(v)), r_off), r_off + rows - 2)
     fx = u - c
     fy = v - r
+    r -= r_off
+    c -= c_off
     sw = post_z[r, c]
     ne = post_z[r + 1, c + 1]
     if fx >= fy:
@@ -160,14 +280,16 @@ def _dem_z(u, v, post_z):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _dem_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, out_u, out_v, out_z, used):  # pragma: no cover - compiled
+def _dem_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, r_off, c_off, out_u, out_v, out_z,
+                      used):  # pragma: no cover - compiled
     """The corners of the DEM triangles clipped to one patch, by arithmetic on the grid.
 
     For a patch lying wholly on full DEM cells these are exactly the points the clipping
     finds: the posts inside the patch, the crossings of the patch's sides with the grid
     lines and cell diagonals, and the patch's corners. Returns the new count, -1 when the
     buffer is too small, or -2 when the patch needs the general path (it reaches past the
-    grid or over a NODATA post).
+    grid or over a NODATA post). ``post_z`` may be a window whose post [0, 0] is post
+    [r_off, c_off] of the grid that ``post_origin`` places (see ``_dem_z``).
     """
     rows = post_z.shape[0]
     cols = post_z.shape[1]
@@ -180,19 +302,19 @@ def _dem_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, out_
     for k in range(4):
         gu[k] = (cx + co * quad[k, 0] - si * quad[k, 1] - ox) / dx
         gv[k] = (cy + si * quad[k, 0] + co * quad[k, 1] - oy) / dy
-        if not (0.0 <= gu[k] <= cols - 1 and 0.0 <= gv[k] <= rows - 1):
+        if not (c_off <= gu[k] <= c_off + cols - 1 and r_off <= gv[k] <= r_off + rows - 1):
             return -2
     umin = min(min(gu[0], gu[1]), min(gu[2], gu[3]))
     umax = max(max(gu[0], gu[1]), max(gu[2], gu[3]))
     vmin = min(min(gv[0], gv[1]), min(gv[2], gv[3]))
     vmax = max(max(gv[0], gv[1]), max(gv[2], gv[3]))
     c0 = int(np.floor(umin))
-    c1 = min(int(np.ceil(umax)), cols - 1)
+    c1 = min(int(np.ceil(umax)), c_off + cols - 1)
     r0 = int(np.floor(vmin))
-    r1 = min(int(np.ceil(vmax)), rows - 1)
+    r1 = min(int(np.ceil(vmax)), r_off + rows - 1)
     for r in range(r0, r1 + 1):
         for c in range(c0, c1 + 1):
-            if not np.isfinite(post_z[r, c]):
+            if not np.isfinite(post_z[r - r_off, c - c_off]):
                 return -2
     # posts inside the patch (the quad is counter-clockwise in the heading frame)
     for r in range(r0, r1 + 1):
@@ -214,7 +336,7 @@ def _dem_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, out_
                     return -1
                 out_u[used] = pu
                 out_v[used] = pv
-                out_z[used] = post_z[r, c]
+                out_z[used] = post_z[r - r_off, c - c_off]
                 used += 1
     # each side: its corner, then where it crosses grid lines (u, v integer) and diagonals (u - v integer)
     for k in range(4):
@@ -251,23 +373,30 @@ def _dem_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, out_
                     return -1
                 out_u[used] = qu
                 out_v[used] = qv
-                out_z[used] = _dem_z(min(max(u, 0.0), cols - 1.0), min(max(v, 0.0), rows - 1.0), post_z)
+                out_z[used] = _dem_z(min(max(u, c_off), c_off + cols - 1.0), min(max(v, r_off), r_off + rows - 1.0),
+                                     post_z, r_off, c_off)
                 used += 1
     return used
 
 
 @njit(cache=True, parallel=True)
 def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once,
-                    post_z, post_origin, post_size, planes_in, eps):  # pragma: no cover - compiled
+                    post_z, post_origin, post_size, planes_in, eps, grid=False, r_off=0, c_off=0,
+                    arithmetic=True):  # pragma: no cover - compiled
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
     centre; mode 1, the highest ground above ``planes_in`` (signed, m).
+
+    A mesh passes its faces and locator cells (V .. cell_face) and, for a DEM, its posts.
+    ``grid`` passes the posts alone (a window of them: see ``_grid_patch_points``), and the
+    cells that are not wholly full are clipped from triangles made of their posts;
+    ``arithmetic=False`` clips every cell (the oracle the arithmetic is tested against).
 
     cx, cy : (N,) local footprint centres; yaw : (N,) rad
     quads : (N, 2, 4, 2) the two patches' corners (u, v), counter-clockwise
     Returns (N, 3) planes or (N,) heights, the covered share of the patches (N,), status (N,).
     """
     npose = cx.shape[0]
-    dem = post_z.shape[0] >= 2 and post_z.shape[1] >= 2
+    dem = post_z.shape[0] >= 2 and post_z.shape[1] >= 2 and arithmetic
     out = np.full((npose, 3), np.nan)
     covered = np.zeros(npose)
     status = np.zeros(npose, np.int64)
@@ -294,8 +423,11 @@ def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx,
                     got = -2
                     if dem:
                         got = _dem_patch_points(cx[i], cy[i], co, si, quads[i, q], post_z, post_origin, post_size,
-                                                bu, bv, bz, used)
-                    if got == -2:  # not wholly on full DEM cells: clip the triangles
+                                                r_off, c_off, bu, bv, bz, used)
+                    if got == -2 and grid:  # not wholly on full cells: clip the cells' triangles
+                        used, a = _grid_patch_points(cx[i], cy[i], co, si, quads[i, q], post_z, post_origin,
+                                                     post_size, r_off, c_off, pu, pv, pz, ou, ov, oz, bu, bv, bz, used)
+                    elif got == -2:
                         used, a = _patch_points(cx[i], cy[i], co, si, quads[i, q], V, F, plane, origin, size, ny,
                                                 nx, start, cell_face, listed_once, cand, pu, pv, pz, ou, ov, oz,
                                                 bu, bv, bz, used)

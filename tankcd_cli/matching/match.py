@@ -218,14 +218,8 @@ def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.nda
 def _footprint(surface, mode, x, y, yaw, quads, planes_in, dem: bool = True):
     """The footprint pass; ``dem`` lets full DEM cells be read by arithmetic (False: clip every
     triangle, the general path, kept as the oracle the arithmetic is tested against)."""
-    from tankcd_cli.matching.footprint import footprint_batch
-
-    lx, ly = surface.to_local(x, y)
-    return footprint_batch(mode, lx, ly, yaw, np.ascontiguousarray(quads), surface.vertices, surface.faces,
-                           surface.plane, surface.cell_origin, surface.cell_size, surface.cell_shape[0],
-                           surface.cell_shape[1], surface.cell_start, surface.cell_face,
-                           surface.post_z.size > 0, surface.post_z if dem else np.empty((0, 0)), surface.post_origin,
-                           surface.post_size, np.ascontiguousarray(planes_in), EPS_XY)
+    return surface.footprint(mode, x, y, yaw, np.ascontiguousarray(quads), np.ascontiguousarray(planes_in), EPS_XY,
+                             arithmetic=dem)
 
 
 def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):

@@ -110,6 +110,25 @@ class TerrainSurface:
                              self.vertices, self.faces, self.plane, self.cell_origin, self.cell_size,
                              self.cell_shape[0], self.cell_shape[1], self.cell_start, self.cell_face)
 
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World (x, y) of the south-west and north-east corners of the terrain's extent."""
+        lo = self.vertices[:, :2].min(axis=0) + self.origin
+        hi = self.vertices[:, :2].max(axis=0) + self.origin
+        return lo, hi
+
+    def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
+                  arithmetic: bool = True):
+        """The exact footprint pass (see ``matching.footprint.footprint_batch``); ``arithmetic``
+        lets full DEM cells be read from the posts (False: clip every triangle, the oracle)."""
+        from tankcd_cli.matching.footprint import footprint_batch
+
+        lx, ly = self.to_local(x, y)
+        return footprint_batch(mode, lx, ly, np.ascontiguousarray(yaw, dtype=float), quads, self.vertices, self.faces,
+                               self.plane, self.cell_origin, self.cell_size, self.cell_shape[0], self.cell_shape[1],
+                               self.cell_start, self.cell_face, self.post_z.size > 0,
+                               self.post_z if arithmetic else np.empty((0, 0)), self.post_origin, self.post_size,
+                               planes_in, eps)
+
     def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points.
 

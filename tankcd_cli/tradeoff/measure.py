@@ -231,8 +231,7 @@ def _match_all(surface, vehicle, x, y, yaw) -> dict:
 
 
 def _interior_poses(surface, vehicle, n, rng):
-    lo = surface.vertices[:, :2].min(axis=0) + surface.origin
-    hi = surface.vertices[:, :2].max(axis=0) + surface.origin
+    lo, hi = surface.bounds()
     margin = vehicle.hull_length
     x = rng.uniform(lo[0] + margin, hi[0] - margin, n)
     y = rng.uniform(lo[1] + margin, hi[1] - margin, n)
@@ -241,8 +240,7 @@ def _interior_poses(surface, vehicle, n, rng):
 
 def _path(surface, vehicle, step):
     """A straight west-east drive through the middle of the terrain, heading east."""
-    lo = surface.vertices[:, :2].min(axis=0) + surface.origin
-    hi = surface.vertices[:, :2].max(axis=0) + surface.origin
+    lo, hi = surface.bounds()
     margin = vehicle.hull_length
     x = np.arange(lo[0] + margin, hi[0] - margin, step)
     return x, np.full(len(x), 0.5 * (lo[1] + hi[1]) + 0.37), np.zeros(len(x))

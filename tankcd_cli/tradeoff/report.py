@@ -86,8 +86,8 @@ def _trajectory_xy(path: str):
 
 def _lawnmower(surface, vehicle, lanes: int = 6, step: float = 0.5):
     """Back-and-forth lanes across the terrain, ``step`` m apart along each lane."""
-    lo = surface.vertices[:, :2].min(axis=0) + surface.origin + vehicle.hull_length
-    hi = surface.vertices[:, :2].max(axis=0) + surface.origin - vehicle.hull_length
+    lo, hi = surface.bounds()
+    lo, hi = lo + vehicle.hull_length, hi - vehicle.hull_length
     xs, ys, yaws = [], [], []
     for k, lane_y in enumerate(np.linspace(lo[1], hi[1], lanes)):
         x = np.arange(lo[0], hi[0], step)

@@ -1,0 +1,200 @@
+"""Height, slope, region classes and the exact footprint on a DEM held as posts.
+
+A :class:`GridSurface` answers the same questions as the mesh layout's
+:class:`~tankcd_cli.terrain.surface.TerrainSurface`, on the grid layout's
+implicit surface (each cell split along its SW-NE diagonal; a cell with three
+valid posts carries the triangle of those three), with no vertex, face or
+plane arrays: every query is arithmetic on posts.
+
+Queries never load the grid. Points are grouped by the block of
+``BLOCK`` x ``BLOCK`` posts they fall in; each block is read as one window
+(the block plus a margin wide enough for what the query reaches: a key point,
+a footprint, a hull) from the store's tiles through a bounded cache, and kept
+in a small LRU of windows. Start-up and memory depend on the work asked for,
+not on the size of the terrain.
+
+Local coordinates: x, y relative to the grid's south-west post, so UTM
+coordinates lose nothing; post (row from the south i, column c) lies at
+(c dx, i dy). Kernels compute cell indices in the whole grid's indices (see
+``grid_kernels``): a result does not depend on the window it came through.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+
+import numpy as np
+
+BLOCK = 512  # posts per window side before margins
+WINDOWS_KEPT = 6  # assembled windows (heights + classes: about 2.5 MB each at 512 + margins)
+NO_CLASS = 255
+
+
+class GridSurface:
+    """A DEM's surface read by window.
+
+    tiles : a :class:`~tankcd_cli.terrain.tiles.TileReader` over ``grid/height`` and ``classes/grid``
+    rows, cols : posts
+    origin_nw : (2,) world x, y of post [0, 0], the north-west one (the store's origin_x, origin_y)
+    spacing : (2,) dx, dy, m
+    """
+
+    def __init__(self, tiles, rows: int, cols: int, origin_nw, spacing, crs: str = ""):
+        self.tiles = tiles
+        self.rows, self.cols = int(rows), int(cols)
+        self.spacing = np.asarray(spacing, dtype=float)
+        self.origin_nw = np.asarray(origin_nw, dtype=float)
+        # local origin: the south-west post
+        self.origin = np.array([self.origin_nw[0], self.origin_nw[1] - (self.rows - 1) * self.spacing[1]])
+        self.post_origin = np.zeros(2)
+        self.crs = crs
+        self._windows: OrderedDict = OrderedDict()
+
+    # --- construction -----------------------------------------------------------------
+
+    @classmethod
+    def open(cls, path: str, cache_bytes: int | None = None) -> "GridSurface":
+        """A grid store's surface (see ``grid_store.open_grid``)."""
+        from tankcd_cli.terrain.grid_store import open_grid
+
+        return open_grid(path, cache_bytes=cache_bytes)
+
+    @classmethod
+    def from_arrays(cls, height: np.ndarray, classes: np.ndarray, origin_nw, spacing, crs: str = "") -> "GridSurface":
+        """From rasters in memory (row 0 north; NaN / 255 at NODATA)."""
+        from tankcd_cli.terrain.tiles import TileReader
+
+        tiles = TileReader(arrays={"grid/height": height, "classes/grid": classes})
+        return cls(tiles, height.shape[0], height.shape[1], origin_nw, spacing, crs)
+
+    # --- geometry ---------------------------------------------------------------------
+
+    def to_local(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(x, dtype=float) - self.origin[0], np.asarray(y, dtype=float) - self.origin[1]
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World (x, y) of the south-west and north-east posts."""
+        lo = self.origin.copy()
+        return lo, lo + self.spacing * [self.cols - 1, self.rows - 1]
+
+    # --- windows ----------------------------------------------------------------------
+
+    def _margin(self, reach: float) -> int:
+        """Posts a window extends past its block for queries reaching ``reach`` m from their point."""
+        m = int(math.ceil(max(reach, 0.0) / float(self.spacing.min()))) + 2
+        return ((m + 15) // 16) * 16  # a few sizes only, so that windows are reused across queries
+
+    def _window(self, br: int, bc: int, margin: int, classes: bool):
+        """(array south row first, r_off, c_off) of block (br, bc) (south-based) with ``margin`` posts."""
+        key = (br, bc, margin, classes)
+        hit = self._windows.get(key)
+        if hit is not None:
+            self._windows.move_to_end(key)
+            return hit
+        s0, s1 = br * BLOCK - margin, (br + 1) * BLOCK + margin + 1
+        c0, c1 = bc * BLOCK - margin, (bc + 1) * BLOCK + margin + 1
+        s0, s1 = max(s0, 0), min(s1, self.rows)
+        c0, c1 = max(c0, 0), min(c1, self.cols)
+        n0, n1 = self.rows - s1, self.rows - s0  # north-based rows of the same posts
+        if classes:
+            arr = self.tiles.window("classes/grid", n0, n1, c0, c1, NO_CLASS, np.uint8)
+        else:
+            arr = self.tiles.window("grid/height", n0, n1, c0, c1, np.nan, np.float64)
+        win = (np.ascontiguousarray(arr[::-1]), s0, c0)
+        self._windows[key] = win
+        while len(self._windows) > WINDOWS_KEPT:
+            self._windows.popitem(last=False)
+        return win
+
+    def _groups(self, lx: np.ndarray, ly: np.ndarray):
+        """Indices of the points in each block, with the block: [(idx, br, bc)]."""
+        nbr = max((self.rows - 1) // BLOCK, 0)
+        nbc = max((self.cols - 1) // BLOCK, 0)
+        with np.errstate(invalid="ignore"):
+            bc = np.floor(lx / (BLOCK * self.spacing[0]))
+            br = np.floor(ly / (BLOCK * self.spacing[1]))
+        bc = np.clip(np.nan_to_num(bc, nan=0.0), 0, nbc).astype(np.int64)
+        br = np.clip(np.nan_to_num(br, nan=0.0), 0, nbr).astype(np.int64)
+        key = br * (nbc + 1) + bc
+        if len(key) == 0:
+            return []
+        first = key[0]
+        if (key == first).all():  # the common case: a chunk inside one block
+            return [(np.arange(len(key)), int(br[0]), int(bc[0]))]
+        order = np.argsort(key, kind="stable")
+        cut = np.flatnonzero(np.diff(key[order])) + 1
+        return [(g, int(br[g[0]]), int(bc[g[0]])) for g in np.split(order, cut)]
+
+    # --- queries ----------------------------------------------------------------------
+
+    def height_slope(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Height (N,) m and gradient dz/dx, dz/dy (N,) at world points; NaN off the terrain."""
+        from tankcd_cli.terrain.grid_kernels import grid_heights_slopes
+
+        lx, ly = self.to_local(x, y)
+        shape = np.shape(lx)
+        lx, ly = np.ravel(lx), np.ravel(ly)
+        z, gx, gy = (np.full(len(lx), np.nan) for _ in range(3))
+        margin = self._margin(0.0)
+        for idx, br, bc in self._groups(lx, ly):
+            win, r_off, c_off = self._window(br, bc, margin, False)
+            z[idx], gx[idx], gy[idx] = grid_heights_slopes(lx[idx], ly[idx], win, self.post_origin, self.spacing,
+                                                           r_off, c_off, self.rows, self.cols)
+        return z.reshape(shape), gx.reshape(shape), gy.reshape(shape)
+
+    def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points."""
+        z, gx, gy = self.height_slope(x, y)
+        n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        return z, n, np.isfinite(z)
+
+    def region_under(self, x, y, yaw, length: float, width: float) -> np.ndarray:
+        """The worst region class under each footprint rectangle (N,) uint8; 255 where none is known.
+
+        The rectangle (length along the heading, width across, centred on x, y) is
+        sampled at the post spacing, corners included; each sample takes its nearest post's class.
+        """
+        from tankcd_cli.terrain.grid_kernels import grid_worst_class
+
+        step = float(self.spacing.min())
+        nu = max(2, int(np.ceil(length / step)) + 1)
+        nv = max(2, int(np.ceil(width / step)) + 1)
+        su, sv = np.meshgrid(np.linspace(-length / 2, length / 2, nu), np.linspace(-width / 2, width / 2, nv))
+        su, sv = su.ravel(), sv.ravel()
+        lx, ly = self.to_local(x, y)
+        lx, ly = np.ravel(lx), np.ravel(ly)
+        yaw = np.broadcast_to(np.asarray(yaw, dtype=float), lx.shape).ravel()
+        out = np.full(len(lx), NO_CLASS, dtype=np.uint8)
+        margin = self._margin(math.hypot(length, width) / 2)
+        for idx, br, bc in self._groups(lx, ly):
+            win, r_off, c_off = self._window(br, bc, margin, True)
+            out[idx] = grid_worst_class(lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), su, sv, win,
+                                        self.post_origin, self.spacing, r_off, c_off)
+        return out
+
+    def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
+                  arithmetic: bool = True):
+        """The exact footprint pass (see ``matching.footprint.footprint_batch``) on the posts."""
+        from tankcd_cli.matching.footprint import footprint_batch
+
+        lx, ly = self.to_local(x, y)
+        n = len(lx)
+        out = np.full((n, 3), np.nan)
+        covered = np.zeros(n)
+        status = np.zeros(n, dtype=np.int64)
+        if n == 0:
+            return out, covered, status
+        reach = float(np.sqrt((quads ** 2).sum(axis=-1)).max()) if quads.size else 0.0
+        margin = self._margin(reach)
+        empty_i = np.zeros(1, dtype=np.int64)
+        empty_f = np.zeros((1, 3))
+        for idx, br, bc in self._groups(lx, ly):
+            win, r_off, c_off = self._window(br, bc, margin, False)
+            out[idx], covered[idx], status[idx] = footprint_batch(
+                mode, lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), np.ascontiguousarray(quads[idx]),
+                empty_f, empty_i.reshape(1, 1).repeat(3, axis=1), empty_f, np.zeros(2), np.ones(2), 0, 0, empty_i,
+                empty_i, True, win, self.post_origin, self.spacing, np.ascontiguousarray(planes_in[idx]), eps,
+                True, r_off, c_off, arithmetic)
+        return out, covered, status
