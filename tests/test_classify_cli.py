@@ -29,45 +29,67 @@ def sample_store(tmp_path_factory):
     return out
 
 
+def _grid(path):
+    """The grid store's rasters (row 0 north) and geometry."""
+    with h5py.File(path, "r") as h5:
+        h = h5["grid/height"]
+        return {"height": h[()], "mean": h5["curvature/mean"][()], "classes": h5["classes/grid"][()],
+                "origin": (h.attrs["origin_x"], h.attrs["origin_y"]), "spacing": tuple(h.attrs["spacing"]),
+                "attrs": dict(h5.attrs)}
+
+
 def test_store_follows_the_contract(sample_store):
     with h5py.File(sample_store, "r") as h5:
-        n = h5["mesh/vertices"].shape[0]
-        assert h5["mesh/vertices"].shape == (n, 3) and h5["mesh/vertices"].dtype == np.float64
-        assert h5["mesh/faces"].shape[1] == 3 and h5["mesh/faces"].dtype.kind == "i"
-        assert h5["curvature/mean"].shape == (n,) and h5["curvature/mean"].dtype == np.float64
-        assert h5["classes/vertex"].shape == (n,) and h5["classes/vertex"].dtype == np.uint8
-        assert set(np.unique(h5["classes/vertex"][()])) <= {0, 1, 2}
+        assert h5.attrs["layout"] == "grid" and h5.attrs["format_version"] == 2
+        h = h5["grid/height"]
+        rows, cols = h.shape
+        assert (rows, cols) == (161, 241) and h.dtype in (np.float32, np.float64)
+        assert h5["curvature/mean"].shape == (rows, cols) and h5["curvature/mean"].dtype.kind == "f"
+        assert h5["classes/grid"].shape == (rows, cols) and h5["classes/grid"].dtype == np.uint8
+        assert h.chunks is not None and h5["classes/grid"].chunks is not None  # tiles: windows read alone
+        assert set(np.unique(h5["classes/grid"][()])) <= {0, 1, 2}
         assert np.isfinite(h5["curvature/mean"][()]).all()
+        assert "mesh" not in h5 and "index" not in h5  # no vertex, face or plane arrays for a DEM
         a = h5.attrs
         assert a["tankcd_version"]
         assert a["source"].endswith("battlefield.asc")
         assert a["source_sha256"] == hashlib.sha256((SAMPLE / "battlefield.asc").read_bytes()).hexdigest()
-        assert a["curvature_method"] == "cotan"
+        assert a["curvature_method"] == "grid" and a["diagonal"] == "SW-NE"
         assert 0 < a["threshold_flat"] < a["threshold_uneven"]
-        # UTM placement kept to the last digit
-        assert h5["mesh/vertices"][:, 0].min() == 500000.0
-        assert "grid/vertex" in h5 and "index" not in h5  # a DEM locates points by its posts
+        # UTM placement kept to the last digit: the ASC's south-west centre is (500000, 4500000)
+        assert h.attrs["origin_x"] == 500000.0 and h.attrs["origin_y"] == 4500000.0 + 160 * 1.0
+        assert list(h.attrs["spacing"]) == [1.0, 1.0] and h.attrs["crs"] == ""
 
 
 def test_sample_has_all_three_classes(sample_store):
-    store = read_store(str(sample_store))
-    shares = [store.attrs[f"share_{c}"] for c in ("flat", "general", "uneven")]
+    g = _grid(sample_store)
+    a = g["attrs"]
+    shares = [a[f"share_{c}"] for c in ("flat", "general", "uneven")]
     assert all(s > 0.03 for s in shares) and sum(shares) == pytest.approx(1.0)
     # the plain (west third) is flat, the craters' centres uneven
-    x = store.vertices[:, 0] - 500000.0
-    y = store.vertices[:, 1] - 4500000.0
-    assert np.mean(store.vertex_class[x < 60] == 0) > 0.99
+    rows, cols = g["height"].shape
+    x = np.arange(cols)[None, :] + 0.0 * np.arange(rows)[:, None]
+    y = (rows - 1 - np.arange(rows))[:, None] + 0.0 * x
+    classes = g["classes"]
+    assert np.mean(classes[x < 60] == 0) > 0.99
     for cx, cy in ((185, 40), (215, 70), (200, 135)):
-        assert (store.vertex_class[np.hypot(x - cx, y - cy) < 3] == 2).all()
+        assert (classes[np.hypot(x - cx, y - cy) < 3] == 2).all()
 
 
-def test_store_round_trip(tmp_path, sample_store):
-    a = read_store(str(sample_store))
-    write_store(str(tmp_path / "again.h5"), a)
-    b = read_store(str(tmp_path / "again.h5"))
-    for name in ("vertices", "faces", "mean_curvature", "vertex_class", "class_raster", "footprint_curvature"):
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    np.testing.assert_array_equal(a.grid.vertex, b.grid.vertex)
+def test_store_round_trip(run, tmp_path, sample_store):
+    """Classifying a grid store again with the same settings gives the same rasters."""
+    res = run("classify", sample_store, "-o", "again.h5")
+    assert res.exit_code == 0, res.stderr
+    a, b = _grid(sample_store), _grid(tmp_path / "again.h5")
+    for name in ("height", "mean", "classes"):
+        np.testing.assert_array_equal(a[name], b[name])
+    assert a["origin"] == b["origin"] and a["spacing"] == b["spacing"]
+    assert a["attrs"]["source_sha256"] == b["attrs"]["source_sha256"]
+
+
+def test_store_is_never_its_own_output(run, sample_store):
+    res = run("classify", sample_store)  # the default output is the input itself
+    assert res.exit_code == 2 and "is the input" in res.stderr
 
 
 def test_mesh_store_has_buckets_and_round_trips(run, tmp_path):
@@ -97,7 +119,7 @@ def test_default_output_png_and_info(run, tmp_path):
     assert "curvature method:" in info.stdout and "jet" in info.stdout
     assert "area uneven:" in info.stdout
     facts = json.loads(run("info", tmp_path / "hill.h5", "--json").stdout)
-    assert facts["vertices"] == 41 * 41 and facts["curvature method"] == "jet"
+    assert facts["posts"] == 41 * 41 and facts["curvature method"] == "jet"
 
 
 def test_quiet_and_verbose(run, tmp_path):
@@ -105,7 +127,7 @@ def test_quiet_and_verbose(run, tmp_path):
     quiet = run("-q", "classify", src, "-o", "q.h5")
     assert quiet.exit_code == 0 and quiet.stderr == ""
     loud = run("classify", src, "-o", "v.h5", "-v")
-    assert "merged vertices: 0" in loud.stderr and "degenerate faces: 0" in loud.stderr
+    assert "5 x 5 posts at 1 x 1 m, local grid (no CRS)" in loud.stderr
 
 
 def test_user_thresholds_recorded(run, tmp_path):
@@ -154,7 +176,7 @@ def test_internal_error_is_exit_4(run, tmp_path, monkeypatch):
 
     def boom(*a, **k):
         raise RuntimeError("simulated bug")
-    monkeypatch.setattr("tankcd_cli.terrain.classify.classify_terrain", boom)
+    monkeypatch.setattr("tankcd_cli.terrain.dem_classify.classify_dem", boom)
     result = run("classify", src)
     assert result.exit_code == 4
     assert "internal error" in result.stderr and "please report" in result.stderr
@@ -165,9 +187,10 @@ def test_reclassify_from_a_store(run, sample_store, tmp_path):
     result = run("classify", sample_store, "--method", "sphere", "-o", "again.h5")
     assert result.exit_code == 0, result.stderr
     with h5py.File(tmp_path / "again.h5") as new, h5py.File(sample_store) as old:
-        np.testing.assert_array_equal(new["mesh/vertices"][()], old["mesh/vertices"][()])
+        np.testing.assert_array_equal(new["grid/height"][()], old["grid/height"][()])
         assert new.attrs["curvature_method"] == "sphere"
         assert new.attrs["source_sha256"] == old.attrs["source_sha256"]
+        assert not np.array_equal(new["curvature/mean"][()], old["curvature/mean"][()])
 
 
 def _tankcd(*args, **kw):
@@ -180,7 +203,8 @@ def test_stdin_to_stdout_pipeline(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout[:8] == b"\x89HDF\r\n\x1a\n"
     (tmp_path / "piped.h5").write_bytes(proc.stdout)
-    assert len(read_store(str(tmp_path / "piped.h5")).vertices) == 16
+    g = _grid(tmp_path / "piped.h5")
+    np.testing.assert_array_equal(g["height"], np.arange(16.0).reshape(4, 4))  # row 0 north, as the file lists it
 
 
 def test_closed_pipe_exits_quietly(tmp_path):

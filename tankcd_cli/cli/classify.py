@@ -8,15 +8,16 @@ import click
 
 from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_options
 
-METHOD_HELP = ("Mean-curvature estimator: cotan (cotangent formula with mixed Voronoi area, the paper's "
-               "equation 2; fastest), sphere (the paper's four-point sphere fit), jet ( "
-               "quartic fit over the nearest 20 vertices; accurate on irregular meshes, slower).")
+METHOD_HELP = ("Mean-curvature estimator: grid (DEMs only, the default there: central differences over "
+               "the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, the paper's equation 2; the "
+               "default for meshes), sphere (the paper's four-point sphere fit), jet (quartic fit over the "
+               "nearest 20 vertices; accurate on irregular meshes, slower).")
 
 
 @click.command(short_help="Classify a terrain into an HDF5 store.")
 @click.argument("terrain", type=click.Path(allow_dash=True))
 @output_option("Output store (default: TERRAIN's stem + .h5 beside it; - for stdout).")
-@click.option("--method", type=click.Choice(["cotan", "sphere", "jet"]), default="cotan", show_default=True,
+@click.option("--method", type=click.Choice(["grid", "cotan", "sphere", "jet"]), default=None,
               help=METHOD_HELP)
 @click.option("--up", type=click.Choice(["z", "y"]), default="z", show_default=True,
               help="Up axis of the mesh; y-up meshes (most OBJ exports) are turned to z-up.")
@@ -28,13 +29,23 @@ METHOD_HELP = ("Mean-curvature estimator: cotan (cotangent formula with mixed Vo
                    "track length; see README).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
               help="Also draw the class map and curvature map to this PNG.")
+@click.option("--crs", default=None, metavar="CRS",
+              help="DEMs: the metric CRS to reproject to (EPSG:32633, a WKT or PROJ string); default: a "
+                   "geographic DEM goes to the UTM zone of its centre, a projected one stays as it is.")
+@click.option("--band", type=click.IntRange(min=1), default=None, help="DEMs: the raster band of the heights "
+              "(needed when a raster has several).")
+@click.option("--tile", type=click.IntRange(min=16), default=512, show_default=True,
+              help="DEMs: posts per tile side; memory grows with it, the result does not change.")
+@click.option("--jobs", type=click.IntRange(min=1), default=None, help="DEMs: worker threads (default: the cores).")
 @verbosity_options
 @click.pass_obj
-def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds, png):
+def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds, png, crs, band, tile, jobs):
     """Load TERRAIN (mesh, DEM or store), compute the signed mean curvature at every
     vertex, classify flat / general / uneven regions and write the terrain store.
 
-    TERRAIN may be - for standard input (give --format).
+    A DEM (any raster GDAL reads, a folder of tiles, an ESRI ASCII grid) is
+    classified tile by tile into the grid layout, in memory that does not grow
+    with the DEM. TERRAIN may be - for standard input (give --format).
     """
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.terrain.classify import classify_terrain, load_terrain
@@ -52,8 +63,24 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
             user_thresholds = Thresholds(thresholds[0], thresholds[1], derivation="given with --thresholds")
         except ValueError as exc:
             raise click.BadParameter(str(exc), param_hint="--thresholds") from None
+    if os.path.exists(output) and terrain != "-" and os.path.exists(terrain) and os.path.samefile(output, terrain):
+        raise click.UsageError(f"the output {output} is the input; give -o another path")
     step = report.progress("classify")
     step(f"reading {terrain}")
+    from tankcd_cli.io.dem_sources import open_dem
+
+    dem = open_dem(terrain, fmt=fmt, band=band, crs=crs)
+    if dem is not None:
+        if up != "z":
+            raise click.UsageError("--up y makes no sense for a DEM (grids are z-up)")
+        _classify_dem(report, dem, output, method or "grid", vehicle_preset(vehicle_name), user_thresholds, tile,
+                      jobs, png)
+        return
+    if crs or band:
+        raise click.UsageError("--crs and --band apply to DEM rasters; meshes keep their coordinates")
+    if method == "grid":
+        raise click.UsageError("--method grid needs a DEM; meshes take cotan, sphere or jet")
+    method = method or "cotan"
     raw = load_terrain(terrain, up=up, fmt=fmt)
     store = classify_terrain(raw, method=method, vehicle=vehicle_preset(vehicle_name),
                              thresholds=user_thresholds, progress=step)
@@ -72,3 +99,30 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     report.info(f"classify: {raw.source} -> {output}: {len(store.vertices):,} vertices, {len(store.faces):,} faces, "
                 f"H by {method}; flat {a['share_flat']:.0%}, general {a['share_general']:.0%}, "
                 f"uneven {a['share_uneven']:.0%} of the area ({report.elapsed():.2f} s)")
+
+
+def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, png):
+    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.terrain.dem_classify import classify_dem
+
+    info = dem.info
+    report.detail(f"classify: {info.source}: {info.rows:,} x {info.cols:,} posts at {info.spacing[0]:g} x "
+                  f"{info.spacing[1]:g} m, {info.crs_name}"
+                  + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
+
+    def progress(done, total, posts, seconds):
+        report.bar(f"classify: tile {done}/{total}, {posts / max(seconds, 1e-9) / 1e6:.1f} M posts/s")
+
+    with dem, atomic_path(output, ".h5") as tmp:
+        a = classify_dem(dem, tmp, method=method, vehicle=vehicle, thresholds=thresholds, tile=tile, jobs=jobs,
+                         progress=progress)
+        report.bar(None)
+        if png:
+            from tankcd_cli.plots import grid_map_png
+
+            with atomic_path(png, ".png") as tmp_png:
+                grid_map_png(tmp, tmp_png, title=info.source)
+    report.info(f"classify: {info.source} -> {output}: {info.rows:,} x {info.cols:,} posts "
+                f"({a['valid_posts']:,} with data), H by {method}; flat {a['share_flat']:.0%}, "
+                f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
+                f"({report.elapsed():.2f} s)")

@@ -145,6 +145,22 @@ def parse_esri_ascii(data: bytes, name: str) -> tuple[np.ndarray, np.ndarray, Gr
     a quad with exactly three valid posts gives the one triangle they span;
     NODATA posts are left out of the mesh.
     """
+    z, valid, (x0, y0), (dx, dy) = esri_ascii_posts(data, name)
+    nrows, ncols = z.shape
+    vertex = np.full((nrows, ncols), -1, dtype=np.int64)
+    vertex[valid] = np.arange(int(valid.sum()))
+    yy, xx = np.nonzero(valid)
+    vertices = np.column_stack([x0 + xx * dx, y0 + yy * dy, z[valid]])
+    faces = grid_faces(vertex)
+    if len(faces) == 0:
+        raise InputError(name, "no cell has three valid posts: nothing to triangulate")
+    grid = Grid(origin=np.array([x0, y0]), spacing=np.array([dx, dy]), vertex=vertex)
+    return vertices, faces, grid
+
+
+def esri_ascii_posts(data: bytes, name: str) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
+    """Heights (rows, cols) float64 with row 0 SOUTH, the valid mask, the world x, y of the
+    south-west post and the spacing (dx, dy) of an ESRI ASCII grid."""
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -217,16 +233,7 @@ def parse_esri_ascii(data: bytes, name: str) -> tuple[np.ndarray, np.ndarray, Gr
         raise InputError(name, "every post is NODATA")
     if nrows < 2 or ncols < 2:
         raise InputError(name, f"a {nrows} x {ncols} grid has no cells to triangulate (needs at least 2 x 2 posts)")
-
-    vertex = np.full((nrows, ncols), -1, dtype=np.int64)
-    vertex[valid] = np.arange(int(valid.sum()))
-    yy, xx = np.nonzero(valid)
-    vertices = np.column_stack([x0 + xx * dx, y0 + yy * dy, z[valid]])
-    faces = grid_faces(vertex)
-    if len(faces) == 0:
-        raise InputError(name, "no cell has three valid posts: nothing to triangulate")
-    grid = Grid(origin=np.array([x0, y0]), spacing=np.array([dx, dy]), vertex=vertex)
-    return vertices, faces, grid
+    return z, valid, (x0, y0), (dx, dy)
 
 
 def grid_faces(vertex: np.ndarray) -> np.ndarray:

@@ -51,36 +51,86 @@ class ReplaySetup:
 
 def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehicle: Vehicle | None = None,
                          progress: Callable[[str], None] | None = None, cache: bool = False):
-    """A TerrainSurface from a store, or from any terrain input classified on the fly
-    (and, with ``cache``, saved as a store beside it)."""
+    """The surface of a store, or of any terrain input classified on the fly (and, with
+    ``cache``, saved as a store beside it). Returns (surface, in-memory mesh store or None).
+
+    A grid store (a DEM) is opened for windowed reads: nothing of its rasters is read
+    until a query needs it. A DEM input is classified tile by tile into a grid store
+    (beside it with ``cache``, else a temporary one removed at exit).
+    """
     import os
 
+    from tankcd_cli.io.dem_sources import open_dem
     from tankcd_cli.terrain.classify import classify_terrain, load_terrain
-    from tankcd_cli.terrain.store import is_store, read_store, write_store
+    from tankcd_cli.terrain.store import is_store, read_attrs, read_store, write_store
     from tankcd_cli.terrain.surface import TerrainSurface
 
     say = progress or (lambda s: None)
     if path != "-" and is_store(path):
-        say(f"reading terrain store {path}")
-        store = read_store(path)
-    else:
-        cached = os.path.splitext(path)[0] + ".h5"
-        raw = load_terrain(path, up=up, fmt=fmt)
-        if cache and os.path.exists(cached) and is_store(cached):
-            from tankcd_cli.terrain.store import read_attrs
+        if read_attrs(path).get("layout") == "grid":
+            from tankcd_cli.terrain.grid_store import open_grid
 
-            if read_attrs(cached).get("source_sha256") == raw.sha256:
+            say(f"opening grid store {path}")
+            return open_grid(path), None
+        say(f"reading terrain store {path}")
+        return TerrainSurface.from_store(read_store(path)), None
+    cached = os.path.splitext(path)[0] + ".h5"
+    dem = open_dem(path, fmt=fmt)
+    if dem is not None:
+        return _dem_surface(dem, cached if cache else None, vehicle, say), None
+    raw = load_terrain(path, up=up, fmt=fmt)
+    if cache and os.path.exists(cached) and is_store(cached):
+        if read_attrs(cached).get("source_sha256") == raw.sha256:
+            say(f"reading cached store {cached}")
+            return TerrainSurface.from_store(read_store(cached)), None
+    say(f"classifying {path} on the fly")
+    store = classify_terrain(raw, vehicle=vehicle, progress=say)
+    if cache:
+        from tankcd_cli.io.atomic import atomic_path
+
+        with atomic_path(cached, ".h5") as tmp:
+            write_store(tmp, store)
+        say(f"cached the store as {cached}")
+    return TerrainSurface.from_store(store), store
+
+
+def _dem_surface(dem, cached: str | None, vehicle, say):
+    """A DEM classified into a grid store (``cached``, or a temporary file) and opened."""
+    import atexit
+    import os
+    import tempfile
+
+    from tankcd_cli.terrain.dem_classify import classify_dem
+    from tankcd_cli.terrain.grid_store import open_grid
+    from tankcd_cli.terrain.store import is_store, read_attrs
+
+    with dem:
+        if cached and os.path.exists(cached) and is_store(cached):
+            a = read_attrs(cached)
+            if a.get("layout") == "grid" and a.get("source_sha256") == dem.info.sha256:
                 say(f"reading cached store {cached}")
-                return TerrainSurface.from_store(read_store(cached)), None
-        say(f"classifying {path} on the fly")
-        store = classify_terrain(raw, vehicle=vehicle, progress=say)
-        if cache:
+                return open_grid(cached)
+        if cached:
             from tankcd_cli.io.atomic import atomic_path
 
+            say(f"classifying {dem.info.source} into {cached}")
             with atomic_path(cached, ".h5") as tmp:
-                write_store(tmp, store)
-            say(f"cached the store as {cached}")
-    return TerrainSurface.from_store(store), store
+                classify_dem(dem, tmp, vehicle=vehicle)
+            return open_grid(cached)
+        folder = tempfile.mkdtemp(prefix="tankcd-")
+        target = os.path.join(folder, "terrain.h5")
+        atexit.register(_remove_tree, folder, os.getpid())
+        say(f"classifying {dem.info.source} on the fly")
+        classify_dem(dem, target, vehicle=vehicle)
+        return open_grid(target)
+
+
+def _remove_tree(folder: str, owner: int) -> None:
+    import os
+    import shutil
+
+    if os.getpid() == owner:  # a forked worker leaves the parent's files alone
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def prepare(surface, vehicle: Vehicle, scene=None, turret_moves: bool = False,

@@ -26,7 +26,7 @@ import numpy as np
 from tankcd_cli.errors import InputError
 
 FORMAT = "tankcd-terrain"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: a root attribute ``layout`` (mesh | grid); DEMs in the grid layout (grid_store.py)
 
 
 @dataclass
@@ -56,6 +56,7 @@ def write_store(path: str, store: TerrainStore) -> None:
     with h5py.File(path, "w") as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["format_version"] = FORMAT_VERSION
+        h5.attrs["layout"] = "mesh"
         for key, value in store.attrs.items():
             h5.attrs[key] = value
         h5["mesh/vertices"] = store.vertices.astype(np.float64)
@@ -114,6 +115,8 @@ def read_store(path: str) -> TerrainStore:
         # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in
         # _plain would leave it suspended (a later garbage collection in another thread deadlocks)
         attrs = {k: _plain(v) for k, v in list(h5.attrs.items())}
+        if attrs.get("layout") == "grid":
+            raise InputError(path, "a grid-layout store (a DEM) is read by window, not whole")
         buckets = None
         if "index" in h5:
             idx = h5["index"]

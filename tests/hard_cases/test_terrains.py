@@ -22,6 +22,23 @@ def _trajectory(path, lo, hi, rows=60):
     return path
 
 
+def _store_arrays(store):
+    """H and classes at every vertex or valid post, and the x, y extent, for either layout."""
+    with h5py.File(store) as h5:
+        if h5.attrs["layout"] == "grid":
+            h = h5["grid/height"]
+            valid = np.isfinite(h[:])
+            rows, cols = h.shape
+            dx, dy = h.attrs["spacing"]
+            lo = np.array([h.attrs["origin_x"], h.attrs["origin_y"] - (rows - 1) * dy])
+            hi = lo + [(cols - 1) * dx, (rows - 1) * dy]
+            assert not np.isfinite(h5["curvature/mean"][:][~valid]).any()
+            assert (h5["classes/grid"][:][~valid] == 255).all()
+            return h5["curvature/mean"][:][valid], h5["classes/grid"][:][valid], lo, hi
+        V = h5["mesh/vertices"][:]
+        return h5["curvature/mean"][:], h5["classes/vertex"][:], V[:, :2].min(axis=0), V[:, :2].max(axis=0)
+
+
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_hard_terrain(case, run, tmp_path):
     src = case.write(tmp_path)
@@ -35,10 +52,7 @@ def test_hard_terrain(case, run, tmp_path):
         assert not store.exists()
         return
     assert res.exit_code == 0, (case.why, res.stderr)
-    with h5py.File(store) as h5:
-        H = h5["curvature/mean"][:]
-        V = h5["mesh/vertices"][:]
-        classes = h5["classes/vertex"][:]
+    H, classes, lo, hi = _store_arrays(store)
     assert np.isfinite(H).all(), case.why
     assert set(np.unique(classes)) <= {0, 1, 2}
     if case.name in ("exactly_flat",):
@@ -48,7 +62,7 @@ def test_hard_terrain(case, run, tmp_path):
     info = run("info", store, "--json")
     assert info.exit_code == 0 and json.loads(info.stdout)
 
-    traj = _trajectory(tmp_path / "t.csv", V[:, :2].min(axis=0), V[:, :2].max(axis=0))
+    traj = _trajectory(tmp_path / "t.csv", lo, hi)
     res = run("replay", traj, "--terrain", store, "--events", tmp_path / "e.jsonl")
     assert res.exit_code == 0, res.stderr
     lines = res.stdout.strip().splitlines()

@@ -1,0 +1,165 @@
+"""DEM inputs as windowed sources: ``info`` (the grid's geometry) and ``read(r0, r1, c0, c1)``.
+
+Three kinds serve the same interface:
+
+- rasters GDAL reads (GeoTIFF, COG, DTED, SRTM HGT, VRT mosaics, folders of
+  tiles, ...): :mod:`tankcd_cli.io.rasters`, through rasterio;
+- ESRI ASCII grids: tankcd's own parser (no rasterio import; the grid is text,
+  read whole, so it suits grids of up to a few million posts);
+- the heights of a grid store, to classify again with other settings.
+
+``read`` returns float64 heights, row 0 north, NaN at NODATA and beyond the
+grid, so a window may reach past any edge.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from tankcd_cli.errors import InputError
+
+
+@dataclass(frozen=True)
+class DemInfo:
+    """The grid a DEM source serves (the same fields as ``rasters.GridInfo`` that classify uses)."""
+
+    source: str
+    format: str
+    rows: int
+    cols: int
+    origin: tuple  # world x, y of post [0, 0], the north-west one, m
+    spacing: tuple  # dx, dy > 0, m
+    crs_wkt: str = ""
+    crs_name: str = "local grid (no CRS)"
+    source_crs_name: str = ""
+    reprojected: bool = False
+    sha256: str = ""
+    height_dtype: str = "float64"
+
+
+class ArrayDem:
+    """A DEM held in memory: heights (rows, cols) row 0 north, NaN at NODATA."""
+
+    def __init__(self, heights: np.ndarray, info: DemInfo):
+        self.heights = heights
+        self.info = info
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        rows, cols = self.heights.shape
+        out = np.full((max(r1 - r0, 0), max(c1 - c0, 0)), np.nan)
+        a, b, c, d = max(r0, 0), min(r1, rows), max(c0, 0), min(c1, cols)
+        if a < b and c < d:
+            out[a - r0:b - r0, c - c0:d - c0] = self.heights[a:b, c:d]
+        return out
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class StoreDem:
+    """The heights of a grid store, read by tile."""
+
+    def __init__(self, path: str):
+        from tankcd_cli.terrain.grid_store import open_grid
+        from tankcd_cli.terrain.store import read_attrs
+
+        self.surface = open_grid(path)
+        a = read_attrs(path)
+        h = self.surface
+        with _h5(path) as f:
+            ds = f["grid/height"]
+            crs_name = ds.attrs.get("crs_name", "")
+            dtype = ds.dtype.name
+        self.info = DemInfo(a.get("source", path), a.get("source_format", "h5"), h.rows, h.cols, tuple(h.origin_nw),
+                            tuple(h.spacing), h.crs, _text(crs_name), a.get("source_crs_name", ""),
+                            bool(a.get("reprojected", False)), a.get("source_sha256", ""), dtype)
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        return self.surface.tiles.window("grid/height", r0, r1, c0, c1, np.nan, np.float64)
+
+    def close(self) -> None:
+        self.surface.tiles.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _h5(path):
+    import h5py
+
+    return h5py.File(path, "r")
+
+
+def _text(v) -> str:
+    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+
+
+ASC_SUFFIXES = ("asc",)
+
+
+def dem_kind(path: str, fmt: str | None = None) -> str | None:
+    """'asc', 'raster' or 'store' (a grid store) when ``path`` is a DEM input, else None (a mesh)."""
+    from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
+    from tankcd_cli.terrain.store import is_store, read_attrs
+
+    f = (fmt or "").lower()
+    if f in ASC_SUFFIXES:
+        return "asc"
+    if f == "h5" or (not f and path != "-" and is_store(path)):
+        return "store" if read_attrs(path).get("layout") == "grid" else None
+    if f:
+        return "raster" if f in RASTER_SUFFIXES else None
+    if path == "-":
+        return None
+    suffix = os.path.splitext(path)[1].lower().lstrip(".")
+    if suffix in ASC_SUFFIXES:
+        return "asc"
+    if os.path.isdir(path) or is_raster(path):
+        return "raster"
+    return None
+
+
+def open_dem(path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None):
+    """A DEM source (see the module doc), or None when ``path`` is not a DEM."""
+    kind = dem_kind(path, fmt)
+    if kind is None:
+        return None
+    if kind == "store":
+        if crs:
+            raise InputError(path, "--crs applies to rasters; a store keeps the CRS it was classified in")
+        return StoreDem(path)
+    if kind == "asc" and crs is None and band in (None, 1):
+        return ascii_dem(path)
+    from tankcd_cli.io.rasters import open_raster
+
+    return open_raster(path, band=band, crs=crs, fmt=fmt)
+
+
+def ascii_dem(path: str) -> ArrayDem:
+    """An ESRI ASCII grid through tankcd's own parser."""
+    import hashlib
+
+    from tankcd_cli.io.terrain_readers import _read_bytes, esri_ascii_posts
+
+    name = "<stdin>" if path == "-" else path
+    data = _read_bytes(path, name)
+    if not data.strip():
+        raise InputError(name, "file is empty")
+    z, valid, (x0, y0), (dx, dy) = esri_ascii_posts(data, name)
+    heights = np.where(valid, z, np.nan)[::-1].copy()  # row 0 north
+    rows, cols = heights.shape
+    info = DemInfo(name, "asc", rows, cols, (x0, y0 + (rows - 1) * dy), (dx, dy),
+                   sha256=hashlib.sha256(data).hexdigest())
+    return ArrayDem(heights, info)
