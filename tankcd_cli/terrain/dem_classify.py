@@ -22,7 +22,7 @@ def default_jobs() -> int:
 
 
 def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle | None = None,
-                 thresholds: Thresholds | None = None, tile: int = DEFAULT_TILE, jobs: int | None = None,
+                 thresholds: Thresholds | None = None, tile=DEFAULT_TILE, jobs: int | None = None,
                  progress: Callable[[int, int, int, float], None] | None = None) -> dict:
     """Classify every post of ``source`` (see ``io.dem_sources``) into a grid store at ``out_path``.
 
@@ -88,7 +88,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
             "track_width": vehicle.track_width,
             "share_flat": shares[0], "share_general": shares[1], "share_uneven": shares[2],
             "extent_min": lo, "extent_max": hi,
-            "tile": tile,
+            "tile": list(np.broadcast_to(np.asarray(tile), 2).astype(int)),
         }
         writer.finish(attrs)
     except BaseException:

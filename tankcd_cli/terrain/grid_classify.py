@@ -60,6 +60,8 @@ class Stencils:
     fit: np.ndarray  # candidate neighbours of a one-sided fit, nearest first, ties by the mesh's vertex order
     halo_rows: int
     halo_cols: int
+    reach_rows: int  # how far the two disks together reach
+    reach_cols: int
 
 
 def disk_offsets(radius: float, dx: float, dy: float) -> np.ndarray:
@@ -89,7 +91,7 @@ def stencils(geometry: GridGeometry, track_length: float) -> Stencils:
     reach_r = int(np.abs(track[:, 0]).max() + np.abs(foot[:, 0]).max())
     reach_c = int(np.abs(track[:, 1]).max() + np.abs(foot[:, 1]).max())
     return Stencils(track, foot, fit, reach_r + int(np.abs(fit[:, 0]).max()) + 1,
-                    reach_c + int(np.abs(fit[:, 1]).max()) + 1)
+                    reach_c + int(np.abs(fit[:, 1]).max()) + 1, reach_r, reach_c)
 
 
 # --- per window --------------------------------------------------------------------
@@ -118,22 +120,22 @@ def _disk_sum(a: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 
 
 def grid_mean_curvature_fd(z: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    """H by central differences at every post (NaN where a 3 x 3 neighbour is missing)."""
-    n = _shift(z, -1, 0, np.nan)
-    s = _shift(z, 1, 0, np.nan)
-    e = _shift(z, 0, 1, np.nan)
-    w = _shift(z, 0, -1, np.nan)
-    ne = _shift(z, -1, 1, np.nan)
-    nw = _shift(z, -1, -1, np.nan)
-    se = _shift(z, 1, 1, np.nan)
-    sw = _shift(z, 1, -1, np.nan)
-    fx = (e - w) / (2 * dx)
-    fy = (n - s) / (2 * dy)
-    fxx = (e - 2 * z + w) / (dx * dx)
-    fyy = (n - 2 * z + s) / (dy * dy)
-    fxy = ((ne - nw) - (se - sw)) / (4 * dx * dy)
-    g = 1.0 + fx * fx + fy * fy
-    return -((1 + fy * fy) * fxx - 2 * fx * fy * fxy + (1 + fx * fx) * fyy) / (2.0 * g * np.sqrt(g))
+    """H by central differences at every post (NaN where a 3 x 3 neighbour is missing, and on
+    the array's own border)."""
+    c = z[1:-1, 1:-1]
+    n, s = z[:-2, 1:-1], z[2:, 1:-1]  # row 0 north: the row above is north
+    e, w = z[1:-1, 2:], z[1:-1, :-2]
+    fx = (e - w) * (0.5 / dx)
+    fy = (n - s) * (0.5 / dy)
+    fxx = (e - 2 * c + w) * (1.0 / (dx * dx))
+    fyy = (n - 2 * c + s) * (1.0 / (dy * dy))
+    fxy = ((z[:-2, 2:] - z[:-2, :-2]) - (z[2:, 2:] - z[2:, :-2])) * (0.25 / (dx * dy))
+    fx2 = fx * fx
+    fy2 = fy * fy
+    g = 1.0 + fx2 + fy2
+    H = np.full(z.shape, np.nan)
+    H[1:-1, 1:-1] = -((1 + fy2) * fxx - 2 * fx * fy * fxy + (1 + fx2) * fyy) / (2.0 * g * np.sqrt(g))
+    return H
 
 
 def open_posts(valid: np.ndarray, method: str) -> np.ndarray:
@@ -315,10 +317,12 @@ def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, 
     return out[::-1]
 
 
-def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, st: Stencils, method: str):
+def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, st: Stencils, method: str,
+                  band: tuple[int, int] = (0, 0)):
     """H, post area and footprint-averaged |H| over a window (row0, col0: its first post in the
     grid). Values are final only at least ``halo`` posts inside the window's edges (or at the
-    grid's own edges, where the window holds NaN beyond)."""
+    grid's own edges, where the window holds NaN beyond). ``band`` (rows, cols): the outer
+    posts whose H no final value reads (no fit is spent on them)."""
     dx, dy = geometry.dx, geometry.dy
     valid = np.isfinite(z)
     if method == "grid":
@@ -327,6 +331,12 @@ def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, s
         H = _mesh_interior(z, method, row0, col0, dx, dy)
     edge = open_posts(valid, method)
     H = np.where(valid & ~edge, H, 0.0)
+    br, bc = band
+    if br or bc:
+        edge[:br] = False
+        edge[edge.shape[0] - br:] = False
+        edge[:, :bc] = False
+        edge[:, edge.shape[1] - bc:] = False
     if edge.any():
         H = np.where(edge, one_sided_fit(z, edge, row0, col0, dx, dy, st.fit), H)
     H = np.where(np.isfinite(H), H, 0.0)
@@ -360,7 +370,9 @@ def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_
     whose first post is window_origin (row, col) in the grid."""
     r0, r1, c0, c1 = core
     wr, wc = window_origin
-    H, area, field = window_fields(z_window, wr, wc, geometry, st, method)
+    # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read
+    band = (max(r0 - wr - st.reach_rows, 0), max(c0 - wc - st.reach_cols, 0))
+    H, area, field = window_fields(z_window, wr, wc, geometry, st, method, band)
     sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
     z, H, area, field = z_window[sl], H[sl], area[sl], field[sl]
     valid = np.isfinite(z)
@@ -369,20 +381,22 @@ def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_
     return TileResult(r0, c0, z, H, field, classes, by_class, int(valid.sum()))
 
 
-def tiles_of(geometry: GridGeometry, tile: int):
-    """Core windows (r0, r1, c0, c1) in row-major order."""
-    for r0 in range(0, geometry.rows, tile):
-        for c0 in range(0, geometry.cols, tile):
-            yield r0, min(r0 + tile, geometry.rows), c0, min(c0 + tile, geometry.cols)
+def tiles_of(geometry: GridGeometry, tile):
+    """Core windows (r0, r1, c0, c1) in row-major order; ``tile`` a side or (rows, cols)."""
+    th, tw = (tile, tile) if np.isscalar(tile) else tile
+    for r0 in range(0, geometry.rows, th):
+        for c0 in range(0, geometry.cols, tw):
+            yield r0, min(r0 + th, geometry.rows), c0, min(c0 + tw, geometry.cols)
 
 
 def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], geometry: GridGeometry, method: str,
-                        track_length: float, thresholds: Thresholds, tile: int = DEFAULT_TILE, jobs: int = 1,
+                        track_length: float, thresholds: Thresholds, tile=DEFAULT_TILE, jobs: int = 1,
                         on_tile: Callable[[TileResult], None] | None = None,
                         progress: Callable[[int, int, int], None] | None = None) -> None:
     """Classify every tile and hand each result to ``on_tile`` in row-major order.
 
     read(r0, r1, c0, c1) : heights (float64, NaN NODATA and beyond the grid) of a window
+    tile : posts per tile side, or (rows, cols)
     jobs : worker threads (numpy releases the GIL in the array work)
     progress(tiles_done, tiles_total, posts_done)
     """
