@@ -40,46 +40,6 @@ def class_map_png(store, path: str) -> None:
     plt.close(fig)
 
 
-def grid_map_png(store_path: str, path: str, title: str | None = None) -> None:
-    """Class map and footprint-averaged |H| of a grid store, from its overview rasters (a DEM
-    of any size draws in the same time and memory)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import BoundaryNorm, ListedColormap
-
-    from tankcd_cli.terrain.grid_store import read_overview
-
-    ov = read_overview(store_path)
-    a = ov["attrs"]
-    ox, oy = ov["origin"]
-    dx, dy = ov["spacing"] * ov["step"]
-    h, w = ov["classes"].shape
-    extent = (-dx / 2, (w - 0.5) * dx, -(h - 0.5) * dy, dy / 2)  # metres from the north-west post
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), constrained_layout=True)
-    cls = np.ma.masked_equal(ov["classes"], 255)
-    cmap = ListedColormap(["#9ccc65", "#ffca28", "#e53935"])
-    im = axes[0].imshow(cls, cmap=cmap, norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3), extent=extent,
-                        interpolation="nearest")
-    cb = fig.colorbar(im, ax=axes[0], ticks=[0, 1, 2], shrink=0.85)
-    cb.ax.set_yticklabels(["flat", "general", "uneven"])
-    step = f", worst of {ov['step']} x {ov['step']} posts" if ov["step"] > 1 else ""
-    axes[0].set_title(f"region classes ({a.get('vehicle')} footprint{step})", fontsize=9)
-    curv = ov["curvature"]
-    lim = float(np.nanpercentile(curv, 99)) if np.isfinite(curv).any() else 1e-6
-    im2 = axes[1].imshow(curv, cmap="magma", vmin=0, vmax=lim or 1e-6, extent=extent, interpolation="nearest")
-    fig.colorbar(im2, ax=axes[1], shrink=0.85, label="footprint-averaged |H|, 1/m")
-    axes[1].set_title(f"curvature ({a.get('curvature_method')}); thresholds {a.get('threshold_flat'):.4f}, "
-                      f"{a.get('threshold_uneven'):.4f}", fontsize=9)
-    for ax in axes:
-        ax.set_xlabel(f"x - {ox:.0f} m (east)")
-        ax.set_ylabel(f"y - {oy:.0f} m (north)")
-    fig.suptitle(title or str(a.get("source")), fontsize=10)
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
-
-
 def envelope_png(vehicle, env, path: str) -> None:
     """Polar plot: turret azimuth around (forward up, counter-clockwise as the turret turns),
     radius the lowest safe elevation; the gun's own limit dashed, the drums' bite shaded."""
@@ -111,21 +71,33 @@ def envelope_png(vehicle, env, path: str) -> None:
 
 
 def replay_map_png(store, path_xy, marks, path: str) -> None:
-    """The replayed path over the class map, with events marked by kind."""
+    """The replayed path over the class map, with events marked by kind.
+
+    store : a mesh-layout TerrainStore, or the path of a grid store (drawn from its overview)
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.tri import Triangulation
 
-    v, f = store.vertices, store.faces
-    origin = v[:, :2].min(axis=0)
-    tri = Triangulation(v[:, 0] - origin[0], v[:, 1] - origin[1], f)
     fig, ax = plt.subplots(figsize=(10, 7), constrained_layout=True)
     cmap = ListedColormap(["#dcedc8", "#fff3c4", "#ffcdd2"])
-    ax.tripcolor(tri, facecolors=store.vertex_class[f].max(axis=1), cmap=cmap,
-                 norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3))
+    norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3)
+    if isinstance(store, str):
+        from tankcd_cli.terrain.grid_store import read_overview
+
+        ov = read_overview(store)
+        origin, extent = _overview_extent(ov)
+        ax.imshow(np.ma.masked_equal(ov["classes"], 255), cmap=cmap, norm=norm, interpolation="nearest",
+                  extent=extent)
+    else:
+        from matplotlib.tri import Triangulation
+
+        v, f = store.vertices, store.faces
+        origin = v[:, :2].min(axis=0)
+        tri = Triangulation(v[:, 0] - origin[0], v[:, 1] - origin[1], f)
+        ax.tripcolor(tri, facecolors=store.vertex_class[f].max(axis=1), cmap=cmap, norm=norm)
     ax.plot(path_xy[:, 0] - origin[0], path_xy[:, 1] - origin[1], color="#1565c0", lw=1.5, label="path")
     style = {"obstacle": ("X", "#b71c1c", "hit an obstacle"), "internal": ("o", "#6a1b9a", "gun against a drum"),
              "terrain": ("v", "#e65100", "hull bottom on the ground"), "off_terrain": ("s", "#424242", "off the terrain")}
@@ -139,5 +111,52 @@ def replay_map_png(store, path_xy, marks, path: str) -> None:
     ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
     ax.set_title("replay over the region classes (green flat, yellow general, red uneven)", fontsize=10)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
+def _overview_extent(ov: dict):
+    """The south-west post (world x, y) and the imshow extent, in metres from it, of an overview."""
+    ox, oy = ov["origin"]
+    top = (ov["rows"] - 1) * ov["spacing"][1]
+    origin = np.array([ox, oy - top])
+    dx, dy = ov["spacing"] * ov["step"]
+    h, w = ov["classes"].shape
+    return origin, (-dx / 2, (w - 0.5) * dx, top - (h - 0.5) * dy, top + dy / 2)
+
+
+def grid_map_png(store_path: str, path: str, title: str | None = None) -> None:
+    """Class map and footprint-averaged |H| of a grid store, from its overview rasters (a DEM
+    of any size draws in the same time and memory)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    from tankcd_cli.terrain.grid_store import read_overview
+
+    ov = read_overview(store_path)
+    a = ov["attrs"]
+    origin, extent = _overview_extent(ov)
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), constrained_layout=True)
+    cls = np.ma.masked_equal(ov["classes"], 255)
+    cmap = ListedColormap(["#9ccc65", "#ffca28", "#e53935"])
+    im = axes[0].imshow(cls, cmap=cmap, norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3), extent=extent,
+                        interpolation="nearest")
+    cb = fig.colorbar(im, ax=axes[0], ticks=[0, 1, 2], shrink=0.85)
+    cb.ax.set_yticklabels(["flat", "general", "uneven"])
+    step = f", worst of {ov['step']} x {ov['step']} posts" if ov["step"] > 1 else ""
+    axes[0].set_title(f"region classes ({a.get('vehicle')} footprint{step})", fontsize=9)
+    curv = ov["curvature"]
+    lim = float(np.nanpercentile(curv, 99)) if np.isfinite(curv).any() else 1e-6
+    im2 = axes[1].imshow(curv, cmap="magma", vmin=0, vmax=lim or 1e-6, extent=extent, interpolation="nearest")
+    fig.colorbar(im2, ax=axes[1], shrink=0.85, label="footprint-averaged |H|, 1/m")
+    axes[1].set_title(f"curvature ({a.get('curvature_method')}); thresholds {a.get('threshold_flat'):.4f}, "
+                      f"{a.get('threshold_uneven'):.4f}", fontsize=9)
+    for ax in axes:
+        ax.set_xlabel(f"x - {origin[0]:.0f} m (east)")
+        ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
+    fig.suptitle(title or str(a.get("source")), fontsize=10)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

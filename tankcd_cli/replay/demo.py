@@ -17,16 +17,15 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
-    from tankcd_cli.io.terrain_readers import read_terrain
+    from tankcd_cli.io.dem_sources import ascii_dem
     from tankcd_cli.io.trajectory import read_trajectory
     from tankcd_cli.matching.match import MATCHERS, STATUS
-    from tankcd_cli.plots import class_map_png, replay_map_png
+    from tankcd_cli.plots import grid_map_png, replay_map_png
     from tankcd_cli.replay.pipeline import prepare, replay_chunks
     from tankcd_cli.replay.scene import load_scene
     from tankcd_cli.sample import write_sample
-    from tankcd_cli.terrain.classify import classify_terrain
-    from tankcd_cli.terrain.store import write_store
-    from tankcd_cli.terrain.surface import TerrainSurface
+    from tankcd_cli.terrain.dem_classify import classify_dem
+    from tankcd_cli.terrain.grid_store import open_grid
 
     say = progress or (lambda s: None)
     os.makedirs(out_dir, exist_ok=True)
@@ -39,15 +38,15 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     with open(scene_path, "w") as fh:
         fh.write(text)
     say("classifying the terrain")
-    store = classify_terrain(read_terrain(p("battlefield.asc")), progress=say)
-    with atomic_path(p("battlefield.h5"), ".h5") as tmp:
-        write_store(tmp, store)
+    store = p("battlefield.h5")
+    with atomic_path(store, ".h5") as tmp:
+        classify_dem(ascii_dem(p("battlefield.asc")), tmp)
     with atomic_path(p("classes.png"), ".png") as tmp:
-        class_map_png(store, tmp)
+        grid_map_png(store, tmp)
     scene = load_scene(scene_path)
     say("building the obstacles' trees")
     load_obstacles(scene, cache=True, rebuild=True, progress=say)
-    surface = TerrainSurface.from_store(store)
+    surface = open_grid(store)
     chunks = list(read_trajectory(p("patrol.csv")))
     setup = prepare(surface, scene.vehicle, scene, turret_moves=chunks[0].has_turret, progress=say)
     say("replaying the patrol")
