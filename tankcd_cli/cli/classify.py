@@ -37,9 +37,13 @@ METHOD_HELP = ("Mean-curvature estimator: grid (DEMs only, the default there: ce
 @click.option("--tile", type=click.IntRange(min=16), default=512, show_default=True,
               help="DEMs: posts per tile side; memory grows with it, the result does not change.")
 @click.option("--jobs", type=click.IntRange(min=1), default=None, help="DEMs: worker threads (default: the cores).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="DEMs: classify the tiles on this Dask cluster (tcp://host:8786); the workers read the DEM "
+                   "from its path, which they must all see; this process writes the store.")
 @verbosity_options
 @click.pass_obj
-def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds, png, crs, band, tile, jobs):
+def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds, png, crs, band, tile, jobs,
+             scheduler):
     """Load TERRAIN (mesh, DEM or store), compute the signed mean curvature at every
     vertex, classify flat / general / uneven regions and write the terrain store.
 
@@ -73,9 +77,16 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     if dem is not None:
         if up != "z":
             raise click.UsageError("--up y makes no sense for a DEM (grids are z-up)")
+        spec = None
+        if scheduler:
+            if terrain == "-":
+                raise click.UsageError("--scheduler needs a DEM path the workers can read, not standard input")
+            spec = (os.path.abspath(terrain), fmt, band, crs)
         _classify_dem(report, dem, output, method or "grid", vehicle_preset(vehicle_name), user_thresholds, tile,
-                      jobs, png)
+                      jobs, png, scheduler, spec)
         return
+    if scheduler:
+        raise click.UsageError("--scheduler applies to DEMs; a mesh is classified in this process")
     if crs or band:
         raise click.UsageError("--crs and --band apply to DEM rasters; meshes keep their coordinates")
     if method == "grid":
@@ -101,7 +112,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
                 f"uneven {a['share_uneven']:.0%} of the area ({report.elapsed():.2f} s)")
 
 
-def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, png):
+def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, png, scheduler=None, spec=None):
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.terrain.dem_classify import classify_dem
 
@@ -115,7 +126,7 @@ def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, 
 
     with dem, atomic_path(output, ".h5") as tmp:
         a = classify_dem(dem, tmp, method=method, vehicle=vehicle, thresholds=thresholds, tile=tile, jobs=jobs,
-                         progress=progress)
+                         progress=progress, scheduler=scheduler, spec=spec)
         report.bar(None)
         if png:
             from tankcd_cli.plots import grid_map_png

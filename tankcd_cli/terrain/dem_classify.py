@@ -23,10 +23,14 @@ def default_jobs() -> int:
 
 def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle | None = None,
                  thresholds: Thresholds | None = None, tile=DEFAULT_TILE, jobs: int | None = None,
-                 progress: Callable[[int, int, int, float], None] | None = None) -> dict:
+                 progress: Callable[[int, int, int, float], None] | None = None, scheduler: str | None = None,
+                 spec: tuple | None = None) -> dict:
     """Classify every post of ``source`` (see ``io.dem_sources``) into a grid store at ``out_path``.
 
     progress(tiles_done, tiles_total, posts_done, seconds) after each tile.
+    scheduler : a Dask scheduler's address: the tiles run there as tasks, each worker reading
+        its windows of the DEM named by ``spec`` ((path, format, band, crs): a path every
+        worker sees); this process writes the store, in the same tile order as a local run.
     Returns the store's root attributes.
     """
     from tankcd_cli.terrain.grid_store import GridStoreWriter
@@ -41,21 +45,20 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
     started = time.perf_counter()
     writer = GridStoreWriter(out_path, geometry.rows, geometry.cols, info.origin, (dx, dy), info.crs_wkt,
                              info.crs_name, info.height_dtype)
+
     def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-        z = source.read(r0, r1, c0, c1)
-        with np.errstate(invalid="ignore"):
-            huge = np.abs(z) > MAX_COORDINATE
-        if huge.any():  # a unit or parse error, never terrain (and it would overflow the fits)
-            r, c = np.argwhere(huge)[0]
-            raise InputError(info.source, f"height beyond {MAX_COORDINATE:.0e} m: {z[r, c]!r}",
-                             where=f"row {r0 + r + 1} column {c0 + c + 1}")
-        return z
+        return checked_read(source, r0, r1, c0, c1)
 
     try:
-        classify_grid_tiles(read, geometry, method, vehicle.track_length, thresholds, tile=tile,
-                            jobs=jobs or default_jobs(), on_tile=writer.write,
-                            progress=None if progress is None else
-                            lambda done, total, posts: progress(done, total, posts, time.perf_counter() - started))
+        if scheduler:
+            from tankcd_cli.terrain.grid_cluster import classify_tiles_on_dask
+
+            classify_tiles_on_dask(scheduler, spec, geometry, method, vehicle.track_length, thresholds, tile,
+                                   writer.write, progress_of(progress, started))
+        else:
+            classify_grid_tiles(read, geometry, method, vehicle.track_length, thresholds, tile=tile,
+                                jobs=jobs or default_jobs(), on_tile=writer.write,
+                                progress=progress_of(progress, started))
         if writer.valid == 0:
             raise InputError(info.source, "every post is NODATA")
         total = writer.by_class.sum()
@@ -95,3 +98,22 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
         writer.abort()
         raise
     return attrs
+
+
+def checked_read(source, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    """A window of heights, refusing numbers no terrain has (a unit or parse error, and they
+    would overflow the fits)."""
+    z = source.read(r0, r1, c0, c1)
+    with np.errstate(invalid="ignore"):
+        huge = np.abs(z) > MAX_COORDINATE
+    if huge.any():
+        r, c = np.argwhere(huge)[0]
+        raise InputError(source.info.source, f"height beyond {MAX_COORDINATE:.0e} m: {z[r, c]!r}",
+                         where=f"row {r0 + r + 1} column {c0 + c + 1}")
+    return z
+
+
+def progress_of(progress, started: float):
+    if progress is None:
+        return None
+    return lambda done, total, posts: progress(done, total, posts, time.perf_counter() - started)
