@@ -293,3 +293,26 @@ def test_windows_do_not_change_results(both_surfaces):
     for i in range(0, 60, 7):
         alone = match(grid, T72, x[i:i + 1], y[i:i + 1], yaw[i:i + 1], "reference")
         np.testing.assert_array_equal(alone.position, together.position[i:i + 1])
+
+
+# --- compiled twins ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("seed,spacing", [(0, (1.0, 1.0)), (1, (2.0, 0.7)), (2, (0.25, 0.25))])
+def test_compiled_twins_give_the_same_bits(seed, spacing):
+    """The numba passes do the numpy twins' arithmetic in the same order: the same bits, NaN included."""
+    from tankcd_cli.terrain import grid_classify_kernels as k
+
+    rng = np.random.default_rng(seed)
+    z = 100 + np.cumsum(rng.normal(0, 0.3, (83, 71)), axis=1)
+    z[rng.random(z.shape) < 0.07] = np.nan
+    np.testing.assert_array_equal(k.fd_mean_curvature(z, *spacing), gc.grid_mean_curvature_fd(z, *spacing))
+    np.testing.assert_array_equal(k.post_areas(z, *spacing), gc.post_areas(z, *spacing))
+
+
+def test_large_dems_take_the_compiled_passes_with_the_same_result(monkeypatch):
+    z = rough_dem(64, 70, seed=14)
+    slow = classify_arrays(z, tile=20)
+    monkeypatch.setattr(gc, "FAST_MIN_POSTS", 0)
+    fast = classify_arrays(z, tile=20, jobs=2)
+    for key in slow:
+        np.testing.assert_array_equal(fast[key], slow[key])

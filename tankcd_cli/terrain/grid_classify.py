@@ -41,6 +41,21 @@ GRID_METHODS = ("grid", "cotan", "sphere", "jet")
 FIT_RADIUS = 12  # posts (along the coarser axis): holds the 40 nearest even at a DEM's corner (a quarter disk)
 MIN_FIT_POSTS = 14  # unknowns of the quartic
 DEFAULT_TILE = 512
+FAST_MIN_POSTS = 1_000_000  # below it the numpy twins beat numba's start-up (about half a second)
+
+
+def use_compiled(geometry) -> bool:
+    """Whether a DEM is large enough for the compiled twins (the results are the same bits)."""
+    return geometry.rows * geometry.cols >= FAST_MIN_POSTS
+
+
+def _passes(fast: bool):
+    """(central differences, post areas, disk sum): the compiled twins or the numpy ones."""
+    if fast:
+        from tankcd_cli.terrain import grid_classify_kernels as k
+
+        return k.fd_mean_curvature, k.post_areas, _disk_sum
+    return grid_mean_curvature_fd, post_areas, _disk_sum
 
 
 @dataclass(frozen=True)
@@ -318,15 +333,16 @@ def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, 
 
 
 def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, st: Stencils, method: str,
-                  band: tuple[int, int] = (0, 0)):
+                  band: tuple[int, int] = (0, 0), fast: bool = False):
     """H, post area and footprint-averaged |H| over a window (row0, col0: its first post in the
     grid). Values are final only at least ``halo`` posts inside the window's edges (or at the
     grid's own edges, where the window holds NaN beyond). ``band`` (rows, cols): the outer
-    posts whose H no final value reads (no fit is spent on them)."""
+    posts whose H no final value reads (no fit is spent on them). ``fast``: the compiled twins."""
     dx, dy = geometry.dx, geometry.dy
+    fd, areas, disk = _passes(fast)
     valid = np.isfinite(z)
     if method == "grid":
-        H = grid_mean_curvature_fd(z, dx, dy)
+        H = fd(z, dx, dy)
     else:
         H = _mesh_interior(z, method, row0, col0, dx, dy)
     edge = open_posts(valid, method)
@@ -340,13 +356,13 @@ def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, s
     if edge.any():
         H = np.where(edge, one_sided_fit(z, edge, row0, col0, dx, dy, st.fit), H)
     H = np.where(np.isfinite(H), H, 0.0)
-    area = post_areas(z, dx, dy)
-    a_track = _disk_sum(area, st.disk_track)
-    ah_track = _disk_sum(area * H, st.disk_track)
+    area = areas(z, dx, dy)
+    a_track = disk(area, st.disk_track)
+    ah_track = disk(area * H, st.disk_track)
     with np.errstate(divide="ignore", invalid="ignore"):
         h_track = np.where(a_track > 0, ah_track / a_track, 0.0)
-    a_foot = _disk_sum(area, st.disk_footprint)
-    ah_foot = _disk_sum(area * np.abs(h_track), st.disk_footprint)
+    a_foot = disk(area, st.disk_footprint)
+    ah_foot = disk(area * np.abs(h_track), st.disk_footprint)
     with np.errstate(divide="ignore", invalid="ignore"):
         field = np.where(a_foot > 0, ah_foot / a_foot, np.abs(H))  # a post with no triangle: its own |H|
     return np.where(valid, H, np.nan), area, np.where(valid, np.maximum(field, 0.0), np.nan)
@@ -365,14 +381,15 @@ class TileResult:
 
 
 def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_origin: tuple[int, int],
-                  geometry: GridGeometry, st: Stencils, method: str, thresholds: Thresholds) -> TileResult:
+                  geometry: GridGeometry, st: Stencils, method: str, thresholds: Thresholds,
+                  fast: bool = False) -> TileResult:
     """Fields and classes of the core rows r0..r1-1, cols c0..c1-1 from a window of heights
     whose first post is window_origin (row, col) in the grid."""
     r0, r1, c0, c1 = core
     wr, wc = window_origin
     # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read
     band = (max(r0 - wr - st.reach_rows, 0), max(c0 - wc - st.reach_cols, 0))
-    H, area, field = window_fields(z_window, wr, wc, geometry, st, method, band)
+    H, area, field = window_fields(z_window, wr, wc, geometry, st, method, band, fast)
     sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
     z, H, area, field = z_window[sl], H[sl], area[sl], field[sl]
     valid = np.isfinite(z)
@@ -404,9 +421,10 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], geomet
         raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(GRID_METHODS)}")
     st = stencils(geometry, track_length)
     cores = list(tiles_of(geometry, tile))
+    fast = use_compiled(geometry)
 
     def work(core, z, origin):
-        return classify_tile(z, core, origin, geometry, st, method, thresholds)
+        return classify_tile(z, core, origin, geometry, st, method, thresholds, fast)
 
     def fetch(core):
         r0, r1, c0, c1 = core

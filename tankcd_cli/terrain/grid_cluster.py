@@ -33,7 +33,7 @@ def _source(spec: tuple):
 def tile_task(spec: tuple, core: tuple, geometry, method: str, track_length: float, thresholds):
     """Classify one tile on a worker (see ``grid_classify.classify_tile``)."""
     from tankcd_cli.terrain.dem_classify import checked_read
-    from tankcd_cli.terrain.grid_classify import classify_tile, stencils
+    from tankcd_cli.terrain.grid_classify import classify_tile, stencils, use_compiled
 
     st = stencils(geometry, track_length)
     source = _source(spec)
@@ -41,7 +41,7 @@ def tile_task(spec: tuple, core: tuple, geometry, method: str, track_length: flo
     wr, wc = r0 - st.halo_rows, c0 - st.halo_cols
     with _LOCK:  # one reader per DEM handle
         z = checked_read(source, wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
-    return classify_tile(z, core, (wr, wc), geometry, st, method, thresholds)
+    return classify_tile(z, core, (wr, wc), geometry, st, method, thresholds, use_compiled(geometry))
 
 
 def classify_tiles_on_dask(scheduler: str, spec: tuple, geometry, method: str, track_length: float, thresholds,
