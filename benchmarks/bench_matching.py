@@ -125,7 +125,48 @@ def main():
     lines += ["", "Pose only: the matcher alone (auto includes its region lookup under every footprint); "
               "with penetration and gap: plus the exact footprint pass and the region column, as `replay` "
               "writes them. The peer column counts only the ray casts (the plane arithmetic would add to it)."]
+    lines += grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, surface)
     save_report("\n".join(lines), args.out)
+
+
+def grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, mesh_surface):
+    """The same DEM in the grid layout, read by window from a store on disk, against the mesh layout."""
+    import tempfile
+
+    from tankcd_cli.io.dem_sources import ArrayDem, DemInfo
+    from tankcd_cli.matching.match import MATCHERS, match
+    from tankcd_cli.terrain.dem_classify import classify_dem
+    from tankcd_cli.terrain.grid_store import open_grid
+
+    v = raw.grid.vertex
+    heights = np.full(v.shape, np.nan)
+    heights[v >= 0] = raw.vertices[v[v >= 0], 2]
+    heights = heights[::-1].copy()  # row 0 north
+    ox, oy = raw.grid.origin
+    info = DemInfo("bench", "asc", size, size, (ox, oy + (size - 1) * 1.0), (1.0, 1.0))
+    n = len(x)
+    out = ["", "## The same DEM in the grid layout", "",
+           "Posts only, read by window through the tile cache from a store on disk (classified by "
+           "`classify_dem`), against the mesh layout above: poses/s and the ratio grid / mesh.", "",
+           "| matcher | grid poses/s (pose only) | grid / mesh | grid poses/s (with penetration, gap) | grid / mesh |",
+           "| --- | --- | --- | --- | --- |"]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "grid.h5")
+        classify_dem(ArrayDem(heights, info), path)
+        grid = open_grid(path)
+        for m in MATCHERS + ("auto",):
+            rows = []
+            for measure in (False, True):
+                reps = 1 if (m == "reference" and measure) else repeats
+                g = timed(lambda: match(grid, vehicle, x, y, yaw, m, measure=measure, regions=measure or m == "auto"), reps)
+                h = timed(lambda: match(mesh_surface, vehicle, x, y, yaw, m, measure=measure,
+                                        regions=measure or m == "auto"), reps)
+                rows += [f"{n / g[0]:,.0f}", f"{h[0] / g[0]:.2f}x"]
+            out.append(f"| {m} | " + " | ".join(rows) + " |")
+        q = timed(lambda: grid.height_normal(x, y), repeats)
+        h = timed(lambda: mesh_surface.height_normal(x, y), repeats)
+        out += ["", f"Height and normal: grid {n / q[0]:,.0f} points/s, {h[0] / q[0]:.2f}x the mesh layout's rate."]
+    return out
 
 
 if __name__ == "__main__":

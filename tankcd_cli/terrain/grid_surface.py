@@ -6,12 +6,13 @@ implicit surface (each cell split along its SW-NE diagonal; a cell with three
 valid posts carries the triangle of those three), with no vertex, face or
 plane arrays: every query is arithmetic on posts.
 
-Queries never load the grid. Points are grouped by the block of
-``BLOCK`` x ``BLOCK`` posts they fall in; each block is read as one window
-(the block plus a margin wide enough for what the query reaches: a key point,
-a footprint, a hull) from the store's tiles through a bounded cache, and kept
-in a small LRU of windows. Start-up and memory depend on the work asked for,
-not on the size of the terrain.
+Queries never load the grid. A query's points are read through one window
+(the blocks of ``BLOCK`` x ``BLOCK`` posts they fall in, plus a margin wide
+enough for what the query reaches: a key point, a footprint, a hull) when
+that window stays under ``WINDOW_POSTS``, as a trajectory chunk's does; else
+the points are grouped by block, a window each. Windows are assembled from
+the store's tiles through a bounded cache and kept in a small LRU. Start-up
+and memory depend on the work asked for, not on the size of the terrain.
 
 Local coordinates: x, y relative to the grid's south-west post, so UTM
 coordinates lose nothing; post (row from the south i, column c) lies at
@@ -27,7 +28,8 @@ from collections import OrderedDict
 import numpy as np
 
 BLOCK = 512  # posts per window side before margins
-WINDOWS_KEPT = 6  # assembled windows (heights + classes: about 2.5 MB each at 512 + margins)
+WINDOW_POSTS = 4_000_000  # a query whose points all fit one window this large reads one (32 MB of heights)
+WINDOW_BYTES = 64 << 20  # assembled windows kept, at most (the newest always)
 NO_CLASS = 255
 
 
@@ -85,15 +87,17 @@ class GridSurface:
         m = int(math.ceil(max(reach, 0.0) / float(self.spacing.min()))) + 2
         return ((m + 15) // 16) * 16  # a few sizes only, so that windows are reused across queries
 
-    def _window(self, br: int, bc: int, margin: int, classes: bool):
-        """(array south row first, r_off, c_off) of block (br, bc) (south-based) with ``margin`` posts."""
-        key = (br, bc, margin, classes)
+    def _window(self, blocks: tuple, margin: int, classes: bool):
+        """(array south row first, r_off, c_off) over blocks (br0, br1, bc0, bc1) (south-based,
+        inclusive) with ``margin`` posts around them."""
+        key = (blocks, margin, classes)
         hit = self._windows.get(key)
         if hit is not None:
             self._windows.move_to_end(key)
             return hit
-        s0, s1 = br * BLOCK - margin, (br + 1) * BLOCK + margin + 1
-        c0, c1 = bc * BLOCK - margin, (bc + 1) * BLOCK + margin + 1
+        br0, br1, bc0, bc1 = blocks
+        s0, s1 = br0 * BLOCK - margin, (br1 + 1) * BLOCK + margin + 1
+        c0, c1 = bc0 * BLOCK - margin, (bc1 + 1) * BLOCK + margin + 1
         s0, s1 = max(s0, 0), min(s1, self.rows)
         c0, c1 = max(c0, 0), min(c1, self.cols)
         n0, n1 = self.rows - s1, self.rows - s0  # north-based rows of the same posts
@@ -103,12 +107,18 @@ class GridSurface:
             arr = self.tiles.window("grid/height", n0, n1, c0, c1, np.nan, np.float64)
         win = (np.ascontiguousarray(arr[::-1]), s0, c0)
         self._windows[key] = win
-        while len(self._windows) > WINDOWS_KEPT:
+        while len(self._windows) > 1 and sum(w[0].nbytes for w in self._windows.values()) > WINDOW_BYTES:
             self._windows.popitem(last=False)
         return win
 
-    def _groups(self, lx: np.ndarray, ly: np.ndarray):
-        """Indices of the points in each block, with the block: [(idx, br, bc)]."""
+    def _groups(self, lx: np.ndarray, ly: np.ndarray, margin: int):
+        """The points grouped by window: [(indices or slice(None), (br0, br1, bc0, bc1))].
+
+        All points in one window when their blocks' span (with margins) stays under
+        WINDOW_POSTS posts (a chunk of a trajectory, a small terrain); else one window per block.
+        """
+        if len(lx) == 0:
+            return []
         nbr = max((self.rows - 1) // BLOCK, 0)
         nbc = max((self.cols - 1) // BLOCK, 0)
         with np.errstate(invalid="ignore"):
@@ -116,15 +126,18 @@ class GridSurface:
             br = np.floor(ly / (BLOCK * self.spacing[1]))
         bc = np.clip(np.nan_to_num(bc, nan=0.0), 0, nbc).astype(np.int64)
         br = np.clip(np.nan_to_num(br, nan=0.0), 0, nbr).astype(np.int64)
-        key = br * (nbc + 1) + bc
-        if len(key) == 0:
-            return []
-        first = key[0]
-        if (key == first).all():  # the common case: a chunk inside one block
-            return [(np.arange(len(key)), int(br[0]), int(bc[0]))]
-        order = np.argsort(key, kind="stable")
+        r0, r1, c0, c1 = int(br.min()), int(br.max()), int(bc.min()), int(bc.max())
+        span = ((r1 - r0 + 1) * BLOCK + 2 * margin) * ((c1 - c0 + 1) * BLOCK + 2 * margin)
+        if span <= WINDOW_POSTS or (r0 == r1 and c0 == c1):
+            return [(slice(None), (r0, r1, c0, c1))]
+        key = (br * (nbc + 1) + bc).astype(np.uint32 if (nbr + 1) * (nbc + 1) < 2**32 else np.int64)
+        order = np.argsort(key, kind="stable")  # a radix sort for small integer keys
         cut = np.flatnonzero(np.diff(key[order])) + 1
-        return [(g, int(br[g[0]]), int(bc[g[0]])) for g in np.split(order, cut)]
+        out = []
+        for g in np.split(order, cut):
+            b_r, b_c = int(br[g[0]]), int(bc[g[0]])
+            out.append((g, (b_r, b_r, b_c, b_c)))
+        return out
 
     # --- queries ----------------------------------------------------------------------
 
@@ -137,8 +150,8 @@ class GridSurface:
         lx, ly = np.ravel(lx), np.ravel(ly)
         z, gx, gy = (np.full(len(lx), np.nan) for _ in range(3))
         margin = self._margin(0.0)
-        for idx, br, bc in self._groups(lx, ly):
-            win, r_off, c_off = self._window(br, bc, margin, False)
+        for idx, blocks in self._groups(lx, ly, margin):
+            win, r_off, c_off = self._window(blocks, margin, False)
             z[idx], gx[idx], gy[idx] = grid_heights_slopes(lx[idx], ly[idx], win, self.post_origin, self.spacing,
                                                            r_off, c_off, self.rows, self.cols)
         return z.reshape(shape), gx.reshape(shape), gy.reshape(shape)
@@ -168,8 +181,8 @@ class GridSurface:
         yaw = np.broadcast_to(np.asarray(yaw, dtype=float), lx.shape).ravel()
         out = np.full(len(lx), NO_CLASS, dtype=np.uint8)
         margin = self._margin(math.hypot(length, width) / 2)
-        for idx, br, bc in self._groups(lx, ly):
-            win, r_off, c_off = self._window(br, bc, margin, True)
+        for idx, blocks in self._groups(lx, ly, margin):
+            win, r_off, c_off = self._window(blocks, margin, True)
             out[idx] = grid_worst_class(lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), su, sv, win,
                                         self.post_origin, self.spacing, r_off, c_off)
         return out
@@ -190,8 +203,8 @@ class GridSurface:
         margin = self._margin(reach)
         empty_i = np.zeros(1, dtype=np.int64)
         empty_f = np.zeros((1, 3))
-        for idx, br, bc in self._groups(lx, ly):
-            win, r_off, c_off = self._window(br, bc, margin, False)
+        for idx, blocks in self._groups(lx, ly, margin):
+            win, r_off, c_off = self._window(blocks, margin, False)
             out[idx], covered[idx], status[idx] = footprint_batch(
                 mode, lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), np.ascontiguousarray(quads[idx]),
                 empty_f, empty_i.reshape(1, 1).repeat(3, axis=1), empty_f, np.zeros(2), np.ones(2), 0, 0, empty_i,
