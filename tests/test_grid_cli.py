@@ -230,3 +230,17 @@ def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
         skip = {"created_utc"}
         assert {k: str(v) for k, v in h1.attrs.items() if k not in skip} == \
                {k: str(v) for k, v in h2.attrs.items() if k not in skip}
+
+
+def test_ascii_grid_through_gdal_equals_our_parser(run, tmp_path, monkeypatch):
+    """Large ESRI grids go through GDAL (faster, windowed), small ones through our parser: the same store."""
+    import tankcd_cli.io.dem_sources as ds
+
+    z = ground(40, 50, seed=8)
+    src = write_asc(tmp_path / "g.asc", np.where(np.isnan(z), -9999, z), xll=X0, yll=YN - 39, nodata=-9999)
+    assert run("classify", src, "-o", tmp_path / "own.h5").exit_code == 0
+    monkeypatch.setattr(ds, "ASC_OWN_MAX_BYTES", 0)
+    assert run("classify", src, "-o", tmp_path / "gdal.h5").exit_code == 0
+    a, b = store_contents(tmp_path / "own.h5"), store_contents(tmp_path / "gdal.h5")
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)

@@ -4,8 +4,12 @@ Three kinds serve the same interface:
 
 - rasters GDAL reads (GeoTIFF, COG, DTED, SRTM HGT, VRT mosaics, folders of
   tiles, ...): :mod:`tankcd_cli.io.rasters`, through rasterio;
-- ESRI ASCII grids: tankcd's own parser (no rasterio import; the grid is text,
-  read whole, so it suits grids of up to a few million posts);
+- small ESRI ASCII grids (under ``ASC_OWN_MAX_BYTES``, and standard input):
+  tankcd's own parser, read whole. Measured on this machine: a 4M-post grid
+  parses in 1.3 s here against 0.37 s through GDAL, but a 39k-post one in
+  0.02 s against 0.18 s, nearly all of it importing rasterio. Larger grids go
+  through GDAL, which also reads them by window. Both give the same grid
+  (a test).
 - the heights of a grid store, to classify again with other settings.
 
 ``read`` returns float64 heights, row 0 north, NaN at NODATA and beyond the
@@ -107,6 +111,7 @@ def _text(v) -> str:
 
 
 ASC_SUFFIXES = ("asc",)
+ASC_OWN_MAX_BYTES = 4 << 20  # about 500k posts: below it our parser beats importing rasterio
 
 
 def dem_kind(path: str, fmt: str | None = None) -> str | None:
@@ -140,11 +145,18 @@ def open_dem(path: str, fmt: str | None = None, band: int | None = None, crs: st
         if crs:
             raise InputError(path, "--crs applies to rasters; a store keeps the CRS it was classified in")
         return StoreDem(path)
-    if kind == "asc" and crs is None and band in (None, 1):
+    if kind == "asc" and crs is None and band in (None, 1) and (path == "-" or _size(path) < ASC_OWN_MAX_BYTES):
         return ascii_dem(path)
     from tankcd_cli.io.rasters import open_raster
 
     return open_raster(path, band=band, crs=crs, fmt=fmt)
+
+
+def _size(path: str) -> int:
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return 0  # missing: the own parser names the file in its error
 
 
 def ascii_dem(path: str) -> ArrayDem:
