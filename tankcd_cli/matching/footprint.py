@@ -55,15 +55,9 @@ def _clip(pu, pv, pz, count, au, av, bu, bv, ou, ov, oz):  # pragma: no cover - 
     return n
 
 
-@njit(cache=True)
-def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once, cand,
-                  pu, pv, pz, ou, ov, oz, out_u, out_v, out_z, used):  # pragma: no cover - compiled
-    """Append the clipped-triangle corners under one patch; returns (count, covered area).
-
-    cand and pu .. oz are the caller's scratch (cand grows here if too small); listed_once
-    says no face is listed in two cells (a DEM's cells), so no sort is needed to skip repeats.
-    """
-    # world (local) corners and their bounding box
+@njit(cache=True, inline="always")
+def _quad_box(cx, cy, co, si, quad):  # pragma: no cover - compiled
+    """The bounding box (xmin, xmax, ymin, ymax) of a patch turned by the heading and placed at (cx, cy)."""
     xmin = np.inf
     xmax = -np.inf
     ymin = np.inf
@@ -75,6 +69,18 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
         xmax = max(xmax, wx)
         ymin = min(ymin, wy)
         ymax = max(ymax, wy)
+    return xmin, xmax, ymin, ymax
+
+
+@njit(cache=True)
+def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once, cand,
+                  pu, pv, pz, ou, ov, oz, out_u, out_v, out_z, used):  # pragma: no cover - compiled
+    """Append the clipped-triangle corners under one patch; returns (count, covered area).
+
+    cand and pu .. oz are the caller's scratch (cand grows here if too small); listed_once
+    says no face is listed in two cells (a DEM's cells), so no sort is needed to skip repeats.
+    """
+    xmin, xmax, ymin, ymax = _quad_box(cx, cy, co, si, quad)
     c0 = max(int(np.floor((xmin - origin[0]) / size[0])), 0)
     c1 = min(int(np.floor((xmax - origin[0]) / size[0])), nx - 1)
     r0 = max(int(np.floor((ymin - origin[1]) / size[1])), 0)
@@ -103,32 +109,12 @@ def _patch_points(cx, cy, co, si, quad, V, F, plane, origin, size, ny, nx, start
             continue  # a triangle listed in several cells
         if np.isnan(plane[f, 1]):
             continue
-        for k in range(3):
-            vtx = F[f, k]
-            dx = V[vtx, 0] - cx
-            dy = V[vtx, 1] - cy
-            pu[k] = co * dx + si * dy
-            pv[k] = -si * dx + co * dy
-            pz[k] = V[vtx, 2]
-        n = 3
-        for k in range(4):
-            n = _clip(pu, pv, pz, n, quad[k, 0], quad[k, 1], quad[(k + 1) % 4, 0], quad[(k + 1) % 4, 1], ou, ov, oz)
-            if n == 0:
-                break
-        if n < 3:
-            continue
-        a2 = 0.0
-        for k in range(n):
-            j = (k + 1) % n
-            a2 += pu[k] * pv[j] - pu[j] * pv[k]
-        area += 0.5 * abs(a2)
-        if used + n > out_u.shape[0]:
+        i, j, k = F[f, 0], F[f, 1], F[f, 2]
+        used, a = _append_clipped(cx, cy, co, si, quad, V[i, 0], V[i, 1], V[i, 2], V[j, 0], V[j, 1], V[j, 2],
+                                  V[k, 0], V[k, 1], V[k, 2], pu, pv, pz, ou, ov, oz, out_u, out_v, out_z, used)
+        area += a
+        if used < 0:
             return -1, area  # caller grows the buffer and tries again
-        for k in range(n):
-            out_u[used] = pu[k]
-            out_v[used] = pv[k]
-            out_z[used] = pz[k]
-            used += 1
     return used, area
 
 
@@ -180,17 +166,7 @@ def _grid_patch_points(cx, cy, co, si, quad, post_z, post_origin, post_size, r_o
     """
     rows = post_z.shape[0]
     cols = post_z.shape[1]
-    xmin = np.inf
-    xmax = -np.inf
-    ymin = np.inf
-    ymax = -np.inf
-    for k in range(4):
-        wx = cx + co * quad[k, 0] - si * quad[k, 1]
-        wy = cy + si * quad[k, 0] + co * quad[k, 1]
-        xmin = min(xmin, wx)
-        xmax = max(xmax, wx)
-        ymin = min(ymin, wy)
-        ymax = max(ymax, wy)
+    xmin, xmax, ymin, ymax = _quad_box(cx, cy, co, si, quad)
     ox = post_origin[0]
     oy = post_origin[1]
     dx = post_size[0]

@@ -58,16 +58,7 @@ def describe_store(path: str) -> dict:
             "extent x": [lo[0], hi[0]],
             "extent y": [lo[1], hi[1]],
             "extent z": [lo[2], hi[2]],
-            "curvature method": a.get("curvature_method"),
-            "boundary treatment": a.get("boundary_treatment"),
-            "class average": a.get("class_average"),
-            "vehicle": a.get("vehicle"),
-            "threshold flat": a.get("threshold_flat"),
-            "threshold uneven": a.get("threshold_uneven"),
-            "thresholds from": a.get("threshold_derivation"),
-            "area flat": f"{a.get('share_flat', 0):.1%}",
-            "area general": f"{a.get('share_general', 0):.1%}",
-            "area uneven": f"{a.get('share_uneven', 0):.1%}",
+            **_classes(a),
             "class raster": f"{raster[0]} x {raster[1]} cells",
             "clean-up": (f"{a.get('merged_vertices')} merged, {a.get('unreferenced_vertices')} unreferenced vertices; "
                          f"{a.get('degenerate_faces')} degenerate, {a.get('repeated_faces')} repeated faces dropped"),
@@ -113,6 +104,14 @@ def _describe_grid(path: str, a: dict) -> dict:
         "tiles": f"{chunks[0]} x {chunks[1]} posts" if chunks else "none",
         "heights": dtype,
         "bytes per post": round(size / max(rows * cols, 1), 2),
+        **_classes(a),
+    }
+    return {k: v for k, v in facts.items() if v is not None}
+
+
+def _classes(a: dict) -> dict:
+    """How a store's classes were made, and their area shares."""
+    return {
         "curvature method": a.get("curvature_method"),
         "boundary treatment": a.get("boundary_treatment"),
         "class average": a.get("class_average"),
@@ -124,4 +123,3 @@ def _describe_grid(path: str, a: dict) -> dict:
         "area general": f"{a.get('share_general', 0):.1%}",
         "area uneven": f"{a.get('share_uneven', 0):.1%}",
     }
-    return {k: v for k, v in facts.items() if v is not None}

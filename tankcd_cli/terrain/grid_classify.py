@@ -432,40 +432,27 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], geomet
         z = read(wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
         return z, (wr, wc)
 
-    done = 0
-    posts = 0
+    count = {"tiles": 0, "posts": 0}
+
+    def deliver(result):
+        count["tiles"] += 1
+        count["posts"] += result.height.size
+        if on_tile:
+            on_tile(result)
+        if progress:
+            progress(count["tiles"], len(cores), count["posts"])
+
     if jobs <= 1:
         for core in cores:
-            z, origin = fetch(core)
-            result = work(core, z, origin)
-            done += 1
-            posts += result.height.size
-            if on_tile:
-                on_tile(result)
-            if progress:
-                progress(done, len(cores), posts)
+            deliver(work(core, *fetch(core)))
         return
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         pending = []
-        it = iter(cores)
-        for core in it:
+        for core in cores:
             pending.append(pool.submit(work, core, *fetch(core)))
             if len(pending) >= 2 * jobs:  # bounded: at most 2 x jobs windows in memory
-                result = pending.pop(0).result()
-                done += 1
-                posts += result.height.size
-                if on_tile:
-                    on_tile(result)
-                if progress:
-                    progress(done, len(cores), posts)
+                deliver(pending.pop(0).result())
         for fut in pending:
-            result = fut.result()
-            done += 1
-            posts += result.height.size
-            if on_tile:
-                on_tile(result)
-            if progress:
-                progress(done, len(cores), posts)
-
+            deliver(fut.result())

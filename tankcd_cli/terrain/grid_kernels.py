@@ -21,6 +21,21 @@ BARY_EPS = 1e-9  # as the mesh locator: points this close (barycentric units) to
 
 
 @njit(cache=True, inline="always")
+def full_cell(post_z, wr, wc, fx, fy, dx, dy):  # pragma: no cover - compiled
+    """Height and gradient at fractions (fx, fy) of cell [wr, wc] of ``post_z`` (south row first)
+    when its four posts are valid (the SW-NE split); NaN otherwise."""
+    sw = post_z[wr, wc]
+    se = post_z[wr, wc + 1]
+    ne = post_z[wr + 1, wc + 1]
+    nw = post_z[wr + 1, wc]
+    if not (np.isfinite(sw) and np.isfinite(se) and np.isfinite(ne) and np.isfinite(nw)):
+        return np.nan, np.nan, np.nan
+    if fx >= fy:
+        return sw + fx * (se - sw) + fy * (ne - se), (se - sw) / dx, (ne - se) / dy
+    return sw + fy * (nw - sw) + fx * (ne - nw), (ne - nw) / dx, (nw - sw) / dy
+
+
+@njit(cache=True, inline="always")
 def _triangle(ux, uy, uz, vx, vy, vz, wx, wy, wz, fx, fy, dx, dy):  # pragma: no cover - compiled
     """Height and gradient of the plane through three cell-fraction points at (fx, fy), and
     whether (fx, fy) lies in their triangle (with BARY_EPS)."""
@@ -107,16 +122,9 @@ def grid_height_one(x, y, post_z, post_origin, post_size, r_off, c_off, grid_row
     wr = r - r_off
     wc = c - c_off
     if 0 <= wr <= rows - 2 and 0 <= wc <= cols - 2:
-        sw = post_z[wr, wc]
-        se = post_z[wr, wc + 1]
-        ne = post_z[wr + 1, wc + 1]
-        nw = post_z[wr + 1, wc]
-        if np.isfinite(sw) and np.isfinite(se) and np.isfinite(ne) and np.isfinite(nw):
-            fx = u - c
-            fy = v - r
-            if fx >= fy:
-                return sw + fx * (se - sw) + fy * (ne - se), (se - sw) / dx, (ne - se) / dy
-            return sw + fy * (nw - sw) + fx * (ne - nw), (ne - nw) / dx, (nw - sw) / dy
+        z, gx, gy = full_cell(post_z, wr, wc, u - c, v - r, dx, dy)
+        if np.isfinite(z):
+            return z, gx, gy
     # a cell with a missing post, or a point just outside a cell: its triangle, then the
     # neighbours' (a point on a cell border may lie only in a neighbour's triangle)
     z, gx, gy = _partial_cell(post_z, r, c, r_off, c_off, u - c, v - r, dx, dy)

@@ -145,14 +145,17 @@ class TerrainSurface:
         The rectangle (length along the heading, width across, centred on x, y)
         is sampled at the class raster's resolution, corners included.
         """
-        from tankcd_cli.terrain.surface_kernels import worst_class
+        from tankcd_cli.terrain.grid_kernels import grid_worst_class
 
         nu = max(2, int(np.ceil(length / self.class_cell)) + 1)
         nv = max(2, int(np.ceil(width / self.class_cell)) + 1)
         su, sv = np.meshgrid(np.linspace(-length / 2, length / 2, nu), np.linspace(-width / 2, width / 2, nv))
         lx, ly = self.to_local(x, y)
-        return worst_class(np.ravel(lx), np.ravel(ly), np.ravel(np.asarray(yaw, dtype=float)), su.ravel(), sv.ravel(),
-                           self.class_raster, self.class_origin, self.class_cell)
+        # the class raster's cells are centred on its posts: the nearest post's class, as on a grid
+        yaw = np.broadcast_to(np.asarray(yaw, dtype=float), np.shape(lx))
+        return grid_worst_class(np.ravel(lx), np.ravel(ly), np.ascontiguousarray(np.ravel(yaw)), su.ravel(), sv.ravel(),
+                                self.class_raster, np.asarray(self.class_origin, dtype=float),
+                                np.array([self.class_cell, self.class_cell]), 0, 0)
 
 
 def face_planes(local: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from tankcd_cli.terrain.grid_kernels import full_cell
+
 BARY_EPS = 1e-9  # points this close (in barycentric units) to a triangle's edge count as inside
 
 
@@ -88,29 +90,6 @@ def locate_faces(px, py, V, F, plane, origin, size, ny, nx, start, cell_face):  
 
 
 @njit(cache=True, parallel=True)
-def worst_class(px, py, yaw, su, sv, raster, origin, cell):  # pragma: no cover - compiled
-    """Highest class code among the raster cells under sample offsets (su, sv) of each footprint; 255 if none known."""
-    ny, nx = raster.shape
-    out = np.full(px.shape[0], 255, np.uint8)
-    for i in prange(px.shape[0]):
-        co = np.cos(yaw[i])
-        si = np.sin(yaw[i])
-        worst = -1
-        for k in range(su.shape[0]):
-            x = px[i] + co * su[k] - si * sv[k]
-            y = py[i] + si * su[k] + co * sv[k]
-            col = int(np.floor((x - origin[0]) / cell + 0.5))
-            row = int(np.floor((y - origin[1]) / cell + 0.5))
-            if 0 <= row < ny and 0 <= col < nx:
-                c = raster[row, col]
-                if c != 255 and c > worst:
-                    worst = c
-        if worst >= 0:
-            out[i] = worst
-    return out
-
-
-@njit(cache=True, parallel=True)
 def heights_slopes(px, py, post_z, post_origin, post_size, V, F, plane, origin, size, ny, nx, start, cell_face):  # pragma: no cover - compiled
     """Height and gradient (dz/dx, dz/dy) of the terrain at local points; NaN off the terrain.
 
@@ -146,16 +125,9 @@ def height_one(x, y, post_z, post_origin, post_size, V, F, plane, origin, size, 
         if r == rows - 1 and v <= rows - 1 + 1e-9:
             r = rows - 2
         if 0 <= c < cols - 1 and 0 <= r < rows - 1:
-            sw = post_z[r, c]
-            se = post_z[r, c + 1]
-            ne = post_z[r + 1, c + 1]
-            nw = post_z[r + 1, c]
-            if np.isfinite(sw) and np.isfinite(se) and np.isfinite(ne) and np.isfinite(nw):
-                fx = u - c
-                fy = v - r
-                if fx >= fy:
-                    return sw + fx * (se - sw) + fy * (ne - se), (se - sw) / post_size[0], (ne - se) / post_size[1]
-                return sw + fy * (nw - sw) + fx * (ne - nw), (ne - nw) / post_size[0], (nw - sw) / post_size[1]
+            z, gx, gy = full_cell(post_z, r, c, u - c, v - r, post_size[0], post_size[1])
+            if np.isfinite(z):
+                return z, gx, gy
     best = locate_one(x, y, V, F, plane, origin, size, ny, nx, start, cell_face)
     if best < 0:
         return np.nan, np.nan, np.nan
