@@ -244,3 +244,22 @@ def test_ascii_grid_through_gdal_equals_our_parser(run, tmp_path, monkeypatch):
     a, b = store_contents(tmp_path / "own.h5"), store_contents(tmp_path / "gdal.h5")
     for key in a:
         np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_a_damaged_tile_is_exit_3_not_wrong_ground(run, tmp_path):
+    """Every tile carries a checksum: bytes flipped inside the store stop the replay in one line."""
+    z = ground(300, 300, seed=9)
+    src = write_tif(tmp_path / "d.tif", z)
+    store = tmp_path / "d.h5"
+    assert run("classify", src, "-o", store).exit_code == 0
+    with h5py.File(store) as h5:  # where the tile under the drive lies in the file
+        offset = h5["grid/height"].id.get_chunk_info_by_coord((0, 0)).byte_offset
+    data = bytearray(store.read_bytes())
+    data[offset + 1000:offset + 1064] = bytes(255 - b for b in data[offset + 1000:offset + 1064])
+    store.write_bytes(bytes(data))
+    traj = _drive(tmp_path / "t.csv", X0 + 100, YN - 250, rows=200)
+    res = run("replay", traj, "--terrain", store, "--poses", tmp_path / "p.csv")
+    assert res.exit_code == 3, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "damaged" in lines[0] and str(store) in lines[0]
+    assert not (tmp_path / "p.csv").exists()

@@ -7,12 +7,13 @@ import contextlib
 from tankcd_cli.errors import InputError
 
 
-def open_h5(path: str, fmt: str, version: int, what: str, remedy: str):
-    """An open h5py.File of format ``fmt`` and ``version``, or InputError (exit 3)."""
+def open_h5(path: str, fmt: str, version: int, what: str, remedy: str, **options):
+    """An open h5py.File of format ``fmt`` and ``version``, or InputError (exit 3); ``options``
+    go to h5py.File (e.g. its chunk cache)."""
     import h5py
 
     try:
-        h5 = h5py.File(path, "r")
+        h5 = h5py.File(path, "r", **options)
     except FileNotFoundError:
         raise InputError(path, "no such file") from None
     except (OSError, ValueError, RuntimeError) as exc:

@@ -9,8 +9,9 @@ Layout (docs/formats.md has the whole description):
 /overview/classes     (oh, ow) uint8                worst class per block of ``overview_step`` posts (maps)
 /overview/curvature   (oh, ow) float32              mean footprint-averaged |H| per block
 
-Every full raster is chunked in ``TILE`` x ``TILE`` tiles and uncompressed, so
-a reader fetches only the tiles it touches, each in one read. Heights are kept
+Every full raster is chunked in ``TILE`` x ``TILE`` tiles, uncompressed, each
+with a Fletcher-32 checksum, so a reader fetches only the tiles it touches,
+each in one read, and a damaged tile is an error (exit 3), never wrong ground. Heights are kept
 as float32 when every source value is exactly a float32 (16-bit integer DEMs,
 float32 GeoTIFFs), else float64: 9 or 13 bytes a post in all. The footprint-averaged
 |H| the classes come from is kept only in the overview (maps): the classes are what
@@ -44,18 +45,20 @@ class GridStoreWriter:
         self.h5.attrs["format_version"] = FORMAT_VERSION
         self.h5.attrs["layout"] = "grid"
         chunk = (min(TILE, rows), min(TILE, cols))
-        h = self.h5.create_dataset("grid/height", (rows, cols), dtype=np.dtype(height_dtype), chunks=chunk,
-                                   fillvalue=np.nan)
+        # every tile carries a Fletcher-32 checksum: a damaged store is an error, never wrong ground
+        tiles = {"chunks": chunk, "fletcher32": True}
+        h = self.h5.create_dataset("grid/height", (rows, cols), dtype=np.dtype(height_dtype), fillvalue=np.nan,
+                                   **tiles)
         h.attrs["origin_x"] = float(origin_nw[0])
         h.attrs["origin_y"] = float(origin_nw[1])
         h.attrs["spacing"] = np.asarray(spacing, dtype=float)
         h.attrs["crs"] = crs_wkt
         h.attrs["crs_name"] = crs_name
         self.height = h
-        self.mean = self.h5.create_dataset("curvature/mean", (rows, cols), dtype=np.float32, chunks=chunk,
-                                           fillvalue=np.nan)
-        self.classes = self.h5.create_dataset("classes/grid", (rows, cols), dtype=np.uint8, chunks=chunk,
-                                              fillvalue=255)
+        self.mean = self.h5.create_dataset("curvature/mean", (rows, cols), dtype=np.float32, fillvalue=np.nan,
+                                           **tiles)
+        self.classes = self.h5.create_dataset("classes/grid", (rows, cols), dtype=np.uint8, fillvalue=255,
+                                              **tiles)
         self.step = max(1, math.ceil(max(rows, cols) / OVERVIEW_MAX))
         oh, ow = math.ceil(rows / self.step), math.ceil(cols / self.step)
         self._ov_class = np.full((oh, ow), -1, dtype=np.int16)

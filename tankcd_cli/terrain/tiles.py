@@ -44,10 +44,11 @@ class TileReader:
         if self.arrays is not None:
             return self.arrays[name]
         if self._h5 is None or self._pid != os.getpid():
-            import h5py
+            from tankcd_cli.io.h5 import open_h5
+            from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION
 
-            # HDF5's own chunk cache is off: whole tiles are read once into ours
-            self._h5 = h5py.File(self.path, "r", rdcc_nbytes=0)
+            self._h5 = open_h5(self.path, FORMAT, FORMAT_VERSION, "tankcd terrain store", "run classify again",
+                               rdcc_nbytes=0)  # HDF5's own chunk cache off: whole tiles are read once into ours
             self._pid = os.getpid()
         return self._h5[name]
 
@@ -70,7 +71,13 @@ class TileReader:
         ds = self._dataset(name)
         rows, cols = ds.shape
         t = self.tile
-        block = np.asarray(ds[tr * t:min((tr + 1) * t, rows), tc * t:min((tc + 1) * t, cols)])
+        try:
+            block = np.asarray(ds[tr * t:min((tr + 1) * t, rows), tc * t:min((tc + 1) * t, cols)])
+        except (OSError, RuntimeError, ValueError) as exc:  # a damaged chunk: bad input, not a bug
+            from tankcd_cli.errors import InputError
+
+            first = str(exc).splitlines()[0][:160] if str(exc) else type(exc).__name__
+            raise InputError(self.path, f"damaged tankcd terrain store: {name} tile ({tr}, {tc}): {first}") from None
         self.tiles_read += 1
         self._cache[key] = block
         self._bytes += block.nbytes
