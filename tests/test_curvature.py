@@ -229,7 +229,7 @@ def test_property_quadratic_patches(a, b, c, tx, ty, angle):
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("mesh", [S.grid_mesh, S.jittered_mesh])
 def test_compiled_kernels_agree_with_numpy(method, mesh):
-    """The fast path (numba, for large meshes) against its numpy oracle."""
+    """The compiled path against its numpy oracle."""
     V, F, _ = mesh(SURFACES["gaussian_hill"], HALF, 1.0, offset=(500_000.0, 4_500_000.0, 0.0))
     F = F.copy()
     F[::7] = F[::7][:, [0, 2, 1]]  # flipped faces must not matter

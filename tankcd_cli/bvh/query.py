@@ -46,13 +46,10 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     W = np.stack([np.linalg.inv(d[t]) for t in kdop.triples(moving.k)])
     R = np.ascontiguousarray(np.asarray(rotation, dtype=float).reshape(-1, 3, 3))
     t = np.ascontiguousarray(np.asarray(translation, dtype=float).reshape(-1, 3))
-    from numba import parallel_chunksize
-
-    # poses differ a lot in cost (a clear pose ends at the roots, a grazing one goes deep):
-    # hand them to the threads in small chunks rather than two fixed halves
-    with parallel_chunksize(8):
-        found, pairs, points, node_tests, tri_tests = collide_batch(
-            R, t, d, W, moving.triangles, moving.source_index, moving.left, moving.right, moving.start, moving.count,
+    # poses differ a lot in cost (a clear pose ends at the roots, a grazing one goes deep): the
+    # compiled kernel hands them to the threads in small chunks (POSE_CHUNK, OpenMP dynamic schedule)
+    found, pairs, points, node_tests, tri_tests = collide_batch(
+        R, t, d, W, moving.triangles, moving.source_index, moving.left, moving.right, moving.start, moving.count,
         moving.depth, moving.aabb_levels, moving.centre, moving.half, _size(moving),
         static.triangles, static.source_index, static.lo, static.hi, static.left, static.right, static.start,
         static.count, static.depth, static.aabb_levels, _size(static), ALL if all_contacts else FIRST, max_contacts)

@@ -29,6 +29,7 @@ from tankcd_cli.cli.options import verbosity_options
 def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, force):
     """Build a bounding-volume tree over MODEL's triangles (in its own frame) and save it,
     or with --scene build the world trees of every obstacle and cache them beside the scene."""
+    report.kernels()
     step = report.progress("bvh")
     if scene:
         if model:

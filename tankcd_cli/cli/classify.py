@@ -69,6 +69,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
             raise click.BadParameter(str(exc), param_hint="--thresholds") from None
     if os.path.exists(output) and terrain != "-" and os.path.exists(terrain) and os.path.samefile(output, terrain):
         raise click.UsageError(f"the output {output} is the input; give -o another path")
+    report.kernels()
     step = report.progress("classify")
     step(f"reading {terrain}")
     from tankcd_cli.io.dem_sources import open_dem

@@ -29,6 +29,7 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     from tankcd_cli.io.poses_csv import read_poses
     from tankcd_cli.replay.scene import load_scene
 
+    report.kernels()
     step = report.progress("collide")
     sc = load_scene(scene)
     obstacles = load_obstacles(sc, cache=not no_cache, progress=step)

@@ -72,7 +72,7 @@ class LazyGroup(click.Group):
 
     @staticmethod
     def _internal_error(ctx, exc):
-        if _SIGNALLED:  # a signal that surfaced as some other error (numba's compiler swallows it)
+        if _SIGNALLED:  # a signal that surfaced as some other error (a library callback swallowed it)
             _signal_exit(ctx, _SIGNALLED[-1] == "term")
         from tankcd_cli.errors import printable
 
@@ -125,8 +125,8 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where Python runs next so that every ``finally`` (temporary outputs) runs."""
 
 
-# which signals have come in: a signal raised inside a ctypes callback (numba compiling a kernel)
-# is swallowed there and surfaces as an unrelated error; this record lets the exit say what happened
+# which signals have come in: a signal raised inside a C callback (a library calling back into
+# Python) is swallowed there and surfaces as an unrelated error; this record lets the exit say what happened
 _SIGNALLED: list = []
 
 

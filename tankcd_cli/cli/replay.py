@@ -68,6 +68,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
     if events_path == "-" and poses_path == "-":
         raise click.UsageError("poses already go to stdout: give --poses FILE to send events there")
+    report.kernels()
     step = report.progress("replay")
     sc = None
     if scene:
@@ -137,6 +138,7 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
     paths = expand_trajectories(list(trajectories))
     os.makedirs(out_dir, exist_ok=True)
     tasks = plan_tasks(paths, out_dir, split_lines)
+    report.kernels()
     step = report.progress("replay")
     world = World(os.path.abspath(scene) if scene else None, os.path.abspath(terrain) if terrain else None,
                   vehicle_name, up, matcher)

@@ -40,5 +40,16 @@ class Reporter:
         else:
             click.echo(f"\r{text}\033[K", err=True, nl=False)
 
+    def kernels(self) -> None:
+        """Under -v: how the compiled kernels run here (OpenMP threads, or serially without it)."""
+        if self.verbosity < 1:
+            return
+        from tankcd_cli._threads import get_num_threads, openmp_enabled
+
+        if openmp_enabled():
+            self.detail(f"kernels: compiled with OpenMP, {get_num_threads()} threads")
+        else:
+            self.detail("kernels: compiled without OpenMP (the compiler had none): running on one thread")
+
     def elapsed(self) -> float:
         return time.perf_counter() - self.started

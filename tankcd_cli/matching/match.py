@@ -316,7 +316,7 @@ def hull_bottom_depth(surface, vehicle, x, y, yaw, planes, roll, pitch, dem: boo
     corners = np.array([[[-L, 0.0, h], [L, 0.0, h], [L, W, h], [-L, W, h]],
                         [[-L, -W, h], [L, -W, h], [L, 0.0, h], [-L, 0.0, h]]])
     M = rotation_matrix(roll, pitch, np.zeros(n))  # the attitude in the heading frame
-    moved = np.einsum("nij,qkj->nqki", M, corners)
+    moved = (corners.reshape(1, 8, 3) @ M.transpose(0, 2, 1)).reshape(n, 2, 4, 3)  # M @ each corner
     quads = np.ascontiguousarray(moved[..., :2])
     # the bottom plane: parallel to the support plane, through the moved centre of the face
     centre = M[:, :, 2] * h

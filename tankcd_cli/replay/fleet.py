@@ -209,7 +209,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
 def run_task(world: World, task: Task, kernel_threads: int | None = None) -> dict:
     """Replay one trajectory of the fleet; never raises: a failure is reported in the result.
 
-    kernel_threads : threads for the compiled kernels of this task (numba's setting is per calling
+    kernel_threads : threads for the compiled kernels of this task (OpenMP's setting is per calling
     thread, and a Dask worker runs tasks in its own threads); None keeps the process's setting.
     """
     from tankcd_cli.replay.run import replay_to_files
@@ -374,9 +374,9 @@ def _lost(task: Task, exc: BaseException) -> dict:
 
 def _worker_threads(threads: int) -> None:
     """Each of N workers gets cores / N compiled-kernel threads: no oversubscription."""
-    import numba
+    from tankcd_cli._threads import set_num_threads
 
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    set_num_threads(threads)
 
 
 def _on_dask(world, tasks, scheduler, say, done):

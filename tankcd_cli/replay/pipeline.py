@@ -60,20 +60,25 @@ def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehic
     """
     import os
 
-    from tankcd_cli.io.dem_sources import open_dem
-    from tankcd_cli.terrain.classify import classify_terrain, load_terrain
-    from tankcd_cli.terrain.store import is_store, read_attrs, read_store, write_store
-    from tankcd_cli.terrain.surface import TerrainSurface
+    from tankcd_cli.terrain.store import is_store, read_attrs
 
     say = progress or (lambda s: None)
     if path != "-" and is_store(path):
-        if read_attrs(path).get("layout") == "grid":
+        if read_attrs(path).get("layout") == "grid":  # the common case: import nothing else
             from tankcd_cli.terrain.grid_store import open_grid
 
             say(f"opening grid store {path}")
             return open_grid(path), None
+        from tankcd_cli.terrain.store import read_store
+        from tankcd_cli.terrain.surface import TerrainSurface
+
         say(f"reading terrain store {path}")
         return TerrainSurface.from_store(read_store(path)), None
+    from tankcd_cli.io.dem_sources import open_dem
+    from tankcd_cli.terrain.classify import classify_terrain, load_terrain
+    from tankcd_cli.terrain.store import read_store, write_store
+    from tankcd_cli.terrain.surface import TerrainSurface
+
     cached = os.path.splitext(path)[0] + ".h5"
     dem = open_dem(path, fmt=fmt)
     if dem is not None:

@@ -4,7 +4,7 @@ Truths: curvature against the closed-form H of analytic surfaces; matching
 against the rigid-hull reference (dense contact over every terrain triangle
 under the tracks); obstacle trees against testing every triangle pair; the
 two-plane internal test against the exact cylinder test. Times are medians
-of ``repeats`` runs after one warm-up (numba compiles on first use), with the
+of ``repeats`` runs after one warm-up (caches and first-touch pages), with the
 fastest and slowest run as the spread.
 """
 
@@ -89,10 +89,10 @@ def timed(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
 
 def machine() -> dict:
     """CPU, cores and the versions that decide the figures."""
-    import numba
     import scipy
 
     from tankcd_cli import __version__
+    from tankcd_cli._threads import get_num_threads, openmp_enabled
 
     cpu = platform.processor() or platform.machine()
     try:
@@ -102,9 +102,9 @@ def machine() -> dict:
             cpu = names[0]
     except OSError:
         pass
-    info = {"cpu": cpu, "cores": os.cpu_count(), "threads": numba.get_num_threads(), "os": platform.platform(),
-            "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
-            "numba": numba.__version__, "tankcd": __version__}
+    info = {"cpu": cpu, "cores": os.cpu_count(), "threads": get_num_threads() if openmp_enabled() else 1,
+            "os": platform.platform(), "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "tankcd": __version__}
     for peer, module in (("python-fcl", "fcl"), ("coal", "coal")):
         try:
             mod = __import__(module)

@@ -171,9 +171,9 @@ def markdown(res: Results) -> str:
     out = ["# What accuracy costs in time", "",
            f"{inp.get('date', '')}, `{inp.get('command', '')}` ({inp.get('mode')} mode: times are medians of "
            f"{inp.get('repeats')} runs after a warm-up, min-max in brackets).", "",
-           f"Machine: {m.get('cpu')}, {m.get('cores')} cores ({m.get('threads')} numba threads), {m.get('os')}. "
+           f"Machine: {m.get('cpu')}, {m.get('cores')} cores ({m.get('threads')} kernel threads), {m.get('os')}. "
            f"Versions: tankcd {m.get('tankcd')}, Python {m.get('python')}, numpy {m.get('numpy')}, "
-           f"scipy {m.get('scipy')}, numba {m.get('numba')}, python-fcl {m.get('python-fcl')}, coal {m.get('coal')}.", "",
+           f"scipy {m.get('scipy')}, python-fcl {m.get('python-fcl')}, coal {m.get('coal')}.", "",
            f"Inputs: scene {inp.get('scene')} (terrain {inp.get('terrain')}, vehicle {inp.get('vehicle')}, obstacles "
            f"{', '.join(inp.get('obstacles') or []) or 'none'}), trajectory {inp.get('trajectory')}; generated analytic "
            "surfaces and an obstacle course.", "", headline_table(res),

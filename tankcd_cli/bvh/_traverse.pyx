@@ -1,0 +1,348 @@
+"""Tandem depth-first traversal of two trees, batched over poses, compiled ahead of time (Cython).
+
+See :mod:`tankcd_cli.bvh.traverse` for the method. Poses run in OpenMP threads, handed out
+dynamically in chunks of ``POSE_CHUNK`` (a clear pose ends at the roots, a grazing one goes
+deep); within a pose the walk is sequential. The arithmetic and its order are those of the
+former numba kernels: results are bit-identical.
+"""
+
+from cython.parallel cimport parallel, prange
+from libc.math cimport fabs, INFINITY
+from libc.stdint cimport int64_t
+from libc.stdlib cimport free, malloc
+
+import numpy as np
+
+from tankcd_cli.geometry._triangles cimport _pymax, tri_tri_c
+
+FIRST, ALL = 0, 1
+cdef int64_t _FIRST = 0
+POSE_CHUNK = 8  # poses handed to a thread at a time by collide_batch
+
+
+ctypedef struct _Trees:
+    # tree A (moving): triangles in its own frame, its nodes' parallelepipeds (n, T, 3)
+    const double* a_tri
+    const int64_t* a_idx
+    const int64_t* a_left
+    const int64_t* a_right
+    const int64_t* a_start
+    const int64_t* a_count
+    const int64_t* a_depth
+    int64_t a_levels
+    const double* a_centre
+    const double* a_half
+    const double* a_size
+    # tree B (static): triangles in the world, node k-DOPs (n, nb)
+    const double* b_tri
+    const int64_t* b_idx
+    const double* b_lo
+    const double* b_hi
+    Py_ssize_t nb
+    const int64_t* b_left
+    const int64_t* b_right
+    const int64_t* b_start
+    const int64_t* b_count
+    const int64_t* b_depth
+    int64_t b_levels
+    const double* b_size
+    Py_ssize_t K  # slab directions
+    Py_ssize_t T  # slab triples
+
+
+cdef int64_t _walk(const double* R, const double* tv, const double* f, const double* g, const double* shift,
+                   const _Trees* tr, int64_t mode, int64_t* pairs, double* points, Py_ssize_t cap,
+                   int64_t* stack, double tol, int64_t* node_tests_out, int64_t* tri_tests_out) noexcept nogil:
+    """One pose: contacts found; pairs (cap, 2) and points (cap, 3) receive the first ``cap``."""
+    cdef Py_ssize_t K = tr.K
+    cdef Py_ssize_t T = tr.T
+    cdef int64_t node_tests = 0
+    cdef int64_t tri_tests = 0
+    cdef int64_t found = 0
+    cdef double P[9]
+    cdef double out[3]
+    cdef double scratch[18]
+    cdef Py_ssize_t sp, i, t, nd, nt, v, m
+    cdef int64_t a, b, ta, tb
+    cdef bint aabb, disjoint, a_leaf, b_leaf
+    cdef double best_lo, best_hi, c, r
+    cdef const double* ac
+    cdef const double* ah
+    cdef const double* gt
+    cdef const double* fi
+    cdef const double* at
+    stack[0] = 0
+    stack[1] = 0
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        a = stack[2 * sp]
+        b = stack[2 * sp + 1]
+        node_tests += 1
+        aabb = tr.a_depth[a] < tr.a_levels or tr.b_depth[b] < tr.b_levels
+        nd = 3 if aabb else K
+        nt = 1 if aabb else T
+        disjoint = False
+        for i in range(nd):
+            best_lo = -INFINITY
+            best_hi = INFINITY
+            fi = f + 3 * i
+            for t in range(nt):
+                ac = tr.a_centre + (a * T + t) * 3
+                ah = tr.a_half + (a * T + t) * 3
+                gt = g + (t * K + i) * 3
+                c = fi[0] * ac[0] + fi[1] * ac[1] + fi[2] * ac[2]
+                r = fabs(gt[0]) * ah[0] + fabs(gt[1]) * ah[1] + fabs(gt[2]) * ah[2]
+                if c - r > best_lo:
+                    best_lo = c - r
+                if c + r < best_hi:
+                    best_hi = c + r
+            if (best_lo + shift[i] > tr.b_hi[b * tr.nb + i] + tol
+                    or best_hi + shift[i] < tr.b_lo[b * tr.nb + i] - tol):
+                disjoint = True
+                break
+        if disjoint:
+            continue
+        a_leaf = tr.a_left[a] < 0
+        b_leaf = tr.b_left[b] < 0
+        if a_leaf and b_leaf:
+            for ta in range(tr.a_start[a], tr.a_start[a] + tr.a_count[a]):
+                at = tr.a_tri + ta * 9
+                for v in range(3):
+                    for m in range(3):
+                        P[3 * v + m] = (R[3 * m] * at[3 * v] + R[3 * m + 1] * at[3 * v + 1]
+                                        + R[3 * m + 2] * at[3 * v + 2] + tv[m])
+                for tb in range(tr.b_start[b], tr.b_start[b] + tr.b_count[b]):
+                    tri_tests += 1
+                    if tri_tri_c(P, tr.b_tri + tb * 9, out, scratch):
+                        if found < cap:
+                            pairs[2 * found] = tr.a_idx[ta]
+                            pairs[2 * found + 1] = tr.b_idx[tb]
+                            points[3 * found] = out[0]
+                            points[3 * found + 1] = out[1]
+                            points[3 * found + 2] = out[2]
+                        found += 1
+                        if mode == _FIRST:
+                            node_tests_out[0] = node_tests
+                            tri_tests_out[0] = tri_tests
+                            return found
+            continue
+        if b_leaf or (not a_leaf and tr.a_size[a] >= tr.b_size[b]):
+            stack[2 * sp] = tr.a_left[a]
+            stack[2 * sp + 1] = b
+            stack[2 * sp + 2] = tr.a_right[a]
+            stack[2 * sp + 3] = b
+        else:
+            stack[2 * sp] = a
+            stack[2 * sp + 1] = tr.b_left[b]
+            stack[2 * sp + 2] = a
+            stack[2 * sp + 3] = tr.b_right[b]
+        sp += 2
+    node_tests_out[0] = node_tests
+    tri_tests_out[0] = tri_tests
+    return found
+
+
+cdef void _pose(Py_ssize_t p, const double* R, const double* tv, const double* D, const double* W,
+                const _Trees* tr, int64_t mode, double reach, Py_ssize_t cap, double* f, double* g,
+                double* shift, int64_t* stack, int64_t* found, int64_t* pairs, double* points,
+                int64_t* node_tests, int64_t* tri_tests) noexcept nogil:
+    """Pose p of collide_batch, with the thread's work arrays f (K, 3), g (T, K, 3), shift (K,), stack."""
+    cdef Py_ssize_t K = tr.K
+    cdef Py_ssize_t T = tr.T
+    cdef Py_ssize_t i, j, t
+    cdef const double* Rp = R + 9 * p
+    cdef const double* tp = tv + 3 * p
+    for i in range(K):
+        for j in range(3):
+            f[3 * i + j] = D[3 * i] * Rp[j] + D[3 * i + 1] * Rp[3 + j] + D[3 * i + 2] * Rp[6 + j]
+    for t in range(T):
+        for i in range(K):
+            for j in range(3):
+                g[(t * K + i) * 3 + j] = (f[3 * i] * W[9 * t + j] + f[3 * i + 1] * W[9 * t + 3 + j]
+                                          + f[3 * i + 2] * W[9 * t + 6 + j])
+    for i in range(K):
+        shift[i] = D[3 * i] * tp[0] + D[3 * i + 1] * tp[1] + D[3 * i + 2] * tp[2]
+    # volumes are compared with a margin of round-off, so that exactly touching shapes are never
+    # dropped before their triangles (which count touching as contact) are tested
+    cdef double scale = fabs(tp[0]) + fabs(tp[1]) + fabs(tp[2]) + reach
+    found[p] = _walk(Rp, tp, f, g, shift, tr, mode, pairs + 2 * cap * p, points + 3 * cap * p, cap, stack,
+                     1e-12 * scale, node_tests + p, tri_tests + p)
+
+
+def _f64(a):
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _i64(a):
+    return np.ascontiguousarray(a, dtype=np.int64)
+
+
+def collide_batch(R, tv, D, W, a_tri, a_idx, a_left, a_right, a_start, a_count, a_depth, a_levels, a_centre, a_half,
+                  a_size, b_tri, b_idx, b_lo, b_hi, b_left, b_right, b_start, b_count, b_depth, b_levels, b_size,
+                  mode, max_contacts):
+    """Walk A at every pose (R (N, 3, 3), t (N, 3)) against B.
+
+    Returns contacts found per pose (N,) (all of them in mode ALL, 0 or 1 in
+    FIRST), the first ``max_contacts`` pairs (N, c, 2) of input triangle
+    indices and their contact points (N, c, 3), and the node-pair and
+    triangle-pair tests made (N,).
+    """
+    cdef const double[:, :, ::1] R_ = _f64(R)
+    cdef const double[:, ::1] tv_ = _f64(tv)
+    cdef const double[:, ::1] D_ = _f64(D)
+    cdef const double[:, :, ::1] W_ = _f64(W)
+    cdef const double[:, :, ::1] a_tri_ = _f64(a_tri)
+    cdef const int64_t[::1] a_idx_ = _i64(a_idx)
+    cdef const int64_t[::1] a_left_ = _i64(a_left)
+    cdef const int64_t[::1] a_right_ = _i64(a_right)
+    cdef const int64_t[::1] a_start_ = _i64(a_start)
+    cdef const int64_t[::1] a_count_ = _i64(a_count)
+    cdef const int64_t[::1] a_depth_ = _i64(a_depth)
+    cdef const double[:, :, ::1] a_centre_ = _f64(a_centre)
+    cdef const double[:, :, ::1] a_half_ = _f64(a_half)
+    cdef const double[::1] a_size_ = _f64(a_size)
+    cdef const double[:, :, ::1] b_tri_ = _f64(b_tri)
+    cdef const int64_t[::1] b_idx_ = _i64(b_idx)
+    cdef const double[:, ::1] b_lo_ = _f64(b_lo)
+    cdef const double[:, ::1] b_hi_ = _f64(b_hi)
+    cdef const int64_t[::1] b_left_ = _i64(b_left)
+    cdef const int64_t[::1] b_right_ = _i64(b_right)
+    cdef const int64_t[::1] b_start_ = _i64(b_start)
+    cdef const int64_t[::1] b_count_ = _i64(b_count)
+    cdef const int64_t[::1] b_depth_ = _i64(b_depth)
+    cdef const double[::1] b_size_ = _f64(b_size)
+    cdef Py_ssize_t n = R_.shape[0]
+    cdef Py_ssize_t K = D_.shape[0]
+    cdef Py_ssize_t T = W_.shape[0]
+    cdef Py_ssize_t cap = max(max_contacts, 1)
+    cdef int64_t mode_ = mode
+    found_arr = np.zeros(n, np.int64)
+    node_arr = np.zeros(n, np.int64)
+    tri_arr = np.zeros(n, np.int64)
+    pairs_arr = np.full((n, cap, 2), -1, np.int64)
+    points_arr = np.full((n, cap, 3), np.nan)
+    cdef int64_t[::1] found = found_arr
+    cdef int64_t[::1] node_tests = node_arr
+    cdef int64_t[::1] tri_tests = tri_arr
+    cdef int64_t[:, :, ::1] pairs = pairs_arr
+    cdef double[:, :, ::1] points = points_arr
+    cdef Py_ssize_t depth = int(np.max(a_depth_) + np.max(b_depth_) + 4)
+    cdef Py_ssize_t i, p
+    cdef double reach = 0.0  # the largest coordinate of either tree's bounds
+    for i in range(3):
+        reach = _pymax(_pymax(_pymax(reach, fabs(a_centre_[0, 0, i]) + fabs(a_half_[0, 0, i])), fabs(b_lo_[0, i])),
+                       fabs(b_hi_[0, i]))
+    if n == 0:
+        return found_arr, pairs_arr, points_arr, node_arr, tri_arr
+    cdef _Trees tr
+    tr.a_tri = &a_tri_[0, 0, 0] if a_tri_.shape[0] else NULL
+    tr.a_idx = &a_idx_[0] if a_idx_.shape[0] else NULL
+    tr.a_left = &a_left_[0]
+    tr.a_right = &a_right_[0]
+    tr.a_start = &a_start_[0]
+    tr.a_count = &a_count_[0]
+    tr.a_depth = &a_depth_[0]
+    tr.a_levels = a_levels
+    tr.a_centre = &a_centre_[0, 0, 0]
+    tr.a_half = &a_half_[0, 0, 0]
+    tr.a_size = &a_size_[0]
+    tr.b_tri = &b_tri_[0, 0, 0] if b_tri_.shape[0] else NULL
+    tr.b_idx = &b_idx_[0] if b_idx_.shape[0] else NULL
+    tr.b_lo = &b_lo_[0, 0]
+    tr.b_hi = &b_hi_[0, 0]
+    tr.nb = b_lo_.shape[1]
+    tr.b_left = &b_left_[0]
+    tr.b_right = &b_right_[0]
+    tr.b_start = &b_start_[0]
+    tr.b_count = &b_count_[0]
+    tr.b_depth = &b_depth_[0]
+    tr.b_levels = b_levels
+    tr.b_size = &b_size_[0]
+    tr.K = K
+    tr.T = T
+    if a_centre_.shape[1] != T or a_half_.shape[1] != T or b_hi_.shape[1] != tr.nb or tr.nb < K:
+        raise ValueError("tree volumes do not match the slab directions")
+    cdef const double* Rp = &R_[0, 0, 0]
+    cdef const double* tp = &tv_[0, 0]
+    cdef const double* Dp = &D_[0, 0] if K else NULL
+    cdef const double* Wp = &W_[0, 0, 0] if T else NULL
+    cdef int64_t* found_p = &found[0]
+    cdef int64_t* node_p = &node_tests[0]
+    cdef int64_t* tri_p = &tri_tests[0]
+    cdef int64_t* pairs_p = &pairs[0, 0, 0]
+    cdef double* points_p = &points[0, 0, 0]
+    cdef Py_ssize_t stack_len = 2 * (2 * depth + 2)
+    cdef double* f = NULL  # each thread's own (the parallel block makes them private)
+    cdef double* g = NULL
+    cdef double* shift = NULL
+    cdef int64_t* stack = NULL
+    cdef int failed = 0
+    cdef int* failed_p = &failed  # written through the pointer: shared, not a private of the loop
+    with nogil, parallel():
+        f = <double*>malloc((3 * K + 1) * sizeof(double))
+        g = <double*>malloc((3 * K * T + 1) * sizeof(double))
+        shift = <double*>malloc((K + 1) * sizeof(double))
+        stack = <int64_t*>malloc(stack_len * sizeof(int64_t))
+        for p in prange(n, schedule="dynamic", chunksize=8):  # POSE_CHUNK
+            if f == NULL or g == NULL or shift == NULL or stack == NULL:
+                failed_p[0] = 1
+            else:
+                _pose(p, Rp, tp, Dp, Wp, &tr, mode_, reach, cap, f, g, shift, stack, found_p, pairs_p,
+                      points_p, node_p, tri_p)
+        free(f)
+        free(g)
+        free(shift)
+        free(stack)
+    if failed:
+        raise MemoryError("collide_batch: no memory for a thread's work arrays")
+    return found_arr, pairs_arr, points_arr, node_arr, tri_arr
+
+
+cdef int64_t _brute_pose(const double* R, const double* tv, const double* a_tri, Py_ssize_t na,
+                         const double* b_tri, Py_ssize_t nb, int64_t mode) noexcept nogil:
+    cdef double P[9]
+    cdef double out[3]
+    cdef double scratch[18]
+    cdef int64_t found = 0
+    cdef Py_ssize_t ta, tb, v, m
+    cdef const double* at
+    for ta in range(na):
+        at = a_tri + 9 * ta
+        for v in range(3):
+            for m in range(3):
+                P[3 * v + m] = (R[3 * m] * at[3 * v] + R[3 * m + 1] * at[3 * v + 1]
+                                + R[3 * m + 2] * at[3 * v + 2] + tv[m])
+        for tb in range(nb):
+            if tri_tri_c(P, b_tri + 9 * tb, out, scratch):
+                found += 1
+                if mode == _FIRST:
+                    break
+        if mode == _FIRST and found:
+            break
+    return found
+
+
+def brute_force_batch(R, tv, a_tri, b_tri, mode):
+    """Every triangle pair at every pose: contacts found (N,) (the oracle of the trees)."""
+    cdef const double[:, :, ::1] R_ = _f64(R)
+    cdef const double[:, ::1] tv_ = _f64(tv)
+    cdef const double[:, :, ::1] a_ = _f64(a_tri)
+    cdef const double[:, :, ::1] b_ = _f64(b_tri)
+    cdef Py_ssize_t n = R_.shape[0]
+    cdef Py_ssize_t na = a_.shape[0]
+    cdef Py_ssize_t nb = b_.shape[0]
+    cdef int64_t mode_ = mode
+    found_arr = np.zeros(n, np.int64)
+    cdef int64_t[::1] found = found_arr
+    cdef Py_ssize_t p
+    if n == 0 or na == 0 or nb == 0:
+        return found_arr
+    cdef const double* Rp = &R_[0, 0, 0]
+    cdef const double* tp = &tv_[0, 0]
+    cdef const double* ap = &a_[0, 0, 0]
+    cdef const double* bp = &b_[0, 0, 0]
+    cdef int64_t* found_p = &found[0]
+    for p in prange(n, nogil=True, schedule="dynamic"):
+        found_p[p] = _brute_pose(Rp + 9 * p, tp + 3 * p, ap, na, bp, nb, mode_)
+    return found_arr

@@ -1,0 +1,254 @@
+"""Compiled kernels of ``tankcd_cli.geometry.support_plane`` (see its docstring).
+
+``support_plane_c`` is the walk itself, a C function other kernels cimport (declared in
+``_support_plane.pxd``); ``support_plane`` and ``support_planes_fixed`` are its Python faces.
+"""
+
+import numpy as np
+
+from cython.parallel cimport prange
+from libc.stdint cimport int64_t
+from libc.math cimport sqrt, fabs, isfinite, NAN, INFINITY
+
+MAX_PIVOTS = 200
+
+cdef enum:
+    _MAX_PIVOTS = 200
+
+
+cdef inline double _fmin(double a, double b) noexcept nogil:
+    """numba's (Python's) min(a, b): b only when b < a."""
+    return b if b < a else a
+
+
+# The walk comes in two compiled variants, chosen by the type of its last argument (a null
+# pointer): _Checked also looks for zero divisors in the loops over the points, which can
+# have one only when eps < 0 (numba raised ZeroDivisionError there); _Unchecked does not.
+cdef struct _Checked:
+    char unused
+
+
+cdef struct _Unchecked:
+    char unused
+
+
+ctypedef fused _Variant:
+    _Checked
+    _Unchecked
+
+
+cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t count, double eps, double* out,
+               _Variant* variant) noexcept nogil:
+    """The walk of ``support_plane_c`` (see the variants above)."""
+    cdef Py_ssize_t p, k, q, w, it
+    cdef double zp, up, vp, r, b, c, du, dv, best_t, best_d, d, t
+    cdef double eu, ev, el, mu, mv, side, s_pos, s_neg, slack, s, best_s
+    cdef double ax, ay, bx, by, cx, cy, det, ox, oy, lq, lw, lp
+    cdef double tol = -1e-12
+    if count == 0:
+        out[0] = NAN
+        out[1] = NAN
+        out[2] = NAN
+        return 1
+    p = 0
+    for k in range(1, count):
+        if z[k] > z[p]:
+            p = k
+    zp = z[p]
+    up = u[p]
+    vp = v[p]
+    r = sqrt(up * up + vp * vp)
+    b = 0.0
+    c = 0.0
+    if r <= eps:
+        out[0] = zp  # the highest point is over the origin: a level plane through it
+        out[1] = 0.0
+        out[2] = 0.0
+        return 0
+    # rotate the level plane about p, lowering the origin side, until a second point touches
+    if r == 0.0:
+        return -1
+    du = up / r
+    dv = vp / r
+    best_t = INFINITY
+    best_d = 0.0
+    q = -1
+    for k in range(count):
+        d = (u[k] - up) * du + (v[k] - vp) * dv
+        if d < -eps:
+            if _Variant is _Checked and d == 0.0:
+                return -1
+            t = (z[k] - zp) / d  # >= 0
+            if t < best_t - 1e-15 or (t <= best_t + 1e-15 and d < best_d):
+                best_t = t
+                best_d = d
+                q = k
+    if q < 0:
+        out[0] = NAN
+        out[1] = NAN
+        out[2] = NAN
+        return 2
+    b = best_t * du
+    c = best_t * dv
+    for it in range(_MAX_PIVOTS):
+        # rotate about the line p-q
+        eu = u[q] - up
+        ev = v[q] - vp
+        el = sqrt(eu * eu + ev * ev)
+        if el == 0.0:
+            return -1
+        mu = -ev / el
+        mv = eu / el
+        side = -(mu * up + mv * vp)  # signed distance of the origin from the line along m
+        if fabs(side) <= eps:
+            # the origin is on the line: every plane through p and q between the two
+            # neighbouring facets is optimal; take the middle one
+            s_pos = INFINITY
+            s_neg = INFINITY
+            for k in range(count):
+                d = mu * (u[k] - up) + mv * (v[k] - vp)
+                slack = zp + b * (u[k] - up) + c * (v[k] - vp) - z[k]
+                if d < -eps:
+                    if _Variant is _Checked and d == 0.0:
+                        return -1
+                    s_pos = _fmin(s_pos, slack / -d)
+                elif d > eps:
+                    if _Variant is _Checked and d == 0.0:
+                        return -1
+                    s_neg = _fmin(s_neg, slack / d)
+            s = 0.0
+            if isfinite(s_pos) and isfinite(s_neg):
+                s = 0.5 * (s_pos - s_neg)
+            b += s * mu
+            c += s * mv
+            out[0] = zp - b * up - c * vp
+            out[1] = b
+            out[2] = c
+            return 0
+        if side < 0:
+            mu = -mu
+            mv = -mv  # m points from the line towards the origin
+        best_s = INFINITY
+        best_d = 0.0
+        w = -1
+        for k in range(count):
+            d = mu * (u[k] - up) + mv * (v[k] - vp)
+            if d > eps:  # on the origin's side: the plane comes down towards it
+                slack = zp + b * (u[k] - up) + c * (v[k] - vp) - z[k]
+                if slack < 0.0:
+                    slack = 0.0
+                if _Variant is _Checked and d == 0.0:
+                    return -1
+                s = slack / d
+                if s < best_s - 1e-15 or (s <= best_s + 1e-15 and d > best_d):
+                    best_s = s
+                    best_d = d
+                    w = k
+        if w < 0:
+            out[0] = NAN
+            out[1] = NAN
+            out[2] = NAN
+            return 2
+        # rotating by s lowers the origin side: plane gradient moves against m
+        b -= best_s * mu
+        c -= best_s * mv
+        # is the origin inside triangle p q w?
+        ax = u[p]
+        ay = v[p]
+        bx = u[q] - ax
+        by = v[q] - ay
+        cx = u[w] - ax
+        cy = v[w] - ay
+        det = bx * cy - by * cx
+        if det == 0.0:
+            return -1
+        ox = -ax
+        oy = -ay
+        lq = (ox * cy - oy * cx) / det
+        lw = (bx * oy - by * ox) / det
+        lp = 1.0 - lq - lw
+        if lp >= tol and lq >= tol and lw >= tol:
+            out[0] = zp - b * up - c * vp
+            out[1] = b
+            out[2] = c
+            return 0
+        # keep the edge that faces the origin: drop the vertex with the most negative weight
+        if lp <= lq:
+            p = w  # drop p: keep q and w
+        else:
+            q = w  # drop q: keep p and w
+        zp = z[p]
+        up = u[p]
+        vp = v[p]
+    out[0] = NAN
+    out[1] = NAN
+    out[2] = NAN
+    return 2
+
+
+
+cdef int support_plane_c(const double* u, const double* v, const double* z, Py_ssize_t count, double eps,
+                         double* out) noexcept nogil:
+    """Lowest supporting plane over the origin of the first ``count`` points.
+
+    Writes (a, b, c) to ``out``; returns the status: 0 optimal, 1 no points, 2 not converged
+    (the origin outside the points' hull, or cycling): callers fall back; -1 a division by
+    zero (only when ``eps`` is 0 or negative, or the points underflow), where the Python-level
+    callers raise ZeroDivisionError as the numba kernels did (``out`` is then not written).
+    ``eps`` is the length below which xy distances count as zero.
+    """
+    if eps >= 0.0:
+        return _walk(u, v, z, count, eps, out, <_Unchecked*>NULL)  # d beyond +-eps is never zero
+    return _walk(u, v, z, count, eps, out, <_Checked*>NULL)
+
+
+def support_plane(u, v, z, count, double eps):
+    """Lowest supporting plane over the origin of the first ``count`` points.
+
+    Returns (a, b, c, status): status 0 optimal, 1 no points, 2 not converged
+    (the origin outside the points' hull, or cycling): callers fall back.
+    ``eps`` is the length below which xy distances count as zero.
+    """
+    cdef const double[::1] uu = np.ascontiguousarray(u, dtype=np.float64)
+    cdef const double[::1] vv = np.ascontiguousarray(v, dtype=np.float64)
+    cdef const double[::1] zz = np.ascontiguousarray(z, dtype=np.float64)
+    cdef Py_ssize_t n = count
+    if n < 0 or n > uu.shape[0] or n > vv.shape[0] or n > zz.shape[0]:
+        raise ValueError(f"count {n} outside the points given ({uu.shape[0]}, {vv.shape[0]}, {zz.shape[0]})")
+    cdef double out[3]
+    cdef int st
+    with nogil:
+        st = support_plane_c(&uu[0], &vv[0], &zz[0], n, eps, out)
+    if st < 0:
+        raise ZeroDivisionError("division by zero")
+    return out[0], out[1], out[2], st
+
+
+def support_planes_fixed(u, v, z, double eps):
+    """``support_plane`` for many poses sharing the same point layout.
+
+    u, v : (k,) point positions in the heading frame; z : (N, k) heights.
+    Returns planes (N, 3) and status (N,).
+    """
+    cdef const double[::1] uu = np.ascontiguousarray(u, dtype=np.float64)
+    cdef const double[::1] vv = np.ascontiguousarray(v, dtype=np.float64)
+    cdef const double[:, ::1] zz = np.ascontiguousarray(z, dtype=np.float64)
+    cdef Py_ssize_t k = uu.shape[0]
+    cdef Py_ssize_t n = zz.shape[0]
+    if vv.shape[0] < k or (n > 0 and zz.shape[1] < k):
+        raise ValueError(f"{k} points but v has {vv.shape[0]} and z rows have {zz.shape[1]}")
+    out_arr = np.empty((n, 3))
+    status_arr = np.empty(n, np.int64)
+    cdef double[:, ::1] out = out_arr
+    cdef int64_t[::1] status = status_arr
+    cdef Py_ssize_t i
+    cdef int zero_division = 0
+    cdef int* zero_flag = &zero_division
+    with nogil:
+        for i in prange(n, schedule="static"):
+            status[i] = support_plane_c(&uu[0], &vv[0], &zz[i, 0], k, eps, &out[i, 0])
+            if status[i] < 0:
+                zero_flag[0] = 1
+    if zero_division:
+        raise ZeroDivisionError("division by zero")
+    return out_arr, status_arr

@@ -1,0 +1,65 @@
+"""The compiled triangle test and tree walk: the inputs the numba kernels took, any thread count, same answers."""
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.bvh.build import build_tree
+from tankcd_cli.bvh.query import _size, collide
+from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch, collide_batch
+from tankcd_cli.geometry import kdop
+from tankcd_cli.geometry.triangles import tri_tri, tri_tri_brute
+from tankcd_cli.vehicle_mesh import box, cylinder
+
+
+def test_tri_tri_takes_any_array_like_and_fills_scratch():
+    P = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]])  # integers
+    Q = np.array([[0.5, 0.5, -1], [0.5, 0.5, 1], [1.5, 1.5, 0]])
+    out = np.zeros(3, np.float32)
+    assert tri_tri(P, Q, out) is True and out.tolist() == [0.75, 0.75, 0.0]  # the middle of the overlap
+    out64 = np.empty(3)
+    scratch = np.zeros((6, 3))
+    Qr = np.asfortranarray(Q)
+    Qr.flags.writeable = False
+    assert tri_tri(P.astype(float), Qr, out64, scratch)
+    np.testing.assert_array_equal(out64, out)
+    assert scratch.any()  # the working space was used, as with numba
+    assert not tri_tri(P, Q + [0, 0, 5], out64)
+    assert tri_tri(P, Q, out64) == tri_tri_brute(P, Q)
+
+
+def test_collide_batch_same_on_one_and_two_threads_and_any_int_width():
+    A = cylinder([0, 0, 0], 2, 1.0, 2.0, 10, 3)
+    B = box([-2, -0.5, -0.5], [2, 0.5, 0.5], 3)
+    ta, tb = build_tree(A, k=18, aabb_levels=2), build_tree(B, k=18)
+    R = Rotation.random(200, random_state=1).as_matrix()
+    t = np.random.default_rng(1).uniform(-2.5, 2.5, (200, 3))
+    threads = get_num_threads()
+    try:
+        set_num_threads(1)
+        one = collide(ta, tb, R, t, all_contacts=True, max_contacts=8)
+        set_num_threads(2)
+        two = collide(ta, tb, R, t, all_contacts=True, max_contacts=8)
+    finally:
+        set_num_threads(threads)
+    for name in ("found", "pairs", "points", "node_tests", "tri_tests"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+    assert one.hit.any() and not one.hit.all()
+    d = kdop.directions(18)
+    W = np.stack([np.linalg.inv(d[x]) for x in kdop.triples(18)])
+    i32 = [a.astype(np.int32) for a in (ta.source_index, ta.left, ta.right, ta.start, ta.count, ta.depth)]
+    j32 = [a.astype(np.int32) for a in (tb.left, tb.right, tb.start, tb.count, tb.depth)]
+    res = collide_batch(R, t, d, W, ta.triangles, *i32, ta.aabb_levels, ta.centre, ta.half, _size(ta),
+                        tb.triangles, tb.source_index.astype(np.int32), tb.lo, tb.hi, *j32, tb.aabb_levels, _size(tb),
+                        ALL, 8)
+    np.testing.assert_array_equal(res[0], one.found)
+    np.testing.assert_array_equal(res[1], one.pairs)
+    assert res[1].dtype == np.int64 and res[2].shape == (200, 8, 3)
+    np.testing.assert_array_equal(brute_force_batch(R, t, A, B, FIRST) > 0, one.hit)
+
+
+def test_no_poses():
+    ta = tb = build_tree(box([0, 0, 0], [1, 1, 1]))
+    res = collide(ta, tb, np.zeros((0, 3, 3)), np.zeros((0, 3)))
+    assert res.found.shape == (0,) and res.pairs.shape == (0, 16, 2)
+    assert brute_force_batch(np.zeros((0, 3, 3)), np.zeros((0, 3)), ta.triangles, tb.triangles, ALL).shape == (0,)
