@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tankcd_cli.io.dem_sources import ArrayDem, DemInfo
+from tankcd_cli.terrain.dem_sources import ArrayDem, DemInfo
 from tankcd_cli.terrain import grid_classify as gc
 from tankcd_cli.terrain import synthetic
 from tankcd_cli.terrain.classify import classify_terrain

@@ -72,7 +72,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     report.kernels()
     step = report.progress("classify")
     step(f"reading {terrain}")
-    from tankcd_cli.io.dem_sources import open_dem
+    from tankcd_cli.terrain.dem_sources import open_dem
 
     dem = open_dem(terrain, fmt=fmt, band=band, crs=crs)
     if dem is not None:

@@ -17,7 +17,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
-    from tankcd_cli.io.dem_sources import ascii_dem
+    from tankcd_cli.terrain.dem_sources import ascii_dem
     from tankcd_cli.io.trajectory import read_trajectory
     from tankcd_cli.matching.match import MATCHERS, STATUS
     from tankcd_cli.plots import grid_map_png, replay_map_png

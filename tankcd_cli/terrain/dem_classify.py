@@ -25,7 +25,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
                  thresholds: Thresholds | None = None, tile=DEFAULT_TILE, jobs: int | None = None,
                  progress: Callable[[int, int, int, float], None] | None = None, scheduler: str | None = None,
                  spec: tuple | None = None) -> dict:
-    """Classify every post of ``source`` (see ``io.dem_sources``) into a grid store at ``out_path``.
+    """Classify every post of ``source`` (see ``terrain.dem_sources``) into a grid store at ``out_path``.
 
     progress(tiles_done, tiles_total, posts_done, seconds) after each tile.
     scheduler : a Dask scheduler's address: the tiles run there as tasks, each worker reading

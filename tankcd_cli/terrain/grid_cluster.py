@@ -20,7 +20,7 @@ _LOCK = threading.Lock()
 
 
 def _source(spec: tuple):
-    from tankcd_cli.io.dem_sources import open_dem
+    from tankcd_cli.terrain.dem_sources import open_dem
 
     with _LOCK:
         if spec not in _SOURCES:
