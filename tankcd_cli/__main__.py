@@ -1,4 +1,4 @@
-from tankcd_cli.cli.main import main
+from tankcd_cli.cli.main import console
 
 if __name__ == "__main__":
-    main()
+    console()

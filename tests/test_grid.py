@@ -238,6 +238,47 @@ def test_footprint_arithmetic_equals_clipping_on_posts(both_surfaces):
     np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
 
 
+def test_hull_bound_never_below_the_exact_pass(both_surfaces):
+    """The posts' bound over a hull's bottom is never below the exact footprint pass, and tight
+    enough to clear most poses; a mesh knows no bound (+inf)."""
+    from tankcd_cli.matching.match import EPS_XY, hull_bottom_face, match
+
+    (grid, mesh), z = both_surfaces
+    x, y, yaw = _points(z, 3000, 11)
+    p = match(grid, T72, x, y, yaw, "four_point", measure=False)
+    ok = p.status != 2
+    x, y, yaw = x[ok], y[ok], yaw[ok]
+    quads, bottom = hull_bottom_face(T72, p.plane[ok], p.roll[ok], p.pitch[ok])
+    bottom[:, 0] -= np.random.default_rng(12).uniform(0.0, 0.8, len(x))  # many poses now touch
+    out, _, status = grid.footprint(1, x, y, yaw, quads, bottom, EPS_XY)
+    exact = np.where(status == 0, out[:, 0], -np.inf)
+    bound = grid.highest_above_plane_bound(x, y, yaw, quads, bottom)
+    assert np.isfinite(exact).sum() > 0.8 * len(x)
+    assert np.all(bound >= exact), np.max(exact - bound)
+    gap = (bound - exact)[np.isfinite(exact)]
+    assert np.median(gap) < 0.3
+    assert np.isinf(mesh.highest_above_plane_bound(x, y, yaw, quads, bottom)).all()
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_hull_contacts_equal_the_exact_depth(both_surfaces, which):
+    from tankcd_cli.matching.match import hull_bottom_contacts, hull_bottom_depth, match
+
+    (grid, mesh), z = both_surfaces
+    surface = (grid, mesh)[which]
+    x, y, yaw = _points(z, 3000, 13)
+    p = match(surface, T72, x, y, yaw, "four_point", measure=False)
+    ok = np.flatnonzero(p.status != 2)
+    plane = p.plane[ok].copy()
+    plane[:, 0] -= np.random.default_rng(14).uniform(0.0, 0.6, len(ok))
+    args = (surface, T72, x[ok], y[ok], yaw[ok], plane, p.roll[ok], p.pitch[ok])
+    depth = hull_bottom_depth(*args)
+    hit, got = hull_bottom_contacts(*args, 0.01)
+    np.testing.assert_array_equal(hit, np.flatnonzero(depth > 0.01))
+    np.testing.assert_array_equal(got, depth[hit])
+    assert 0.05 * len(ok) < len(hit) < 0.95 * len(ok)
+
+
 def test_classes_close_to_the_mesh_layout():
     """Both layouts average |H| over the same disks; the mesh layout on a raster of L/8 cells,
     the grid at the posts themselves: the classes agree but for posts near a threshold."""

@@ -151,3 +151,41 @@ def main(argv=None):
     except BrokenPipeError:
         _quiet_broken_pipe()
         sys.exit(EXIT_DONE)
+
+
+def console(argv=None):
+    """Console-script entry point: ``main``, then an exit that skips tearing the interpreter down.
+
+    Unloading numpy, h5py and the kernels module by module costs about 20 ms, a sixth of a short
+    command's whole run, and frees nothing the operating system would not. Outputs are complete
+    by then (every writer closes and renames its file before the command returns); Python's
+    exit handlers still run and the standard streams are flushed. With other Python threads
+    still alive, the ordinary exit joins them.
+    """
+    try:
+        main(argv)
+        code = 0
+    except SystemExit as exc:
+        code = exc.code
+    code = 0 if code is None else code
+    if not isinstance(code, int):
+        raise SystemExit(code)
+    _exit_quickly(code)
+
+
+def _exit_quickly(code: int) -> None:
+    import atexit
+    import threading
+
+    if threading.active_count() > 1:
+        sys.exit(code)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except BrokenPipeError:
+            _quiet_broken_pipe()
+        except (OSError, ValueError):
+            pass
+    atexit._run_exitfuncs()
+    os._exit(code)
+

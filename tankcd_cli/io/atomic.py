@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-import shutil
 import sys
-import tempfile
-from pathlib import Path
 from typing import Iterator
 
 from tankcd_cli.errors import InputError
@@ -23,20 +20,20 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
     so no command leaves a truncated output behind.
     """
     to_stdout = target == "-"
-    directory = tempfile.gettempdir() if to_stdout else str(Path(target).resolve().parent)
+    if to_stdout:
+        import tempfile
+
+        directory = tempfile.gettempdir()
+    else:
+        directory = os.path.dirname(os.path.realpath(target))
     if not to_stdout and not os.path.isdir(directory):
         raise InputError(target, "output directory does not exist")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".tankcd-", suffix=suffix + ".part", dir=directory)
-    except OSError as exc:
-        raise InputError(target, f"cannot write output: {exc.strerror or exc}") from None
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a finished output gets the usual permissions
+    tmp = _create_beside(target, directory, suffix)
     try:
         yield tmp
         if to_stdout:
+            import shutil
+
             with open(tmp, "rb") as src:
                 shutil.copyfileobj(src, sys.stdout.buffer)
             sys.stdout.buffer.flush()
@@ -49,3 +46,19 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+
+
+def _create_beside(target: str, directory: str, suffix: str) -> str:
+    """Create a new empty file with a fresh name in ``directory``; the usual permissions (0666
+    less the umask), as a finished output should have. (tempfile's mkstemp would cost its
+    imports on every command's start and make the file 0600.)"""
+    for _ in range(100):
+        tmp = os.path.join(directory, f".tankcd-{os.urandom(6).hex()}{suffix}.part")
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            return tmp
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise InputError(target, f"cannot write output: {exc.strerror or exc}") from None
+    raise InputError(target, "cannot write output: no free temporary name beside it")

@@ -164,14 +164,13 @@ def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator
             events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "off_terrain", "vehicle", "terrain",
                                 {"status": "off" if poses.status[i] == OFF else "partly_off"}))
         good = np.flatnonzero(poses.status != OFF)
-        rotation = poses.rotation[good] if len(good) else None  # once, for every effect that needs it
         if setup.effects["terrain_contact"] and len(good):
             t0 = time.perf_counter()
-            events += _hull_bottom(setup, chunk, poses, good, rotation)
+            events += _hull_bottom(setup, chunk, poses, good)
             setup.seconds["terrain"] += time.perf_counter() - t0
         if setup.effects["obstacles"] and len(good):
             t0 = time.perf_counter()
-            events += _obstacles(setup, chunk, poses, good, rotation)
+            events += _obstacles(setup, chunk, poses, good, poses.rotation[good])
             setup.seconds["obstacles"] += time.perf_counter() - t0
         if setup.effects["internal"]:
             t0 = time.perf_counter()
@@ -189,14 +188,13 @@ def hull_bottom_points(vehicle: Vehicle, along: int = 9, across: int = 5) -> np.
     return np.column_stack([U.ravel(), V.ravel(), np.full(U.size, vehicle.ground_clearance)])
 
 
-def _hull_bottom(setup, chunk, poses, idx, rotation):
-    from tankcd_cli.matching.match import hull_bottom_depth
+def _hull_bottom(setup, chunk, poses, idx):
+    from tankcd_cli.matching.match import hull_bottom_contacts
 
-    depth = hull_bottom_depth(setup.surface, setup.vehicle, chunk.x[idx], chunk.y[idx], poses.yaw[idx],
-                              poses.plane[idx], poses.roll[idx], poses.pitch[idx])
-    hit = np.flatnonzero(depth > HULL_CONTACT_TOLERANCE)
+    hit, depth = hull_bottom_contacts(setup.surface, setup.vehicle, chunk.x[idx], chunk.y[idx], poses.yaw[idx],
+                                      poses.plane[idx], poses.roll[idx], poses.pitch[idx], HULL_CONTACT_TOLERANCE)
     return [Event(int(chunk.step[idx[k]]), float(chunk.t[idx[k]]), "terrain", "hull", "terrain",
-                  {"depth": round(float(depth[k]), 4)}) for k in hit]
+                  {"depth": round(float(d), 4)}) for k, d in zip(hit, depth)]
 
 
 def _obstacles(setup, chunk, poses, idx, rotation):

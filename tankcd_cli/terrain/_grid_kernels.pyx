@@ -166,6 +166,8 @@ cdef uint8_t _worst_class_one(double px, double py, double yaw, const double* su
                 c = classes[row * cols + col]
                 if c != 255 and c > worst:
                     worst = c
+        if worst >= 2:  # uneven, the highest class: nothing later can raise it
+            break
     if worst >= 0:
         return <uint8_t>worst
     return 255
@@ -285,4 +287,104 @@ def grid_worst_class(px, py, yaw, su, sv, classes, post_origin, post_size, Py_ss
     cdef Py_ssize_t i
     for i in prange(n, nogil=True, schedule="static"):
         out[i] = _worst_class_one(xp[i], yp[i], wp[i], up, vp, m, cp, rows, cols, ox, oy, dx, dy, r_off, c_off)
+    return out_arr
+
+
+cdef double _highest_above_plane_one(double px, double py, double yaw, const double* quad, Py_ssize_t k,
+                                     double pa, double pb, double pc, const double* post_z, Py_ssize_t rows,
+                                     Py_ssize_t cols, double ox, double oy, double dx, double dy,
+                                     Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows,
+                                     Py_ssize_t grid_cols) noexcept nogil:
+    """Upper bound of (ground - plane) over the polygon corners ``quad`` (k, 2) in the heading
+    frame of one pose: the largest (post - plane) over every post of every cell the corners'
+    bounding box touches (-inf: no valid post there; +inf: the window does not hold them all)."""
+    cdef double co = cos(yaw)
+    cdef double si = sin(yaw)
+    cdef double xmin = INFINITY
+    cdef double xmax = -INFINITY
+    cdef double ymin = INFINITY
+    cdef double ymax = -INFINITY
+    cdef double wx, wy, z, du, dv, rel, best
+    cdef Py_ssize_t j, r0, r1, c0, c1, r, c
+    for j in range(k):
+        wx = px + co * quad[2 * j] - si * quad[2 * j + 1]
+        wy = py + si * quad[2 * j] + co * quad[2 * j + 1]
+        xmin = wx if wx < xmin else xmin
+        xmax = wx if wx > xmax else xmax
+        ymin = wy if wy < ymin else ymin
+        ymax = wy if wy > ymax else ymax
+    if not (isfinite(xmin) and isfinite(xmax) and isfinite(ymin) and isfinite(ymax)):
+        return NAN
+    c0 = ifloor((xmin - ox) / dx)
+    c1 = ifloor((xmax - ox) / dx) + 1
+    r0 = ifloor((ymin - oy) / dy)
+    r1 = ifloor((ymax - oy) / dy) + 1
+    # posts of the grid only; every one of them must be in the window
+    c0 = c0 if c0 > 0 else 0
+    r0 = r0 if r0 > 0 else 0
+    c1 = c1 if c1 < grid_cols - 1 else grid_cols - 1
+    r1 = r1 if r1 < grid_rows - 1 else grid_rows - 1
+    if c0 > c1 or r0 > r1:
+        return -INFINITY
+    if c0 < c_off or r0 < r_off or c1 - c_off > cols - 1 or r1 - r_off > rows - 1:
+        return INFINITY
+    best = -INFINITY
+    for r in range(r0, r1 + 1):
+        dv = oy + <double>r * dy - py
+        for c in range(c0, c1 + 1):
+            z = post_z[(r - r_off) * cols + (c - c_off)]
+            if isfinite(z):
+                du = ox + <double>c * dx - px
+                # the post in the heading frame: (co du + si dv, -si du + co dv)
+                rel = z - (pa + pb * (co * du + si * dv) + pc * (co * dv - si * du))
+                best = rel if rel > best else best
+    return best
+
+
+def grid_highest_above_plane_bound(px, py, yaw, quads, planes, post_z, post_origin, post_size,
+                                   Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows, Py_ssize_t grid_cols):
+    """An upper bound (N,) of how far the ground rises above each pose's plane over its polygons.
+
+    px, py, yaw : local centres (N,) m and headings (N,) rad
+    quads : (N, ..., 2) polygon corners in the heading frame, m (their bounding box is searched)
+    planes : (N, 3) a, b, c: the plane's height a + b u + c v at heading-frame offset (u, v)
+
+    The ground is linear over every triangle of the grid and the plane is linear, so their
+    difference peaks at a triangle's posts: the largest (post - plane) over the posts of the
+    cells the polygons' bounding box touches bounds it from above. -inf where the box holds
+    no valid post; NaN for a non-finite pose; +inf where the window misses some of the posts.
+    """
+    cdef const double[::1] x = _f64(px)
+    cdef const double[::1] y = _f64(py)
+    cdef const double[::1] w = _f64(yaw)
+    q_arr = _f64(quads)
+    cdef Py_ssize_t n = x.shape[0]
+    if q_arr.ndim < 2 or q_arr.shape[0] != n or q_arr.shape[q_arr.ndim - 1] != 2:
+        raise ValueError("quads must be (N, ..., 2)")
+    cdef const double[:, ::1] q = q_arr.reshape(n, -1)
+    cdef const double[:, ::1] pl = _f64(planes)
+    cdef const double[:, ::1] pz = _f64(post_z)
+    cdef const double[::1] po = _pair(post_origin, "post_origin")
+    cdef const double[::1] ps = _pair(post_size, "post_size")
+    if y.shape[0] != n or w.shape[0] != n or pl.shape[0] != n or pl.shape[1] != 3:
+        raise ValueError("py, yaw and planes (N, 3) must match px")
+    out_arr = np.full(n, -np.inf)
+    cdef double[::1] out = out_arr
+    cdef Py_ssize_t k = q.shape[1] // 2
+    cdef const double* pzp = _ptr2(pz)
+    cdef Py_ssize_t rows = pz.shape[0]
+    cdef Py_ssize_t cols = pz.shape[1]
+    cdef double ox = po[0]
+    cdef double oy = po[1]
+    cdef double dx = ps[0]
+    cdef double dy = ps[1]
+    cdef Py_ssize_t i
+    if n == 0 or k == 0:
+        return out_arr
+    if pzp == NULL:
+        out_arr[:] = np.inf
+        return out_arr
+    for i in prange(n, nogil=True, schedule="static"):
+        out[i] = _highest_above_plane_one(x[i], y[i], w[i], &q[i, 0], k, pl[i, 0], pl[i, 1], pl[i, 2], pzp, rows,
+                                          cols, ox, oy, dx, dy, r_off, c_off, grid_rows, grid_cols)
     return out_arr

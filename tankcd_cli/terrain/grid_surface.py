@@ -121,15 +121,17 @@ class GridSurface:
             return []
         nbr = max((self.rows - 1) // BLOCK, 0)
         nbc = max((self.cols - 1) // BLOCK, 0)
+        # the blocks' span from the extremes alone (most queries fit one window: no per-point work)
+        r0, r1 = _block_span(ly, BLOCK * self.spacing[1], nbr)
+        c0, c1 = _block_span(lx, BLOCK * self.spacing[0], nbc)
+        span = ((r1 - r0 + 1) * BLOCK + 2 * margin) * ((c1 - c0 + 1) * BLOCK + 2 * margin)
+        if span <= WINDOW_POSTS or (r0 == r1 and c0 == c1):
+            return [(slice(None), (r0, r1, c0, c1))]
         with np.errstate(invalid="ignore"):
             bc = np.floor(lx / (BLOCK * self.spacing[0]))
             br = np.floor(ly / (BLOCK * self.spacing[1]))
         bc = np.clip(np.nan_to_num(bc, nan=0.0), 0, nbc).astype(np.int64)
         br = np.clip(np.nan_to_num(br, nan=0.0), 0, nbr).astype(np.int64)
-        r0, r1, c0, c1 = int(br.min()), int(br.max()), int(bc.min()), int(bc.max())
-        span = ((r1 - r0 + 1) * BLOCK + 2 * margin) * ((c1 - c0 + 1) * BLOCK + 2 * margin)
-        if span <= WINDOW_POSTS or (r0 == r1 and c0 == c1):
-            return [(slice(None), (r0, r1, c0, c1))]
         key = (br * (nbc + 1) + bc).astype(np.uint32 if (nbr + 1) * (nbc + 1) < 2**32 else np.int64)
         order = np.argsort(key, kind="stable")  # a radix sort for small integer keys
         cut = np.flatnonzero(np.diff(key[order])) + 1
@@ -187,6 +189,29 @@ class GridSurface:
                                         self.post_origin, self.spacing, r_off, c_off)
         return out
 
+    def highest_above_plane_bound(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray) -> np.ndarray:
+        """An upper bound (N,) m of how far the ground rises above each pose's plane over its
+        polygons ``quads`` (N, ..., 2) in the heading frame (planes (N, 3): a + b u + c v); -inf
+        where no ground is under them. Costs a pass over the posts of their bounding box, a
+        fraction of the exact footprint pass: poses it clears need no exact pass."""
+        from tankcd_cli.terrain.grid_kernels import grid_highest_above_plane_bound
+
+        lx, ly = self.to_local(x, y)
+        lx, ly = np.ravel(lx), np.ravel(ly)
+        n = len(lx)
+        out = np.full(n, -np.inf)
+        if n == 0:
+            return out
+        quads = np.asarray(quads, dtype=float).reshape(n, -1, 2)
+        margin = self._margin(_reach(quads))
+        yaw = np.broadcast_to(np.asarray(yaw, dtype=float), lx.shape)
+        for idx, blocks in self._groups(lx, ly, margin):
+            win, r_off, c_off = self._window(blocks, margin, False)
+            out[idx] = grid_highest_above_plane_bound(lx[idx], ly[idx], yaw[idx], quads[idx], planes[idx], win,
+                                                      self.post_origin, self.spacing, r_off, c_off,
+                                                      self.rows, self.cols)
+        return out
+
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True):
         """The exact footprint pass (see ``matching.footprint.footprint_batch``) on the posts."""
@@ -199,8 +224,7 @@ class GridSurface:
         status = np.zeros(n, dtype=np.int64)
         if n == 0:
             return out, covered, status
-        reach = float(np.sqrt((quads ** 2).sum(axis=-1)).max()) if quads.size else 0.0
-        margin = self._margin(reach)
+        margin = self._margin(_reach(quads))
         empty_i = np.zeros(1, dtype=np.int64)
         empty_f = np.zeros((1, 3))
         for idx, blocks in self._groups(lx, ly, margin):
@@ -211,3 +235,21 @@ class GridSurface:
                 empty_i, True, win, self.post_origin, self.spacing, np.ascontiguousarray(planes_in[idx]), eps,
                 True, r_off, c_off, arithmetic)
         return out, covered, status
+
+
+def _block_span(v: np.ndarray, size: float, last: int) -> tuple[int, int]:
+    """First and last block (of ``size`` m, clipped to 0..last) of local coordinates ``v``; a NaN
+    coordinate counts as block 0, as in the per-point grouping."""
+    lo, hi = float(np.fmin.reduce(v)), float(np.fmax.reduce(v))  # NaN only if every value is NaN
+    ends = [] if math.isnan(lo) else [lo, hi]
+    blocks = [min(max(math.floor(e / size) if math.isfinite(e) else (0 if e < 0 else last), 0), last) for e in ends]
+    if math.isnan(float(np.min(v))):
+        blocks.append(0)
+    return min(blocks), max(blocks)
+
+
+def _reach(quads: np.ndarray) -> float:
+    """How far (m) the corners (..., 2) reach from their pose's centre."""
+    if quads.size == 0:
+        return 0.0
+    return math.sqrt(float(np.max(quads[..., 0] ** 2 + quads[..., 1] ** 2)))

@@ -116,6 +116,11 @@ class TerrainSurface:
         hi = self.vertices[:, :2].max(axis=0) + self.origin
         return lo, hi
 
+    def highest_above_plane_bound(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray) -> np.ndarray:
+        """An upper bound (N,) of how far the ground rises above each pose's plane over its polygons:
+        none is known for a mesh (+inf), so every pose takes the exact footprint pass."""
+        return np.full(len(np.atleast_1d(x)), np.inf)
+
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True):
         """The exact footprint pass (see ``matching.footprint.footprint_batch``); ``arithmetic``
