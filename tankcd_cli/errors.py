@@ -35,3 +35,24 @@ def printable(text: str) -> str:
         else:
             out.append(ch)
     return "".join(out)
+
+
+class SetupWarning(UserWarning):
+    """Valid input that is probably a mistake (a y-up mesh read as z-up, a trajectory beside the
+    terrain, an obstacle placed away from it). The command line prints it as one line on stderr;
+    ``--strict`` makes it bad input (exit 3) before anything is written."""
+
+    def __init__(self, source: str | None, what: str):
+        self.source = source
+        self.what = what
+        super().__init__(printable(f"{source}: {what}" if source else what))
+
+    def one_line(self) -> str:
+        return str(self)
+
+
+def warn(source: str | None, what: str) -> None:
+    """Raise a :class:`SetupWarning` through Python's warnings (the caller decides what it does)."""
+    import warnings
+
+    warnings.warn(SetupWarning(source, what), stacklevel=2)

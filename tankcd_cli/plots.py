@@ -33,8 +33,7 @@ def class_map_png(store, path: str) -> None:
     axes[1].set_title(f"signed mean curvature ({a.get('curvature_method')})", fontsize=9)
     for ax in axes:
         ax.set_aspect("equal")
-        ax.set_xlabel(f"x - {origin[0]:.0f} m (east)")
-        ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
+        _relative_axes(ax, origin)
     fig.suptitle(f"{a.get('source')}", fontsize=10)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
@@ -70,10 +69,14 @@ def envelope_png(vehicle, env, path: str) -> None:
     plt.close(fig)
 
 
-def replay_map_png(store, path_xy, marks, path: str) -> None:
-    """The replayed path over the class map, with events marked by kind.
+def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None, counts=None) -> None:
+    """The replayed path over the class map, obstacles' footprints, and events marked by kind.
 
     store : a mesh-layout TerrainStore, or the path of a grid store (drawn from its overview)
+    path_xy : (N, 2) world x, y of the path; marks : [(kind, x, y)] events
+    footprints : [(name, (k, 2) outline)] obstacles seen from above
+    matcher : (N,) matcher codes to colour the path by (None: one colour)
+    counts : events per kind for the legend (default: the marks counted)
     """
     import matplotlib
 
@@ -91,28 +94,58 @@ def replay_map_png(store, path_xy, marks, path: str) -> None:
         origin, extent = _overview_extent(ov)
         ax.imshow(np.ma.masked_equal(ov["classes"], 255), cmap=cmap, norm=norm, interpolation="nearest",
                   extent=extent)
-    else:
+    elif store is not None:
         from matplotlib.tri import Triangulation
 
         v, f = store.vertices, store.faces
         origin = v[:, :2].min(axis=0)
         tri = Triangulation(v[:, 0] - origin[0], v[:, 1] - origin[1], f)
         ax.tripcolor(tri, facecolors=store.vertex_class[f].max(axis=1), cmap=cmap, norm=norm)
-    ax.plot(path_xy[:, 0] - origin[0], path_xy[:, 1] - origin[1], color="#1565c0", lw=1.5, label="path")
+    else:
+        origin = np.nanmin(path_xy, axis=0) if len(path_xy) else np.zeros(2)
+    origin = np.asarray(origin, dtype=float)
+    px, py = path_xy[:, 0] - origin[0], path_xy[:, 1] - origin[1]
+    if matcher is None:
+        ax.plot(px, py, color="#1565c0", lw=1.5, label="path")
+    else:
+        from tankcd_cli.matching.match import MATCHERS
+
+        colours = ["#2e7d32", "#f9a825", "#c62828", "#1565c0"]
+        for code, name in enumerate(MATCHERS):
+            sel = matcher == code
+            if sel.any():
+                ax.scatter(px[sel], py[sel], s=3, color=colours[code % len(colours)], label=f"{name} ({sel.sum():,})",
+                           zorder=2, linewidths=0)
+    for i, (name, outline) in enumerate(footprints):
+        if len(outline) >= 3:
+            ax.fill(outline[:, 0] - origin[0], outline[:, 1] - origin[1], facecolor="#616161", alpha=0.45,
+                    edgecolor="#212121", lw=1.0, label="obstacles" if i == 0 else None, zorder=2)
+        ax.annotate(name, (float(np.mean(outline[:, 0]) - origin[0]), float(np.mean(outline[:, 1]) - origin[1])),
+                    fontsize=7, ha="center", va="center", zorder=4)
     style = {"obstacle": ("X", "#b71c1c", "hit an obstacle"), "internal": ("o", "#6a1b9a", "gun against a drum"),
              "terrain": ("v", "#e65100", "hull bottom on the ground"), "off_terrain": ("s", "#424242", "off the terrain")}
     for kind, (marker, colour, label) in style.items():
         pts = np.array([(x, y) for k, x, y in marks if k == kind])
         if len(pts):
+            n = (counts or {}).get(kind, len(pts))
             ax.scatter(pts[:, 0] - origin[0], pts[:, 1] - origin[1], marker=marker, s=36, color=colour,
-                       label=f"{label} ({len(pts)})", zorder=3)
+                       label=f"{label} ({n:,})", zorder=3)
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x - {origin[0]:.0f} m (east)")
-    ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
+    _relative_axes(ax, origin)
     ax.set_title("replay over the region classes (green flat, yellow general, red uneven)", fontsize=10)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
+
+
+def _metres(value: float) -> str:
+    return f"{value:,.3f}".rstrip("0").rstrip(".")
+
+
+def _relative_axes(ax, origin) -> None:
+    """Axis labels in metres east and north of ``origin``, which is stated once."""
+    ax.set_xlabel(f"east of the origin, m   (origin: x = {_metres(origin[0])} m, y = {_metres(origin[1])} m)")
+    ax.set_ylabel("north of the origin, m")
 
 
 def _overview_extent(ov: dict):
@@ -155,8 +188,7 @@ def grid_map_png(store_path: str, path: str, title: str | None = None) -> None:
     axes[1].set_title(f"curvature ({a.get('curvature_method')}); thresholds {a.get('threshold_flat'):.4f}, "
                       f"{a.get('threshold_uneven'):.4f}", fontsize=9)
     for ax in axes:
-        ax.set_xlabel(f"x - {origin[0]:.0f} m (east)")
-        ax.set_ylabel(f"y - {origin[1]:.0f} m (north)")
+        _relative_axes(ax, origin)
     fig.suptitle(title or str(a.get("source")), fontsize=10)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

@@ -87,9 +87,19 @@ def test_store_round_trip(run, tmp_path, sample_store):
     assert a["attrs"]["source_sha256"] == b["attrs"]["source_sha256"]
 
 
-def test_store_is_never_its_own_output(run, sample_store):
-    res = run("classify", sample_store)  # the default output is the input itself
-    assert res.exit_code == 2 and "is the input" in res.stderr
+def test_store_is_rewritten_in_place_only_when_o_names_it(run, sample_store, tmp_path):
+    import shutil
+
+    from tankcd_cli.terrain.store import read_attrs
+
+    sample_store = Path(shutil.copy(sample_store, tmp_path / "copy.h5"))
+    before = sample_store.read_bytes()
+    res = run("classify", sample_store, "--method", "jet")  # the default output is the input itself
+    assert res.exit_code == 2 and "is also TERRAIN" in res.stderr and "-o" in res.stderr
+    assert sample_store.read_bytes() == before
+    res = run("classify", sample_store, "--method", "jet", "-o", sample_store)
+    assert res.exit_code == 0, res.stderr
+    assert read_attrs(str(sample_store))["curvature_method"] == "jet"
 
 
 def test_mesh_store_has_buckets_and_round_trips(run, tmp_path):

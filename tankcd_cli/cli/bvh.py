@@ -6,7 +6,7 @@ import os
 
 import click
 
-from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.cli.options import refuse_clashes, verbosity_options
 
 
 @click.command(short_help="Build a serialized bounding-volume tree of a model or of a scene's obstacles.")
@@ -51,8 +51,9 @@ def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, forc
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.terrain_readers import read_terrain
 
-    raw = read_terrain(model, up=up)
     output = output or os.path.splitext(model)[0] + ".bvh.h5"
+    refuse_clashes({"MODEL": model}, {"-o/--output": output})
+    raw = read_terrain(model, up=up)
     step(f"building over {len(raw.faces):,} triangles")
     tree = build_tree(raw.vertices[raw.faces], k=int(k), leaf_size=leaf_size, aabb_levels=aabb_levels, split=split)
     tree.attrs.update({"source": raw.source, "source_sha256": raw.sha256, "placement": f'{{"up": "{up}"}}'})

@@ -57,6 +57,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     from tankcd_cli.terrain.store import write_store
     from tankcd_cli.vehicle import vehicle_preset
 
+    explicit = output is not None
     if output is None:
         if terrain == "-":
             raise click.UsageError("reading from stdin needs -o/--output")
@@ -67,8 +68,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
             user_thresholds = Thresholds(thresholds[0], thresholds[1], derivation="given with --thresholds")
         except ValueError as exc:
             raise click.BadParameter(str(exc), param_hint="--thresholds") from None
-    if os.path.exists(output) and terrain != "-" and os.path.exists(terrain) and os.path.samefile(output, terrain):
-        raise click.UsageError(f"the output {output} is the input; give -o another path")
+    _refuse_clashes(terrain, output, png, explicit)
     report.kernels()
     step = report.progress("classify")
     step(f"reading {terrain}")
@@ -138,3 +138,26 @@ def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, 
                 f"({a['valid_posts']:,} with data), H by {method}; flat {a['share_flat']:.0%}, "
                 f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
                 f"({report.elapsed():.2f} s)")
+
+
+def _refuse_clashes(terrain, output, png, explicit):
+    """No output may be the input or the other output; a store is rewritten in place only when
+    -o names it (the new store is written beside it and replaces it when complete)."""
+    from tankcd_cli.cli.options import refuse_clashes
+    from tankcd_cli.io.files import same_path
+
+    in_place = terrain != "-" and same_path(output, terrain)
+    if in_place and not (explicit and _is_hdf5(terrain)):
+        hint = " (to rewrite a store in place, name it with -o)" if _is_hdf5(terrain) else ""
+        raise click.UsageError(f"-o/--output {output} is also TERRAIN {terrain}: give -o another path{hint}")
+    refuse_clashes({} if in_place else {"TERRAIN": terrain}, {"-o/--output": output, "--png": png})
+    if png is not None and same_path(png, terrain):
+        raise click.UsageError(f"--png {png} is also TERRAIN {terrain}: give another output path")
+
+
+def _is_hdf5(path: str) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+    except OSError:
+        return False

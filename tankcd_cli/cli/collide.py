@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.cli.options import refuse_clashes, scene_inputs, verbosity_options
 
 
 @click.command(short_help="Test the vehicle at given poses against the scene's obstacles.")
@@ -32,6 +32,7 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     report.kernels()
     step = report.progress("collide")
     sc = load_scene(scene)
+    refuse_clashes({"--poses": poses_path, "--scene": scene, **scene_inputs(sc)}, {"--events": events_path})
     obstacles = load_obstacles(sc, cache=not no_cache, progress=step)
     moving, parts, part_names = vehicle_tree(sc)
     method = f"bvh k{sc.collision.k} aabb_levels={sc.collision.aabb_levels} {sc.collision.split}"

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from tankcd_cli.cli.options import VEHICLE_PRESETS, verbosity_options
+from tankcd_cli.cli.options import VEHICLE_PRESETS, refuse_clashes, verbosity_options
 
 
 @click.command(short_help="Lowest safe gun elevation per turret azimuth (CSV; --png polar plot).")
@@ -34,6 +34,7 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.vehicle import vehicle_preset
 
+    refuse_clashes({"--scene": scene}, {"-o/--output": output, "--png": png})
     if scene:
         from tankcd_cli.replay.scene import load_scene
 

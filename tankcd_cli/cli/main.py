@@ -9,8 +9,9 @@ import sys
 import click
 
 from tankcd_cli import __version__
+from tankcd_cli.cli.options import strict_option
 from tankcd_cli.cli.report import Reporter
-from tankcd_cli.errors import InputError
+from tankcd_cli.errors import InputError, SetupWarning
 
 # command name -> (module, short help); modules are imported only when run
 COMMANDS = {
@@ -46,12 +47,25 @@ class LazyGroup(click.Group):
             formatter.write_dl(rows)
 
     def invoke(self, ctx):
+        import warnings
+
+        with warnings.catch_warnings():
+            # warnings print as one line each; --strict (a callback) turns them into errors
+            warnings.simplefilter("error" if ctx.meta.get("tankcd.strict") else "always", SetupWarning)
+            warnings.showwarning = _show_warning
+            return self._invoke_mapped(ctx)
+
+    def _invoke_mapped(self, ctx):
         try:
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.exceptions.Abort, click.ClickException):
             raise
         except InputError as exc:
             click.echo(f"tankcd: error: {exc.one_line()}", err=True)
+            _traceback_if_verbose(ctx)
+            ctx.exit(EXIT_BAD_INPUT)
+        except SetupWarning as exc:  # raised under --strict
+            click.echo(f"tankcd: error: {exc.one_line()} (--strict)", err=True)
             _traceback_if_verbose(ctx)
             ctx.exit(EXIT_BAD_INPUT)
         except BrokenPipeError:
@@ -83,6 +97,20 @@ class LazyGroup(click.Group):
         ctx.exit(EXIT_INTERNAL)
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    text = message.one_line() if isinstance(message, SetupWarning) else f"{category.__name__}: {message}"
+    if isinstance(message, SetupWarning) or issubclass(category, SetupWarning):
+        click.echo(f"tankcd: warning: {text}", err=True)
+    else:  # a library's own warning: keep Python's usual line
+        sys.stderr.write(warnings_format(message, category, filename, lineno, line))
+
+
+def warnings_format(message, category, filename, lineno, line=None) -> str:
+    import warnings
+
+    return warnings.formatwarning(message, category, filename, lineno, line)
+
+
 def _signal_exit(ctx, terminated: bool) -> None:
     click.echo("tankcd: terminated" if terminated else "tankcd: interrupted", err=True)
     ctx.exit(143 if terminated else 130)
@@ -110,6 +138,7 @@ def _quiet_broken_pipe() -> None:
 @click.version_option(__version__, "--version", prog_name="tankcd")
 @click.option("-v", "--verbose", count=True, help="More detail on stderr (repeatable); tracebacks on errors.")
 @click.option("-q", "--quiet", is_flag=True, help="Only errors on stderr.")
+@strict_option
 @click.pass_context
 def cli(ctx, verbose, quiet):
     """tankcd: place a tank on real terrain and tell when it collides.

@@ -20,7 +20,7 @@ def output_option(help_text: str):
 
 
 def verbosity_options(f):
-    """-v/-q after the command name too (``tankcd classify x.obj -v``)."""
+    """-v/-q/--strict after the command name too (``tankcd classify x.obj -v``)."""
     def set_verbose(ctx, param, value):
         if value and ctx.obj is not None:
             ctx.obj.verbosity = max(ctx.obj.verbosity, 0) + value
@@ -33,5 +33,51 @@ def verbosity_options(f):
 
     f = click.option("-v", "--verbose", count=True, expose_value=False, callback=set_verbose,
                      help="More detail on stderr.")(f)
+    f = strict_option(f)
     return click.option("-q", "--quiet", is_flag=True, expose_value=False, callback=set_quiet,
                         help="Only errors on stderr.")(f)
+
+
+STRICT_HELP = "Treat warnings (likely set-up slips) as bad input: exit 3, write nothing."
+
+
+def set_strict(ctx, param, value):
+    """Warnings become errors for the rest of this invocation (the group restores the filters)."""
+    if value:
+        import warnings
+
+        from tankcd_cli.errors import SetupWarning
+
+        ctx.meta["tankcd.strict"] = True  # for the group, which sets the filters after parsing its options
+        warnings.simplefilter("error", SetupWarning)
+    return value
+
+
+def strict_option(f):
+    return click.option("--strict", is_flag=True, expose_value=False, callback=set_strict, help=STRICT_HELP)(f)
+
+
+def refuse_clashes(inputs: dict, outputs: dict) -> None:
+    """Exit 2 (a usage error naming both) when an output is an input or another output.
+
+    inputs, outputs : option label -> path (None and "-" are skipped). Paths are compared
+    resolved (symbolic links, ``..``) and, where both exist, as files (hard links too).
+    """
+    from tankcd_cli.io.files import same_path
+
+    seen = [(label, path) for label, path in inputs.items() if path not in (None, "-")]
+    for label, path in outputs.items():
+        if path in (None, "-"):
+            continue
+        for other_label, other in seen:
+            if same_path(path, other):
+                raise click.UsageError(f"{label} {path} is also {other_label} {other}: give another output path")
+        seen.append((label, path))
+
+
+def scene_inputs(scene) -> dict:
+    """The files a loaded scene reads, labelled for ``refuse_clashes``."""
+    files = {"the scene's terrain": scene.terrain_path, "the scene's vehicle mesh": scene.vehicle_mesh}
+    for ob in scene.obstacles:
+        files[f"obstacle {ob.name!r}"] = ob.path
+    return files

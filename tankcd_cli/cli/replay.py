@@ -6,7 +6,9 @@ import sys
 
 import click
 
-from tankcd_cli.cli.options import vehicle_option, verbosity_options
+from tankcd_cli.cli.options import refuse_clashes, scene_inputs, vehicle_option, verbosity_options
+
+SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
 
 @click.command(short_help="Replay a trajectory: poses to stdout or --poses, events to --events.")
@@ -24,8 +26,15 @@ from tankcd_cli.cli.options import vehicle_option, verbosity_options
 @vehicle_option
 @click.option("--up", type=click.Choice(["z", "y"]), default="z", help="Up axis of a terrain mesh classified on the fly.")
 @click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
-@click.option("--fail-on-collision", is_flag=True, help="Exit 1 when any collision (obstacle, internal, terrain) occurs.")
-@click.option("--summary", "summary_json", is_flag=True, help="Print the closing summary as one JSON line on stderr.")
+@click.option("--fail-on-collision", is_flag=True,
+              help="Exit 1 when any collision (obstacle, internal, terrain) occurs or a row is off the terrain.")
+@click.option("--allow-off-terrain", is_flag=True, help="With --fail-on-collision: rows off the terrain do not fail.")
+@click.option("--summary", "summary_path", is_flag=False, flag_value=SUMMARY_STDERR, default=None, metavar="[FILE]",
+              help="The closing summary as JSON: one line on stderr, or into FILE (- for stdout).")
+@click.option("--png", type=click.Path(dir_okay=False), default=None,
+              help="Draw the path over the class map, obstacles' footprints and the events, to this PNG.")
+@click.option("--png-colour", "png_colour", type=click.Choice(["path", "matcher"]), default="path",
+              show_default=True, help="Colour the drawn path plainly or by the matcher that placed each pose.")
 @click.option("--out-dir", type=click.Path(file_okay=False), default=None,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,
@@ -37,7 +46,7 @@ from tankcd_cli.cli.options import vehicle_option, verbosity_options
 @verbosity_options
 @click.pass_obj
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, vehicle_name, up, cache,
-           fail_on_collision, summary_json, out_dir, jobs, scheduler, split_lines):
+           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, jobs, scheduler, split_lines):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
@@ -46,16 +55,25 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     Fleets: several trajectories, globs ('runs/*.csv') or list files (@runs.txt) with --out-dir
     replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl, in parallel (--jobs) or on a
     Dask cluster (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
-    others; the exit code is 3 (bad input) or 4 (internal error) if any failed."""
+    others; the exit code is 3 (bad input) or 4 (internal error) if any failed.
+
+    Headings: yaw_deg is measured from east (+x), counter-clockwise (90 = north), as in the
+    poses; a compass bearing (from north, clockwise) is 90 - bearing."""
     import os
 
     fleet_mode = out_dir is not None or jobs is not None or scheduler is not None or len(trajectories) > 1 \
         or any((t.startswith("@") or any(ch in t for ch in "*?[")) and not os.path.exists(t) for t in trajectories)
     if (scene is None) == (terrain is None):
         raise click.UsageError("give --scene or --terrain (one of them)")
+    ctx = click.get_current_context()
+    if scene is not None and ctx.get_parameter_source("vehicle_name") == click.core.ParameterSource.COMMANDLINE:
+        raise click.UsageError("--vehicle does not apply with --scene: the scene's [vehicle] table decides the "
+                               "vehicle (set its preset there)")
     if fleet_mode:
+        if png:
+            raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
         return _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
-                      fail_on_collision, summary_json, split_lines)
+                      fail_on_collision, allow_off_terrain, summary_path, split_lines)
     trajectory = trajectories[0]
     import itertools
     import json
@@ -66,8 +84,11 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     from tankcd_cli.replay.run import new_counts, summary, write_replay
     from tankcd_cli.vehicle import vehicle_preset
 
-    if events_path == "-" and poses_path == "-":
-        raise click.UsageError("poses already go to stdout: give --poses FILE to send events there")
+    if poses_path == "-" and "-" in (events_path, summary_path):
+        raise click.UsageError("poses already go to stdout: give --poses FILE to send events or the summary there")
+    if events_path == "-" and summary_path == "-":
+        raise click.UsageError("events already go to stdout: give --summary FILE")
+    summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
     report.kernels()
     step = report.progress("replay")
     sc = None
@@ -82,17 +103,26 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         vehicle, terrain, up = sc.vehicle, sc.terrain_path, sc.terrain_up
     else:
         vehicle = vehicle_preset(vehicle_name)
-    surface, _ = load_terrain_surface(terrain, up=up, vehicle=vehicle, progress=step, cache=cache)
+    refuse_clashes({"TRAJECTORY": trajectory, "--scene": scene, "--terrain": terrain,
+                    **(scene_inputs(sc) if sc is not None else {})},
+                   {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
+    surface, mesh_store = load_terrain_surface(terrain, up=up, vehicle=vehicle, progress=step, cache=cache)
 
     chunks = read_trajectory(trajectory)
     first = next(chunks, None)
     turret_moves = bool(first is not None and first.has_turret)
     setup = prepare(surface, vehicle, sc, turret_moves, progress=step)
     counts = new_counts()
+    drawing = None
+    if png:
+        from tankcd_cli.replay.drawing import ReplayDrawing
+
+        drawing = ReplayDrawing(colour_by=png_colour)
 
     def write_all(out, ev_out):
         stream = itertools.chain([first] if first else [], chunks)
-        write_replay(setup, stream, matcher, out, ev_out, counts, on_chunk=lambda n: report.bar(f"replay: {n:,} rows"))
+        write_replay(setup, stream, matcher, out, ev_out, counts, on_chunk=lambda n: report.bar(f"replay: {n:,} rows"),
+                     source=trajectory, observe=drawing.observe if drawing else None)
         report.bar(None)
 
     def with_events(out):
@@ -112,20 +142,53 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
             with open(tmp, "w", newline="") as out:
                 with_events(out)
     result = summary(counts, setup, report.elapsed())
-    collisions = sum(result["collisions"].values())
-    if summary_json:
+    if drawing is not None:
+        step(f"drawing {png}")
+        with atomic_path(png, ".png") as tmp:
+            drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(surface), setup.obstacles)
+    _report_summary(report, result, summary_path, summary_file, setup.effects, counts["rows"])
+    _exit_on_failures(result, fail_on_collision, allow_off_terrain)
+
+
+def _store_of(surface):
+    """What the map draws the classes from: a grid store's path, or a mesh store read again."""
+    path = getattr(getattr(surface, "tiles", None), "path", None)
+    if path is not None:
+        return path
+    return getattr(surface, "store", None)
+
+
+def _report_summary(report, result: dict, summary_path, summary_file, effects: dict, rows: int) -> None:
+    import json
+
+    from tankcd_cli.io.atomic import atomic_path
+
+    if summary_file is not None:
+        with atomic_path(summary_file, ".json") as tmp:
+            with open(tmp, "w") as fh:
+                json.dump(result, fh, indent=2)
+                fh.write("\n")
+    elif summary_path == "-":
+        click.echo(json.dumps(result))
+    if summary_path == SUMMARY_STDERR:
         click.echo(json.dumps(result), err=True)
     else:
         kinds = ", ".join(f"{k} {v}" for k, v in result["collisions"].items())
-        ran = ", ".join(k for k, v in setup.effects.items() if v)
-        report.info(f"replay: {counts['rows']:,} rows; collisions: {kinds}; off terrain {result['off_terrain']}; "
+        ran = ", ".join(k for k, v in effects.items() if v)
+        report.info(f"replay: {rows:,} rows; collisions: {kinds}; off terrain {result['off_terrain']}; "
                     f"effects: {ran} ({report.elapsed():.2f} s)")
-    if fail_on_collision and collisions:
+
+
+def _exit_on_failures(result: dict, fail_on_collision: bool, allow_off_terrain: bool) -> None:
+    """--fail-on-collision: exit 1 on a collision, or on rows off the terrain unless allowed."""
+    if not fail_on_collision:
+        return
+    if sum(result["collisions"].values()) or (result["off_terrain"] and not allow_off_terrain):
         click.get_current_context().exit(1)
 
 
 def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
-           fail_on_collision, summary_json, split_lines):
+           fail_on_collision, allow_off_terrain, summary_path, split_lines):
     import json
     import os
 
@@ -156,8 +219,18 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
     for failure in fleet["failures"]:
         click.echo(f"tankcd: error: {failure['error']}", err=True)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
-    if summary_json:
-        click.echo(json.dumps({k: v for k, v in fleet.items() if k != "results"}), err=True)
+    brief = {k: v for k, v in fleet.items() if k != "results"}
+    if summary_path not in (None, SUMMARY_STDERR):
+        if summary_path == "-":
+            click.echo(json.dumps(brief))
+        else:
+            from tankcd_cli.io.atomic import atomic_path
+
+            with atomic_path(summary_path, ".json") as tmp:
+                with open(tmp, "w") as fh:
+                    json.dump(brief, fh, indent=2)
+    if summary_path == SUMMARY_STDERR:
+        click.echo(json.dumps(brief), err=True)
     else:
         kinds = ", ".join(f"{k} {v}" for k, v in fleet["collisions"].items())
         report.info(f"replay: {fleet['ok']}/{fleet['trajectories']} trajectories, {fleet['rows']:,} rows on "
@@ -169,5 +242,5 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
         ctx.exit(4)
     if "bad_input" in statuses:
         ctx.exit(3)
-    if fail_on_collision and sum(fleet["collisions"].values()):
+    if fail_on_collision and (sum(fleet["collisions"].values()) or (fleet["off_terrain"] and not allow_off_terrain)):
         ctx.exit(1)

@@ -11,13 +11,15 @@ from tankcd_cli.errors import InputError
 
 
 def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: int,
-                   blank_ok: tuple = (), line_offset: int | None = None) -> Iterator[tuple[list, list, np.ndarray]]:
+                   blank_ok: tuple = (), line_offset: int | None = None,
+                   hint=None) -> Iterator[tuple[list, list, np.ndarray]]:
     """Yield (line numbers, column names, values (rows, cols)) chunk by chunk.
 
     Header row required, column order free, extra columns ignored. Columns in
     ``blank_ok`` may be empty (NaN); every other cell must be a finite number.
     ``line_offset``: the file line before the first data line given (for a part of a file
     read after its header), so that errors name the line of the whole file.
+    ``hint(header, missing)``: a sentence to add when required columns are missing (or "").
     """
     header_line = fh.readline()
     lineno = 1
@@ -31,8 +33,10 @@ def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: 
     header = [h.strip().strip('"').strip() for h in header_line.rstrip("\r\n").split(",")]
     missing = [c for c in required if c not in header]
     if missing:
+        extra = hint(header, missing) if hint is not None else ""
         raise InputError(name, f"header lacks the required column{'s' if len(missing) > 1 else ''} "
-                               f"{', '.join(missing)} (found: {', '.join(header)[:200]})", where=f"line {lineno}")
+                               f"{', '.join(missing)} (found: {', '.join(header)[:200]})" + (f"; {extra}" if extra else ""),
+                         where=f"line {lineno}")
     dup = sorted({h for h in header if header.count(h) > 1 and h in required + optional})
     if dup:
         raise InputError(name, f"column {dup[0]} appears twice in the header", where=f"line {lineno}")

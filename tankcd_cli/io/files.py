@@ -24,3 +24,13 @@ def open_input(path: str, text: bool = False):
         raise InputError(path, "permission denied") from None
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
+
+
+def same_path(a: str, b: str) -> bool:
+    """Whether two paths name the same file: equal once resolved, or (both existing) the same inode."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False

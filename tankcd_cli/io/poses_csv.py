@@ -7,6 +7,7 @@ import numpy as np
 COLUMNS = ("step", "t", "x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz",
            "region", "matcher", "penetration", "gap", "status")
 REGION_NAMES = {0: "flat", 1: "general", 2: "uneven", 255: "unknown"}
+NO_MATCHER = "none"  # the matcher column of a row without a pose (status off)
 
 
 def header() -> str:
@@ -34,10 +35,13 @@ def format_rows(step, t, poses, matcher_names, status_names) -> str:
     numbers[~posed] = np.where(np.isin(np.arange(14), [0, 1, 2, 3, 7]), numbers[~posed], np.nan)
     numbers[~np.isfinite(numbers[:, 12:14]).all(axis=1), 12:14] = np.nan
     region = np.asarray(poses.region, dtype=np.int64)
+    status = np.asarray(poses.status, dtype=np.int64)
+    # a row without a pose was placed by no matcher
+    matcher = np.where(status == status_names.index("off"), len(matcher_names), np.asarray(poses.matcher, dtype=np.int64))
     codes = np.column_stack([np.where((region >= 0) & (region < 3), region, 3),
-                             len(_REGION_LABELS) + np.asarray(poses.matcher, dtype=np.int64),
-                             len(_REGION_LABELS) + len(matcher_names) + np.asarray(poses.status, dtype=np.int64)])
-    text = table_text(numbers, _DECIMALS, codes, [*_REGION_LABELS, *matcher_names, *status_names],
+                             len(_REGION_LABELS) + matcher,
+                             len(_REGION_LABELS) + len(matcher_names) + 1 + status])
+    text = table_text(numbers, _DECIMALS, codes, [*_REGION_LABELS, *matcher_names, NO_MATCHER, *status_names],
                       _LAYOUT[:, 0], _LAYOUT[:, 1])
     if text is None:  # a number too large for fixed point (far beyond any terrain): printf does it
         return format_rows_printf(step, t, poses, matcher_names, status_names)
@@ -50,8 +54,8 @@ def format_rows_printf(step, t, poses, matcher_names, status_names) -> str:
     numbers = np.column_stack([t, poses.position, deg(poses.roll), deg(poses.pitch), deg(poses.yaw),
                                poses.quaternion, poses.penetration, poses.gap])
     region = [REGION_NAMES.get(int(r), "unknown") for r in poses.region.tolist()]
-    matcher = [matcher_names[m] for m in poses.matcher.tolist()]
     status = [status_names[s] for s in poses.status.tolist()]
+    matcher = [NO_MATCHER if s == "off" else matcher_names[m] for m, s in zip(poses.matcher.tolist(), status)]
     finite = np.isfinite(numbers).all(axis=1)
     out = []
     for i, (k, row) in enumerate(zip(np.asarray(step).tolist(), numbers.tolist())):
@@ -83,7 +87,8 @@ def read_poses(path: str, chunk_rows: int = 65536):
     blank = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "t")
     first = 0
     try:
-        for rows, wanted, values in numeric_chunks(fh, name, POSE_REQUIRED, POSE_OPTIONAL, chunk_rows, blank):
+        for rows, wanted, values in numeric_chunks(fh, name, POSE_REQUIRED, POSE_OPTIONAL, chunk_rows, blank,
+                                                   hint=_trajectory_hint):
             col = {c: values[:, i] for i, c in enumerate(wanted)}
             n = len(values)
             if all(c in col for c in ("qw", "qx", "qy", "qz")):
@@ -116,3 +121,10 @@ def _rotation_from_quaternion(q: np.ndarray) -> np.ndarray:
         np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
         np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
         np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], axis=1)
+
+
+def _trajectory_hint(header: list, missing: list) -> str:
+    """A trajectory (no heights yet) given where poses are expected: say what makes poses of it."""
+    if "z" in missing and {"x", "y", "yaw_deg"} <= set(header):
+        return "this looks like a trajectory: `tankcd replay` turns it into poses (with z) that collide reads"
+    return ""

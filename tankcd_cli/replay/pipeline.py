@@ -148,8 +148,22 @@ def prepare(surface, vehicle: Vehicle, scene=None, turret_moves: bool = False,
         from tankcd_cli.collision.obstacles import load_obstacles, vehicle_tree
 
         setup.obstacles = load_obstacles(scene, cache=True, progress=progress)
+        warn_obstacles_beside(scene.path, setup.obstacles, surface)
         setup.vehicle_tree, setup.vehicle_parts, setup.part_names = vehicle_tree(scene)
     return setup
+
+
+def warn_obstacles_beside(source: str, obstacles: list, surface) -> None:
+    """A warning for each obstacle whose bounds miss the terrain's: it can never be hit (the
+    likeliest cause, a position without the terrain's offset, such as a UTM easting)."""
+    from tankcd_cli.errors import warn
+
+    lo, hi = surface.bounds()
+    for ob in obstacles:
+        if ob.hi[0] < lo[0] or ob.lo[0] > hi[0] or ob.hi[1] < lo[1] or ob.lo[1] > hi[1]:
+            warn(source, f"obstacle {ob.name!r} lies off the terrain: it spans x {ob.lo[0]:.1f} to {ob.hi[0]:.1f}, "
+                         f"y {ob.lo[1]:.1f} to {ob.hi[1]:.1f}; the terrain x {lo[0]:.1f} to {hi[0]:.1f}, "
+                         f"y {lo[1]:.1f} to {hi[1]:.1f} (is its position in the terrain's coordinates?)")
 
 
 def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator[tuple[object, Poses, list]]:

@@ -16,13 +16,20 @@ def new_counts() -> dict:
     from tankcd_cli.matching.match import MATCHERS, STATUS
 
     return {"rows": 0, "status": np.zeros(len(STATUS), int), "matcher": np.zeros(len(MATCHERS), int),
-            "events": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0}}
+            "events": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0},
+            "extent": [np.inf, np.inf, -np.inf, -np.inf]}  # the trajectory's x min, y min, x max, y max
 
 
 def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out, counts: dict,
-                 on_chunk: Callable[[int], None] | None = None) -> dict:
+                 on_chunk: Callable[[int], None] | None = None, source: str | None = None,
+                 observe: Callable | None = None) -> dict:
     """Replay the chunks, writing the poses CSV to ``out`` (flushed per chunk) and the events to
-    ``ev_out`` (or only counting them when None); returns ``counts`` updated."""
+    ``ev_out`` (or only counting them when None); returns ``counts`` updated.
+
+    ``observe(chunk, poses, events)`` sees every chunk (a map of the replay). At the end, a
+    trajectory (``source``) mostly off the terrain is a warning: the likeliest cause is a
+    trajectory in other coordinates than the terrain's (local against UTM).
+    """
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
     from tankcd_cli.matching.match import MATCHERS, STATUS
@@ -39,9 +46,43 @@ def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out
         counts["rows"] += len(chunk)
         counts["status"] += np.bincount(poses.status, minlength=len(STATUS))
         counts["matcher"] += np.bincount(poses.matcher, minlength=len(MATCHERS))
+        _grow_extent(counts["extent"], chunk.x, chunk.y)
+        if observe is not None:
+            observe(chunk, poses, events)
         if on_chunk is not None:
             on_chunk(counts["rows"])
+    _warn_if_beside(setup.surface, counts, source)
     return counts
+
+
+def _grow_extent(extent: list, x: np.ndarray, y: np.ndarray) -> None:
+    if len(x):
+        with np.errstate(invalid="ignore"):
+            extent[0] = min(extent[0], float(np.fmin.reduce(x)))
+            extent[1] = min(extent[1], float(np.fmin.reduce(y)))
+            extent[2] = max(extent[2], float(np.fmax.reduce(x)))
+            extent[3] = max(extent[3], float(np.fmax.reduce(y)))
+
+
+def off_terrain_rows(counts: dict) -> int:
+    """Rows whose pose is not wholly on the terrain (status off or partly off)."""
+    from tankcd_cli.matching.match import OK
+
+    return int(counts["rows"] - counts["status"][OK])
+
+
+def _warn_if_beside(surface, counts: dict, source: str | None) -> None:
+    from tankcd_cli.errors import warn
+
+    rows, off = counts["rows"], off_terrain_rows(counts)
+    if rows == 0 or 2 * off <= rows:
+        return
+    lo, hi = surface.bounds()
+    x0, y0, x1, y1 = counts["extent"]
+    warn(source or "trajectory",
+         f"{off:,} of {rows:,} rows are off the terrain: the trajectory spans x {x0:.1f} to {x1:.1f}, "
+         f"y {y0:.1f} to {y1:.1f}; the terrain x {lo[0]:.1f} to {hi[0]:.1f}, y {lo[1]:.1f} to {hi[1]:.1f} "
+         "(are both in the same coordinates?)")
 
 
 def summary(counts: dict, setup: ReplaySetup, seconds: float) -> dict:
@@ -94,9 +135,9 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
     with atomic_path(poses_path, ".csv") as tmp_poses:
         with open(tmp_poses, "w", newline="") as out:
             if events_path is None:
-                write_replay(setup, stream, matcher, out, None, counts)
+                write_replay(setup, stream, matcher, out, None, counts, source=trajectory)
             else:
                 with atomic_path(events_path, ".jsonl") as tmp_events:
                     with open(tmp_events, "w") as ev:
-                        write_replay(setup, stream, matcher, out, ev, counts)
+                        write_replay(setup, stream, matcher, out, ev, counts, source=trajectory)
     return {**summary(counts, setup, time.perf_counter() - start), **ends}

@@ -101,4 +101,26 @@ def load_terrain(path: str, up: str = "z", fmt: str | None = None) -> RawTerrain
         return RawTerrain(store.vertices, store.faces, store.grid, store.attrs.get("source", path),
                           store.attrs.get("source_sha256", ""), store.attrs.get("source_format", "h5"),
                           store.attrs.get("source_up_axis", "z"))
-    return read_terrain(path, up=up, fmt=fmt)
+    raw = read_terrain(path, up=up, fmt=fmt)
+    if raw.grid is None:
+        warn_if_not_a_height_field(raw)
+    return raw
+
+
+def warn_if_not_a_height_field(raw: RawTerrain) -> None:
+    """A warning when a mesh read as a terrain does not look like one (see ``height_field_problems``),
+    saying whether the other up axis would make it one."""
+    from tankcd_cli.errors import warn
+    from tankcd_cli.terrain.mesh import height_field_problems
+
+    problems = height_field_problems(raw.vertices, raw.faces)
+    if not problems:
+        return
+    v = raw.vertices
+    # the other reading: undo or apply the y-up turn (x, y, z) -> (x, -z, y)
+    other, other_up = ((np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]), "z") if raw.up == "y"
+                       else (np.column_stack([v[:, 0], -v[:, 2], v[:, 1]]), "y"))
+    advice = (f"read with --up {other_up} it would look like one" if not height_field_problems(other, raw.faces)
+              else "a terrain is a surface seen from above, not a closed object")
+    warn(raw.source, f"does not look like a terrain seen from above with {raw.up} up: {'; '.join(problems)}; "
+                     + advice)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -130,3 +131,32 @@ def edge_topology(faces: np.ndarray, n_vertices: int) -> EdgeTopology:
     boundary_vertex = np.zeros(n_vertices, dtype=bool)
     boundary_vertex[edges[count != 2].ravel()] = True
     return EdgeTopology(edges, inverse.reshape(m, 3), count, boundary_vertex)
+
+
+def height_field_problems(vertices: np.ndarray, faces: np.ndarray) -> list[str]:
+    """Why a mesh is probably not a terrain seen from above (z up), in words; [] if it looks like one.
+
+    Orientation-free tests (a terrain's winding is often inconsistent): taller than it is wide;
+    faces overlapping in plan (their projected areas add up to more than the bounding box,
+    as a closed object's do: every point of its outline is covered twice); most of the area
+    steeper than 70 degrees (a wall, or a terrain lying on its side).
+    """
+    if len(faces) == 0 or len(vertices) == 0:
+        return []
+    tri = vertices[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.sqrt(_sq(n))
+    total = float(area.sum())
+    if not total > 0:
+        return []
+    plan = 0.5 * float(np.abs(n[:, 2]).sum())
+    ext = vertices.max(axis=0) - vertices.min(axis=0)
+    problems = []
+    if ext[2] > min(ext[0], ext[1]):
+        problems.append(f"it is taller ({ext[2]:.4g} m) than it is wide ({min(ext[0], ext[1]):.4g} m)")
+    if plan > 1.05 * ext[0] * ext[1]:
+        problems.append(f"its faces overlap in plan ({plan / max(ext[0] * ext[1], 1e-300):.2f} times its "
+                        "bounding box: a closed object?)")
+    if plan < math.cos(math.radians(70.0)) * total:
+        problems.append("most of its area is steeper than 70 degrees")
+    return problems
