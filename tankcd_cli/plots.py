@@ -108,10 +108,10 @@ def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None
     if matcher is None:
         ax.plot(px, py, color="#1565c0", lw=1.5, label="path")
     else:
-        from tankcd_cli.matching.match import MATCHERS
+        from tankcd_cli.matching.match import PLACED_BY
 
-        colours = ["#2e7d32", "#f9a825", "#c62828", "#1565c0"]
-        for code, name in enumerate(MATCHERS):
+        colours = ["#2e7d32", "#f9a825", "#c62828", "#1565c0", "#00838f", "#6d4c41", "#6a1b9a"]
+        for code, name in enumerate(PLACED_BY):
             sel = matcher == code
             if sel.any():
                 ax.scatter(px[sel], py[sel], s=3, color=colours[code % len(colours)], label=f"{name} ({sel.sum():,})",

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from tankcd_cli.errors import InputError
 from tankcd_cli.io.csv_columns import numeric_chunks
 from tankcd_cli.io.poses_csv import format_rows, format_rows_printf
-from tankcd_cli.matching.match import MATCHERS, STATUS
+from tankcd_cli.matching.match import PLACED_BY, STATUS
 
 finite = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e12, max_value=1e12)
 style = st.sampled_from(["{!r}", "{:.3f}", "{:.6e}", " {!r} ", "{:+.2f}"])
@@ -67,7 +67,7 @@ def _poses(rng, n):
         position=np.column_stack([5e5 + rng.uniform(0, 500, n), 4.5e6 + rng.uniform(0, 500, n), rng.normal(0, 300, n)]),
         roll=rng.normal(0, 0.3, n), pitch=rng.normal(0, 0.3, n), yaw=rng.uniform(-np.pi, np.pi, n),
         quaternion=rng.normal(0, 0.5, (n, 4)), penetration=np.abs(rng.normal(0, 0.01, n)), gap=rng.exponential(0.1, n),
-        region=rng.choice([0, 1, 2, 255], n).astype(np.uint8), matcher=rng.integers(0, len(MATCHERS), n),
+        region=rng.choice([0, 1, 2, 255], n).astype(np.uint8), matcher=rng.integers(0, len(PLACED_BY), n),
         status=rng.integers(0, len(STATUS), n))
 
 
@@ -85,7 +85,7 @@ def test_compiled_pose_rows_match_printf(seed):
     p.roll[:50] = rng.choice([0.0, -0.0, -1e-12, 1e-12], 50)
     step = np.arange(n) + 10 ** 7
     t = step * 0.1
-    fast, slow = _cells(format_rows(step, t, p, MATCHERS, STATUS)), _cells(format_rows_printf(step, t, p, MATCHERS, STATUS))
+    fast, slow = _cells(format_rows(step, t, p, PLACED_BY, STATUS)), _cells(format_rows_printf(step, t, p, PLACED_BY, STATUS))
     assert len(fast) == len(slow) == n
     decimals = [0, 6, 4, 4, 4, 5, 5, 5, 8, 8, 8, 8, None, None, 4, 4, None]
     for a, b in zip(fast, slow):
@@ -101,8 +101,8 @@ def test_values_too_large_for_fixed_point_use_printf():
     rng = np.random.default_rng(1)
     p = _poses(rng, 10)
     p.position[3, 2] = 1e15
-    text = format_rows(np.arange(10), np.arange(10.0), p, MATCHERS, STATUS)
-    assert text == format_rows_printf(np.arange(10), np.arange(10.0), p, MATCHERS, STATUS)
+    text = format_rows(np.arange(10), np.arange(10.0), p, PLACED_BY, STATUS)
+    assert text == format_rows_printf(np.arange(10), np.arange(10.0), p, PLACED_BY, STATUS)
 
 
 plain = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e7, max_value=1e7)

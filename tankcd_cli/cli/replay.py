@@ -23,6 +23,12 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
 @click.option("--matcher", type=click.Choice(["auto", "two_point", "four_point", "six_point", "reference"]),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
+@click.option("--escalate/--no-escalate", default=False, show_default=True,
+              help="Check every key-point pose against the reference's certificate and solve those that fail "
+                   "it by the reference: every pose within --tolerance of the reference (costs about 3-5x).")
+@click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
+              help="The certificate's height tolerance at the footprint's corners, m (default: half the "
+                   "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
 @vehicle_option
 @click.option("--up", type=click.Choice(["z", "y"]), default="z", help="Up axis of a terrain mesh classified on the fly.")
 @click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
@@ -45,7 +51,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
 @click.pass_obj
-def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, vehicle_name, up, cache,
+def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, vehicle_name,
+           up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, jobs, scheduler, split_lines):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
@@ -70,6 +77,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         raise click.UsageError("--vehicle does not apply with --scene: the scene's [vehicle] table decides the "
                                "vehicle (set its preset there)")
     if fleet_mode:
+        if escalate:
+            raise click.UsageError("--escalate applies to one replay for now, not to fleets")
         if png:
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
         return _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
@@ -112,6 +121,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     first = next(chunks, None)
     turret_moves = bool(first is not None and first.has_turret)
     setup = prepare(surface, vehicle, sc, turret_moves, progress=step)
+    setup.escalate, setup.tolerance = escalate, tolerance
     counts = new_counts()
     drawing = None
     if png:

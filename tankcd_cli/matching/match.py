@@ -30,6 +30,11 @@ Matchers (``MATCHERS``):
 ``auto``       the matcher the worst region class under the footprint calls for:
                flat two_point, general four_point, uneven six_point.
 
+With ``escalate``, every key-point pose is then checked against the reference's
+certificate (``certified``) and those that fail it are solved by the reference
+(matcher ``six_point+reference`` and so on): every pose within the tolerance
+of the reference.
+
 Key points are projected vertically from their untilted positions, as the
 paper does. Where a key point is off the terrain, the pose comes from the
 reference over the part of the footprint that is on the terrain (status
@@ -51,8 +56,15 @@ import numpy as np
 from tankcd_cli.matching.pose import attitude_from_slopes, quaternion_from_euler, rotation_matrix, wrap_angle
 from tankcd_cli.vehicle import Vehicle, key_points
 
-MATCHERS = ("two_point", "four_point", "six_point", "reference")
+KEY_POINT_MATCHERS = ("two_point", "four_point", "six_point")
+REFERENCE = 3  # the code of the reference matcher
+MATCHERS = KEY_POINT_MATCHERS + ("reference",)
 MATCHER_CHOICES = MATCHERS + ("auto",)
+# what placed a pose (the ``matcher`` codes of ``Poses``): a matcher, or a key-point matcher whose
+# pose failed the certificate and was solved again by the reference (ESCALATED + its code)
+PLACED_BY = MATCHERS + tuple(f"{m}+reference" for m in KEY_POINT_MATCHERS)
+ESCALATED = 4  # codes >= ESCALATED were escalated
+ESCALATION_ATTITUDE_DEG = 1.0  # the attitude error a certified key-point pose may have (see escalation_tolerance)
 STATUS = ("ok", "partly_off", "off")
 OK, PARTLY_OFF, OFF = 0, 1, 2
 REGION_UNKNOWN = 255
@@ -68,7 +80,7 @@ class Poses:
     quaternion : (N, 4) (qw, qx, qy, qz), qw >= 0
     plane : (N, 3) support plane (a, b, c) in the heading frame
     region : (N,) uint8 worst class under the footprint (255 unknown)
-    matcher : (N,) int index into MATCHERS
+    matcher : (N,) int index into PLACED_BY
     status : (N,) int index into STATUS
     penetration, gap : (N,) m (NaN when not measured)
     covered : (N,) share of the contact patches over terrain (NaN when not measured)
@@ -96,14 +108,26 @@ class Poses:
         return len(self.yaw)
 
 
+def escalation_tolerance(vehicle: Vehicle, attitude_deg: float = ESCALATION_ATTITUDE_DEG) -> float:
+    """The height tolerance (m) of the certificate at the footprint's corners: the difference a
+    plane may have there from the reference's and still be within ``attitude_deg`` of its
+    attitude about either axis (half the footprint's width is the shorter lever)."""
+    lever = min(vehicle.track_length, vehicle.footprint_width) / 2
+    return lever * float(np.tan(np.radians(attitude_deg)))
+
+
 def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
-          tilt_iterations: int = 30, regions: bool = True) -> Poses:
+          tilt_iterations: int = 30, regions: bool = True, escalate: bool = False,
+          tolerance: float | None = None) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
     surface : :class:`~tankcd_cli.terrain.surface.TerrainSurface`
     matcher : one of ``MATCHER_CHOICES``
     measure : also compute penetration, gap and coverage (costs an exact footprint pass)
     regions : report the worst region class under each footprint (always done for ``auto``)
+    escalate : check the key-point poses against the reference's certificate and solve those
+        that fail it by the reference
+    tolerance : the certificate's height tolerance, m (default ``escalation_tolerance``)
     """
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
@@ -128,7 +152,13 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
             fallback = idx[~ok]
             choice[fallback] = 3
             status[fallback] = PARTLY_OFF
-    idx = np.flatnonzero(choice == 3)
+    if escalate:
+        # the reference starts level for these too (a start nearer the answer can settle on
+        # another fixed point where the ground offers several: not the reference's pose)
+        kp = np.flatnonzero(choice < REFERENCE)
+        tol = escalation_tolerance(vehicle) if tolerance is None else float(tolerance)
+        choice[kp[~certified(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol)]] += ESCALATED
+    idx = np.flatnonzero(choice >= REFERENCE)
     if len(idx):
         plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations)
         status[idx] = np.maximum(status[idx], np.where(covered_ref < 1 - 1e-9, PARTLY_OFF, OK))
@@ -148,6 +178,34 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
                                                                      plane[good], roll[good], pitch[good])
             gap[good] = wheel_gap(surface, vehicle, x[good], y[good], yaw[good], plane[good])
     return Poses(position, roll, pitch, yaw, quat, plane, region, choice, status, penetration, gap, covered)
+
+
+def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> np.ndarray:
+    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m (N,) bool.
+
+    The reference pose is the lowest plane that no ground under the tracks' contact patches
+    rises above, with the patches projected for that plane's own tilt. So the lowest such plane
+    under the patches projected for the given plane's tilt (one exact footprint pass) is
+    computed, and the given plane passes when the two differ by at most ``tolerance`` at
+    every corner of the footprint: then no ground rises more than that above it (it does not
+    cut the ground), and it rests on ground that surrounds the centre (it does not float or
+    tip), so it is within the tolerance of the reference by construction. A plane the pass
+    cannot check (not finite, no support found) fails.
+    """
+    ok = np.zeros(len(x), dtype=bool)
+    finite = np.flatnonzero(np.isfinite(planes).all(axis=1))
+    if len(finite) == 0:
+        return ok
+    p = planes[finite]
+    roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
+    lowest, _, status = _footprint(surface, 0, x[finite], y[finite], yaw[finite], patch_quads(vehicle, roll, pitch),
+                                   np.zeros((len(finite), 3)))
+    d = p - lowest
+    h, w = vehicle.track_length / 2, vehicle.footprint_width / 2
+    with np.errstate(invalid="ignore"):
+        worst = np.abs(d[:, 0]) + h * np.abs(d[:, 1]) + w * np.abs(d[:, 2])  # the largest |difference| at a corner
+        ok[finite] = (status == 0) & (worst <= tolerance)
+    return ok
 
 
 # --- key points -----------------------------------------------------------------

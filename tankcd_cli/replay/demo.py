@@ -19,7 +19,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.io.poses_csv import format_rows, header
     from tankcd_cli.terrain.dem_sources import ascii_dem
     from tankcd_cli.io.trajectory import read_trajectory
-    from tankcd_cli.matching.match import MATCHERS, STATUS
+    from tankcd_cli.matching.match import PLACED_BY, STATUS
     from tankcd_cli.plots import grid_map_png, replay_map_png
     from tankcd_cli.replay.pipeline import prepare, replay_chunks
     from tankcd_cli.replay.scene import load_scene
@@ -56,7 +56,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
         with open(tmp_poses, "w", newline="") as poses_out, open(tmp_events, "w") as events_out:
             poses_out.write(header())
             for chunk, poses, events in replay_chunks(setup, chunks):
-                poses_out.write(format_rows(chunk.step, chunk.t, poses, MATCHERS, STATUS))
+                poses_out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS))
                 path.append(poses.position[:, :2])
                 for e in events:
                     counts[e.kind] += 1

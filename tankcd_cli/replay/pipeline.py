@@ -47,6 +47,8 @@ class ReplaySetup:
     vehicle_parts: np.ndarray | None = None
     part_names: tuple = ()
     seconds: dict = field(default_factory=lambda: {"matching": 0.0, "terrain": 0.0, "obstacles": 0.0, "internal": 0.0})
+    escalate: bool = False  # key-point poses that fail the reference's certificate go to the reference
+    tolerance: float | None = None  # the certificate's tolerance, m (None: derived from the vehicle)
 
 
 def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehicle: Vehicle | None = None,
@@ -170,7 +172,8 @@ def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator
     """Match every trajectory chunk and run the enabled effects; yields (chunk, poses, events) in order."""
     for chunk in chunks:
         t0 = time.perf_counter()
-        poses = match(setup.surface, setup.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=matcher)
+        poses = match(setup.surface, setup.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=matcher,
+                      escalate=setup.escalate, tolerance=setup.tolerance)
         setup.seconds["matching"] += time.perf_counter() - t0
         events = []
         off = np.flatnonzero(poses.status != OK)

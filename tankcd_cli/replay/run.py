@@ -13,9 +13,9 @@ KINDS = ("obstacle", "internal", "terrain")
 
 
 def new_counts() -> dict:
-    from tankcd_cli.matching.match import MATCHERS, STATUS
+    from tankcd_cli.matching.match import PLACED_BY, STATUS
 
-    return {"rows": 0, "status": np.zeros(len(STATUS), int), "matcher": np.zeros(len(MATCHERS), int),
+    return {"rows": 0, "status": np.zeros(len(STATUS), int), "matcher": np.zeros(len(PLACED_BY), int),
             "events": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0},
             "extent": [np.inf, np.inf, -np.inf, -np.inf]}  # the trajectory's x min, y min, x max, y max
 
@@ -32,12 +32,12 @@ def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out
     """
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
-    from tankcd_cli.matching.match import MATCHERS, STATUS
+    from tankcd_cli.matching.match import PLACED_BY, STATUS
     from tankcd_cli.replay.pipeline import replay_chunks
 
     out.write(header())
     for chunk, poses, events in replay_chunks(setup, chunks, matcher):
-        out.write(format_rows(chunk.step, chunk.t, poses, MATCHERS, STATUS))
+        out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS))
         out.flush()
         for e in events:
             counts["events"][e.kind] += 1
@@ -45,7 +45,7 @@ def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out
                 ev_out.write(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
         counts["rows"] += len(chunk)
         counts["status"] += np.bincount(poses.status, minlength=len(STATUS))
-        counts["matcher"] += np.bincount(poses.matcher, minlength=len(MATCHERS))
+        counts["matcher"] += np.bincount(poses.matcher, minlength=len(PLACED_BY))
         _grow_extent(counts["extent"], chunk.x, chunk.y)
         if observe is not None:
             observe(chunk, poses, events)
@@ -87,11 +87,11 @@ def _warn_if_beside(surface, counts: dict, source: str | None) -> None:
 
 def summary(counts: dict, setup: ReplaySetup, seconds: float) -> dict:
     """The closing summary: rows, collisions by kind, effects that ran, seconds (also per effect)."""
-    from tankcd_cli.matching.match import MATCHERS
+    from tankcd_cli.matching.match import PLACED_BY
 
     return {"rows": counts["rows"], "collisions": {k: counts["events"][k] for k in KINDS},
             "off_terrain": counts["events"]["off_terrain"], "effects": setup.effects,
-            "matchers": {name: int(c) for name, c in zip(MATCHERS, counts["matcher"]) if c},
+            "matchers": {name: int(c) for name, c in zip(PLACED_BY, counts["matcher"]) if c},
             "seconds": round(seconds, 3),
             "seconds_by_effect": {k: round(v, 3) for k, v in setup.seconds.items()}}
 

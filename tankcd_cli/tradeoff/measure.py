@@ -473,18 +473,23 @@ def internal_stage(res: Results, vehicle, budget: Budget, say) -> None:
 # --- the headline: auto against always-reference on a whole replay ----------------------
 
 def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, say, name: str) -> None:
-    from tankcd_cli.matching.match import MATCHERS, OFF, match
+    from tankcd_cli.matching.match import ESCALATED, OFF, PLACED_BY, escalation_tolerance, match
 
     say(f"headline: auto vs reference on {name}")
     n = len(x)
     t_auto = timed(lambda: match(surface, vehicle, x, y, yaw, "auto", measure=True), budget.repeats)
     t_ref = timed(lambda: match(surface, vehicle, x, y, yaw, "reference", measure=True), budget.repeats)
+    t_esc = timed(lambda: match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True), budget.repeats)
     a = match(surface, vehicle, x, y, yaw, "auto", measure=True)
     r = match(surface, vehicle, x, y, yaw, "reference", measure=True)
+    e = match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True)
+    ok_e = (e.status != OFF) & (r.status != OFF)
+    att_e = angle_deg(_up(e.roll, e.pitch, e.yaw)[ok_e], _up(r.roll, r.pitch, r.yaw)[ok_e])
+    dz_e = np.abs(e.position[ok_e, 2] - r.position[ok_e, 2])
     ok = (a.status != OFF) & (r.status != OFF)
     att = angle_deg(_up(a.roll, a.pitch, a.yaw)[ok], _up(r.roll, r.pitch, r.yaw)[ok])
     dz = np.abs(a.position[ok, 2] - r.position[ok, 2])
-    used = np.bincount(a.matcher, minlength=len(MATCHERS))
+    used = np.bincount(a.matcher, minlength=len(PLACED_BY))
     truth = "reference (rigid hull on every terrain triangle under the tracks)"
     h = {"trajectory": name, "poses": n,
          "auto_seconds": t_auto[0], "auto_spread": t_auto[1:], "reference_seconds": t_ref[0], "reference_spread": t_ref[1:],
@@ -494,11 +499,20 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
          "height_error_median_m": float(np.median(dz)), "height_error_p95_m": _pct(dz, 95),
          "height_error_max_m": _pct(dz, 100),
          "penetration_p95_auto_m": _pct(a.penetration[ok], 95), "penetration_p95_reference_m": _pct(r.penetration[ok], 95),
-         "matchers_used": {m: int(c) for m, c in zip(MATCHERS, used) if c}}
+         "matchers_used": {m: int(c) for m, c in zip(PLACED_BY, used) if c},
+         "escalated_seconds": t_esc[0], "escalated_spread": t_esc[1:],
+         "escalated_share": float(np.mean(e.matcher >= ESCALATED)) if n else 0.0,
+         "escalated_attitude_error_median_deg": float(np.median(att_e)) if len(att_e) else float("nan"),
+         "escalated_attitude_error_p95_deg": _pct(att_e, 95), "escalated_attitude_error_max_deg": _pct(att_e, 100),
+         "escalated_height_error_median_m": float(np.median(dz_e)) if len(dz_e) else float("nan"),
+         "escalated_height_error_p95_m": _pct(dz_e, 95), "escalated_height_error_max_m": _pct(dz_e, 100),
+         "escalated_penetration_p95_m": _pct(e.penetration[ok_e], 95),
+         "escalation_tolerance_m": escalation_tolerance(vehicle)}
     res.headline = h
     for key in ("auto_seconds", "reference_seconds", "speedup", "time_saved_share", "attitude_error_median_deg",
                 "attitude_error_p95_deg", "attitude_error_max_deg", "height_error_median_m", "height_error_p95_m",
-                "height_error_max_m"):
+                "height_error_max_m", "escalated_seconds", "escalated_share", "escalated_attitude_error_p95_deg",
+                "escalated_height_error_max_m"):
         unit = "s" if key.endswith("seconds") else ("deg" if key.endswith("deg") else ("m" if key.endswith("_m") else "1"))
         spread = h.get(key.replace("seconds", "spread"), (float("nan"), float("nan"))) if unit == "s" else (float("nan"),) * 2
         res.records.append(Record("headline", f"{name} ({n:,} poses)", "auto vs reference", key, float(h[key]), unit, truth,

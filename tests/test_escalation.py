@@ -1,0 +1,140 @@
+"""Escalation by certificate: key-point poses the exact footprint pass shows are wrong go to the
+reference, and only those; every pose then lies within the tolerance of the reference."""
+
+import numpy as np
+import pytest
+
+from tankcd_cli.matching.match import (ESCALATED, EPS_XY, PLACED_BY, REFERENCE, certified, escalation_tolerance, match,
+                                       patch_quads)
+from tankcd_cli.terrain import synthetic as S
+from tankcd_cli.vehicle import vehicle_preset
+
+T72 = vehicle_preset("t72")
+TOL = escalation_tolerance(T72)
+X0, Y0 = 500_000.0, 4_500_000.0
+
+
+def _surface(Z, spacing=0.5):
+    return S.surface_of(S.dem_terrain(Z, origin=(X0, Y0), spacing=spacing))
+
+
+def _grid(n=121, spacing=0.5):
+    x = np.arange(n) * spacing
+    return np.meshgrid(x, x)
+
+
+def _corner_gap(vehicle, a, b):
+    """The largest |difference| of two planes (N, 3) at the footprint's corners."""
+    d = a - b
+    return np.abs(d[:, 0]) + vehicle.track_length / 2 * np.abs(d[:, 1]) + vehicle.footprint_width / 2 * np.abs(d[:, 2])
+
+
+def _poses_along(n, heading, cx=30.0, cy=30.0, span=12.0):
+    d = np.linspace(-span, span, n)
+    h = np.radians(heading)
+    return X0 + cx + d * np.cos(h), Y0 + cy + d * np.sin(h), np.full(n, h)
+
+
+def test_the_tolerance_follows_the_footprint():
+    lever = min(T72.track_length, T72.footprint_width) / 2
+    assert TOL == pytest.approx(lever * np.tan(np.radians(1.0)))
+    assert escalation_tolerance(vehicle_preset("m1")) > 0
+
+
+@pytest.mark.parametrize("tilt", [(0.0, 0.0), (0.05, -0.08), (-0.2, 0.1)])
+def test_never_on_a_plane(tilt):
+    X, Y = _grid()
+    surface = _surface(100 + tilt[0] * X + tilt[1] * Y)
+    x, y, yaw = _poses_along(60, 37.0)
+    p = match(surface, T72, x, y, yaw, "auto", escalate=True)
+    assert (p.matcher < REFERENCE).all()
+    plain = match(surface, T72, x, y, yaw, "auto")
+    np.testing.assert_array_equal(p.position, plain.position)
+
+
+def test_never_on_gentle_ground():
+    X, Y = _grid()
+    surface = _surface(100 + 0.15 * np.sin(X / 9.0) * np.cos(Y / 11.0))
+    rng = np.random.default_rng(1)
+    x, y, yaw = X0 + rng.uniform(12, 48, 400), Y0 + rng.uniform(12, 48, 400), rng.uniform(-np.pi, np.pi, 400)
+    p = match(surface, T72, x, y, yaw, "auto", escalate=True)
+    assert (p.matcher < REFERENCE).all()
+
+
+def _ditch(width):
+    X, Y = _grid()
+    return _surface(100 - 1.0 * (np.abs(X - 30.0) < width / 2))
+
+
+def _berm():
+    X, Y = _grid()
+    return _surface(100 + 0.8 * np.clip(1 - np.abs(X - 30.0) / 1.5, 0, None))
+
+
+def _knife_edge():
+    X, Y = _grid()
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    return _surface(105 - 0.4 * np.abs(c * (X - 30) + s * (Y - 30)))
+
+
+CASES = {"ditch of half the track": lambda: _ditch(T72.track_length / 2),
+         "ditch of a third of the track and more": lambda: _ditch(T72.track_length / 3 + 0.2),
+         "berm": _berm, "knife edge": _knife_edge}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_escalates_exactly_where_the_footprint_pass_says(case):
+    surface = CASES[case]()
+    xs, ys, yaws = [], [], []
+    for heading in np.linspace(-180, 180, 17):  # 17 headings, wrap-around included
+        x, y, yaw = _poses_along(31, heading)
+        xs.append(x), ys.append(y), yaws.append(yaw)
+    x, y, yaw = np.concatenate(xs), np.concatenate(ys), np.concatenate(yaws)
+    plain = match(surface, T72, x, y, yaw, "auto")
+    p = match(surface, T72, x, y, yaw, "auto", escalate=True)
+    ref = match(surface, T72, x, y, yaw, "reference")
+    escalated = p.matcher >= ESCALATED
+    assert escalated.any(), case
+    # exactly the key-point poses the certificate rejects
+    np.testing.assert_array_equal(escalated, ~certified(surface, T72, x, y, yaw, plain.plane, TOL))
+    np.testing.assert_array_equal(p.matcher[escalated], plain.matcher[escalated] + ESCALATED)
+    # escalated poses are the reference's; the others are the key-point poses, within the tolerance of it
+    np.testing.assert_array_equal(p.position[escalated], ref.position[escalated])
+    np.testing.assert_array_equal(p.quaternion[escalated], ref.quaternion[escalated])
+    np.testing.assert_array_equal(p.position[~escalated], plain.position[~escalated])
+    assert np.nanmax(p.penetration) <= TOL + 1e-9
+    gap = _corner_gap(T72, p.plane, ref.plane)
+    assert np.nanmax(gap) <= 1.1 * TOL, np.nanmax(gap)  # the certificate is at the pose's own tilt
+    assert all("+reference" in PLACED_BY[m] for m in np.unique(p.matcher[escalated]))
+
+
+def test_a_wrong_plane_fails_and_the_lowest_passes():
+    surface = _berm()
+    x, y, yaw = _poses_along(41, 0.0)
+    ref = match(surface, T72, x, y, yaw, "reference")
+    assert certified(surface, T72, x, y, yaw, ref.plane, TOL).all()
+    low = ref.plane.copy()
+    low[:, 0] -= 2 * TOL  # cuts the ground
+    high = ref.plane.copy()
+    high[:, 0] += 2 * TOL  # floats
+    assert not certified(surface, T72, x, y, yaw, low, TOL).any()
+    assert not certified(surface, T72, x, y, yaw, high, TOL).any()
+    tipped = ref.plane.copy()
+    tipped[:, 2] += 4 * TOL / T72.footprint_width  # rests on one side only
+    assert not certified(surface, T72, x, y, yaw, tipped, TOL).any()
+    nan = np.full_like(ref.plane, np.nan)
+    assert not certified(surface, T72, x, y, yaw, nan, TOL).any()
+
+
+def test_the_certificate_is_one_footprint_pass_at_the_planes_tilt():
+    """Independent check of ``certified``: the lowest supporting plane under the patches at the
+    given plane's tilt, by the footprint pass called directly."""
+    from tankcd_cli.matching.pose import attitude_from_slopes
+
+    surface = _knife_edge()
+    x, y, yaw = _poses_along(41, 60.0)
+    plain = match(surface, T72, x, y, yaw, "six_point")
+    roll, pitch = attitude_from_slopes(plain.plane[:, 1], plain.plane[:, 2])
+    lowest, _, status = surface.footprint(0, x, y, yaw, patch_quads(T72, roll, pitch), np.zeros((len(x), 3)), EPS_XY)
+    expect = (status == 0) & (_corner_gap(T72, plain.plane, lowest) <= TOL)
+    np.testing.assert_array_equal(certified(surface, T72, x, y, yaw, plain.plane, TOL), expect)
