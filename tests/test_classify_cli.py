@@ -129,7 +129,7 @@ def test_default_output_png_and_info(run, tmp_path):
     assert "curvature method:" in info.stdout and "jet" in info.stdout
     assert "area uneven:" in info.stdout
     facts = json.loads(run("info", tmp_path / "hill.h5", "--json").stdout)
-    assert facts["posts"] == 41 * 41 and facts["curvature method"] == "jet"
+    assert facts["posts"] == 41 * 41 and facts["curvature_method"] == "jet"
 
 
 def test_quiet_and_verbose(run, tmp_path):

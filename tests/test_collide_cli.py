@@ -62,7 +62,7 @@ def test_bvh_of_a_model_and_info(run, scene):
     result = run("bvh", "block.obj", "--k", "26", "--aabb-levels", "1", "--split", "sah", "-o", "block.h5")
     assert result.exit_code == 0, result.stderr
     info = run("info", "block.h5").stdout
-    assert "bounding-volume tree" in info and "k:" in info and "nodes_per_level" in info
+    assert "bounding-volume tree" in info and "k:" in info and "nodes per level" in info
     facts = json.loads(run("info", "block.h5", "--json").stdout)
     assert facts["k"] == 26 and facts["aabb_nodes"] == 1
 

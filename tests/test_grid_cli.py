@@ -78,8 +78,8 @@ def test_every_raster_format_gives_the_same_store(run, tmp_path):
         for key in ("height", "mean", "classes"):
             np.testing.assert_array_equal(got[key], ref[key], err_msg=f"{name} {key}")
     info = json.loads(run("info", tmp_path / "tiled.h5", "--json").stdout)
-    assert "UTM zone 33N" in info["crs"] and info["post spacing"] == [1.0, 1.0]
-    assert info["extent x"] == [X0, X0 + 89] and info["extent y"] == [YN - 69, YN]
+    assert "UTM zone 33N" in info["crs"] and info["post_spacing"] == [1.0, 1.0]
+    assert info["extent_x"] == [X0, X0 + 89] and info["extent_y"] == [YN - 69, YN]
 
 
 def test_geographic_dem_comes_out_metric(run, tmp_path):
@@ -99,15 +99,15 @@ def test_geographic_dem_comes_out_metric(run, tmp_path):
     res = run("classify", hgt, "-o", tmp_path / "srtm.h5")
     assert res.exit_code == 0, res.stderr
     info = json.loads(run("info", tmp_path / "srtm.h5", "--json").stdout)
-    assert "UTM zone 32N" in info["crs"] and "WGS 84" in info["reprojected from"]
+    assert "UTM zone 32N" in info["crs"] and "WGS 84" in info["reprojected_from"]
     # the extent is the box of the tile's corners in UTM 32N (a degree is about 78 km x 111 km here)
     from rasterio.warp import transform
 
     xs, ys = transform("EPSG:4326", "EPSG:32632", [6, 7, 6, 7], [45, 45, 46, 46])
-    post = info["post spacing"][0]
-    assert abs(info["extent x"][0] - min(xs)) < 1.5 * post and abs(info["extent x"][1] - max(xs)) < 1.5 * post
-    assert abs(info["extent y"][0] - min(ys)) < 1.5 * post and abs(info["extent y"][1] - max(ys)) < 1.5 * post
-    assert info["post spacing"][0] == info["post spacing"][1] == 92.6
+    post = info["post_spacing"][0]
+    assert abs(info["extent_x"][0] - min(xs)) < 1.5 * post and abs(info["extent_x"][1] - max(xs)) < 1.5 * post
+    assert abs(info["extent_y"][0] - min(ys)) < 1.5 * post and abs(info["extent_y"][1] - max(ys)) < 1.5 * post
+    assert info["post_spacing"][0] == info["post_spacing"][1] == 92.6
     with h5py.File(tmp_path / "srtm.h5") as h5:
         assert "32632" in h5["grid/height"].attrs["crs"] or "UTM zone 32N" in h5["grid/height"].attrs["crs"]
 

@@ -26,19 +26,45 @@ class Obstacle:
     hi: np.ndarray
 
 
+def read_mesh(path: str, up: str | None):
+    """A mesh read as replay reads it (``read_terrain``); ``up`` None is the format's convention."""
+    from tankcd_cli.io.terrain_readers import read_terrain
+    from tankcd_cli.replay.scene import reader_up
+
+    return read_terrain(path, up=reader_up(up))
+
+
+def placement_matrix(scale, yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
+    """M (3, 3) with M @ p = R(yaw, pitch, roll) @ (scale * p), R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    from tankcd_cli.matching.pose import rotation_matrix
+
+    R = rotation_matrix(np.radians(roll_deg), np.radians(pitch_deg), np.radians(yaw_deg))
+    return R * np.asarray(scale, dtype=float)[None, :]
+
+
+def place(vertices: np.ndarray, scale, yaw_deg: float, pitch_deg: float, roll_deg: float,
+          position=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """position + R @ (scale * p) for every row p of ``vertices`` (n, 3)."""
+    M = placement_matrix(scale, yaw_deg, pitch_deg, roll_deg)
+    return vertices @ M.T + np.asarray(position, dtype=float)
+
+
+def placed_mesh(spec: ObstacleSpec):
+    """An obstacle's mesh as read (RawTerrain) and its vertices (n, 3) in the world."""
+    raw = read_mesh(spec.path, spec.up)
+    return raw, place(raw.vertices, spec.scale, spec.yaw_deg, spec.pitch_deg, spec.roll_deg, spec.position)
+
+
 def placed_triangles(spec: ObstacleSpec) -> tuple[np.ndarray, str]:
     """An obstacle's triangles (m, 3, 3) in the world, and its mesh's SHA-256."""
-    from tankcd_cli.io.terrain_readers import read_terrain
-
-    raw = read_terrain(spec.path, up=spec.up)
-    a = np.radians(spec.yaw_deg)
-    R = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
-    world = raw.vertices @ R.T + np.asarray(spec.position)
+    raw, world = placed_mesh(spec)
     return world[raw.faces], raw.sha256
 
 
-def _cache_key(spec: ObstacleSpec, sha: str, settings: CollisionSettings) -> str:
-    text = json.dumps({"sha256": sha, "up": spec.up, "position": spec.position, "yaw_deg": spec.yaw_deg,
+def _cache_key(spec: ObstacleSpec, sha: str, settings: CollisionSettings, up: str | None = None) -> str:
+    """What a cached tree depends on: the mesh, the up axis it was read with (``up``: the one
+    applied, so a change of the format's convention is seen), the placement and the settings."""
+    text = json.dumps({"sha256": sha, **spec.placement(), "up": up or spec.up,
                        "k": settings.k, "aabb_levels": settings.aabb_levels, "split": settings.split,
                        "leaf_size": settings.leaf_size}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()
@@ -58,8 +84,9 @@ def load_obstacles(scene: Scene, cache: bool = True, rebuild: bool = False,
     say = progress or (lambda s: None)
     out = []
     for spec in scene.obstacles:
-        tris, sha = placed_triangles(spec)
-        key = _cache_key(spec, sha, scene.collision)
+        raw, world = placed_mesh(spec)
+        tris, sha = world[raw.faces], raw.sha256
+        key = _cache_key(spec, sha, scene.collision, getattr(raw, "up", None))
         path = cache_path(scene, spec)
         tree = None
         if not rebuild and os.path.exists(path):
@@ -76,8 +103,8 @@ def load_obstacles(scene: Scene, cache: bool = True, rebuild: bool = False,
             c = scene.collision
             tree = build_tree(tris, k=c.k, leaf_size=c.leaf_size, aabb_levels=c.aabb_levels, split=c.split)
             tree.attrs.update({"source": spec.path, "source_sha256": sha, "cache_key": key,
-                               "placement": json.dumps({"up": spec.up, "position": spec.position,
-                                                        "yaw_deg": spec.yaw_deg})})
+                               "placement": json.dumps({**spec.placement(),
+                                                        "up": getattr(raw, "up", None) or spec.up})})
             say(f"tree of {spec.name}: built ({len(tris):,} triangles, {tree.nodes:,} nodes)")
             if cache:
                 os.makedirs(os.path.dirname(path), exist_ok=True)
@@ -88,19 +115,47 @@ def load_obstacles(scene: Scene, cache: bool = True, rebuild: bool = False,
 
 
 def vehicle_tree(scene: Scene, detail: int = 2) -> tuple[Tree, np.ndarray, tuple]:
-    """The vehicle's tree in its own frame, its triangles' part labels and the part names."""
+    """The vehicle's tree in its own frame, its triangles' part labels and the part names.
+
+    A scene's mesh is brought into the vehicle frame by its placement (scale, then rotation);
+    its parts are the file's (OBJ objects or groups, glTF nodes) when it has them, else one
+    part, "vehicle"."""
     c = scene.collision
     if scene.vehicle_mesh:
-        from tankcd_cli.io.terrain_readers import read_terrain
-
-        raw = read_terrain(scene.vehicle_mesh, up=scene.vehicle_mesh_up)
-        tris = raw.vertices[raw.faces]
-        parts, names = np.zeros(len(tris), dtype=np.uint8), ("vehicle",)
+        tris, parts, names = vehicle_mesh_triangles(scene)
     else:
         tris, parts = vehicle_mesh(scene.vehicle, detail)
         names = PARTS
     tree = build_tree(tris, k=c.k, leaf_size=c.leaf_size, aabb_levels=c.aabb_levels, split=c.split)
     return tree, parts, names
+
+
+def vehicle_mesh_triangles(scene: Scene):
+    """The scene's vehicle mesh: triangles (m, 3, 3) in the vehicle frame, part ids (m,) and names."""
+    pl = scene.vehicle_mesh_placement
+    raw = read_mesh(scene.vehicle_mesh, pl.up)
+    tris = place(raw.vertices, pl.scale, pl.yaw_deg, pl.pitch_deg, pl.roll_deg)[raw.faces]
+    parts, names = file_parts(raw)
+    return tris, parts, names
+
+
+def file_parts(raw) -> tuple[np.ndarray, tuple]:
+    """Per-face part ids (m,) and part names from a mesh file's objects/groups/nodes; faces in
+    none of them (or a file without parts) belong to a part named "vehicle"."""
+    m = len(raw.faces)
+    face_part = getattr(raw, "face_part", None)
+    names = tuple(str(n) for n in getattr(raw, "part_names", ()) or ())
+    if face_part is None or not names:
+        return np.zeros(m, dtype=np.int32), ("vehicle",)
+    ids = np.asarray(face_part).astype(np.int64).ravel()
+    if len(ids) != m:
+        return np.zeros(m, dtype=np.int32), ("vehicle",)
+    names = tuple(n or f"part{i + 1}" for i, n in enumerate(names))
+    loose = (ids < 0) | (ids >= len(names))
+    if loose.any():
+        ids = np.where(loose, len(names), ids)
+        names = names + ("vehicle",)
+    return ids.astype(np.int32), names
 
 
 @dataclass

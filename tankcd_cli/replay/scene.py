@@ -3,21 +3,28 @@
 ```toml
 [terrain]
 path = "terrain.h5"          # a store from classify, or any terrain input
-up = "z"                     # for a mesh classified on the fly
+up = "z"                     # optional, for a mesh classified on the fly (default: the format's convention)
 
 [vehicle]
 preset = "t72"               # t72, t55, m1
 track_length = 4.3           # any dimension of tankcd_cli.vehicle.Vehicle overrides the preset
 fuel_drums = true
-mesh = "tank.obj"            # optional: the vehicle's shape, in the vehicle frame
-mesh_up = "z"
+mesh = "tank.obj"            # optional: the vehicle's shape; OBJ objects/groups, glTF nodes name its parts
+mesh_up = "y"                # optional (default: the format's convention: y for glTF/GLB, z otherwise)
+mesh_scale = 0.001           # optional: a number or [sx, sy, sz] > 0 (an asset in mm)
+mesh_yaw_deg = 90.0          # optional: turn the asset into the vehicle frame
+mesh_pitch_deg = 0.0         #   (x forward, y left, z up): vehicle point =
+mesh_roll_deg = 0.0          #   R(yaw, pitch, roll) @ (mesh_scale * mesh point)
 
 [[obstacle]]
 name = "depot"
 path = "depot.obj"
-up = "z"                     # "y" for y-up meshes
-position = [0.0, 0.0, 0.0]   # where the mesh's origin goes in the world, m
-yaw_deg = 0.0                # turn about +z, counter-clockwise
+up = "y"                     # optional (default: the format's convention)
+position = [500120.0, 4500340.0, 102.5]  # REQUIRED: where the mesh's origin goes, in the terrain's CRS, m
+yaw_deg = 0.0                # optional: about +z, counter-clockwise
+pitch_deg = 0.0              # optional: about +y
+roll_deg = 0.0               # optional: about +x
+scale = [1.0, 1.0, 1.0]      # optional: a number or [sx, sy, sz] > 0 (0.001 for an asset in mm)
 
 [collision]                  # optional: how obstacle trees are built
 k = 18                       # k-DOP type: 6, 14, 18, 26
@@ -25,6 +32,11 @@ aabb_levels = 2              # top levels that use only the AABB
 split = "sah"                # or "median"
 leaf_size = 4
 ```
+
+A mesh point p (z-up, after the ``up`` conversion) goes to the world as
+position + R @ (scale * p), with R = Rz(yaw) Ry(pitch) Rx(roll), the
+project's attitude convention (REP 103): the scale first, in the mesh's own
+axes, then the rotation, then the translation.
 
 Relative paths are relative to the scene file. Unknown keys, wrong types,
 missing files and out-of-range values are bad input (exit 3) naming the key.
@@ -44,11 +56,35 @@ VEHICLE_KEYS = {f.name for f in fields(Vehicle)} - {"name"}
 
 @dataclass(frozen=True)
 class ObstacleSpec:
+    """An obstacle as the scene places it: world = position + R(yaw, pitch, roll) @ (scale * mesh point)."""
+
     name: str
     path: str
-    up: str
+    up: str | None  # None: the format's convention
     position: tuple
-    yaw_deg: float
+    yaw_deg: float = 0.0
+    pitch_deg: float = 0.0
+    roll_deg: float = 0.0
+    scale: tuple = (1.0, 1.0, 1.0)
+
+    def placement(self) -> dict:
+        return {"up": self.up, "position": list(self.position), "yaw_deg": self.yaw_deg,
+                "pitch_deg": self.pitch_deg, "roll_deg": self.roll_deg, "scale": list(self.scale)}
+
+
+@dataclass(frozen=True)
+class MeshPlacement:
+    """How the vehicle mesh is brought into the vehicle frame: R(yaw, pitch, roll) @ (scale * mesh point)."""
+
+    up: str | None = None
+    scale: tuple = (1.0, 1.0, 1.0)
+    yaw_deg: float = 0.0
+    pitch_deg: float = 0.0
+    roll_deg: float = 0.0
+
+    def placement(self) -> dict:
+        return {"up": self.up, "yaw_deg": self.yaw_deg, "pitch_deg": self.pitch_deg, "roll_deg": self.roll_deg,
+                "scale": list(self.scale)}
 
 
 @dataclass(frozen=True)
@@ -58,17 +94,41 @@ class CollisionSettings:
     split: str = "sah"
     leaf_size: int = 4
 
+    def describe(self) -> dict:
+        return {"k": self.k, "aabb_levels": self.aabb_levels, "split": self.split, "leaf_size": self.leaf_size}
+
+
+def reader_up(up: str | None) -> str | None:
+    """``up`` as ``read_terrain`` takes it. None means the format's convention and is passed
+    through to a ``read_terrain`` whose ``up`` defaults to None (it applies the convention);
+    an older ``read_terrain`` (``up`` defaulting to "z") gets its own default."""
+    if up is not None:
+        return up
+    from tankcd_cli.io.terrain_readers import read_terrain
+
+    defaults = read_terrain.__defaults__ or ("z",)
+    return defaults[0]
+
 
 @dataclass
 class Scene:
     path: str
     terrain_path: str | None
-    terrain_up: str
+    terrain_up_axis: str | None  # as written; None: the format's convention
     vehicle: Vehicle
     vehicle_mesh: str | None
-    vehicle_mesh_up: str
+    vehicle_mesh_placement: MeshPlacement = MeshPlacement()
     obstacles: list = field(default_factory=list)
     collision: CollisionSettings = CollisionSettings()
+
+    @property
+    def terrain_up(self) -> str | None:
+        """The terrain's up axis as the terrain readers take it (see ``reader_up``)."""
+        return reader_up(self.terrain_up_axis)
+
+    @property
+    def vehicle_mesh_up(self) -> str | None:
+        return self.vehicle_mesh_placement.up
 
     def effects(self, turret_moves: bool) -> dict:
         """Which effects a replay of this scene simulates (the scene decides, not the user)."""
@@ -77,17 +137,23 @@ class Scene:
                 "internal": bool(self.vehicle.fuel_drums and turret_moves)}
 
     def describe(self) -> dict:
+        """The resolved scene as plain, nested values with snake_case keys (no file is read;
+        ``tankcd_cli.terrain.describe.describe_scene`` adds what the files hold)."""
+        v = self.vehicle
         return {
-            "scene": self.path,
-            "terrain": self.terrain_path,
-            "vehicle": self.vehicle.name,
-            "vehicle mesh": self.vehicle_mesh or "generated from the preset's dimensions",
-            "fuel drums": self.vehicle.fuel_drums,
-            "obstacles": [o.name for o in self.obstacles],
-            "collision volumes": f"k = {self.collision.k}, AABB levels {self.collision.aabb_levels}, "
-                                 f"split {self.collision.split}, leaf size {self.collision.leaf_size}",
-            "effects (turret moving)": self.effects(True),
-            "effects (turret still)": self.effects(False),
+            "file": self.path,
+            "kind": "scene",
+            "terrain": {"path": self.terrain_path, "up": self.terrain_up_axis},
+            "vehicle": {
+                "name": v.name,
+                "fuel_drums": v.fuel_drums,
+                "dimensions": {k: getattr(v, k) for k in sorted(VEHICLE_KEYS) if k != "fuel_drums"},
+                "mesh": ({"path": self.vehicle_mesh, **self.vehicle_mesh_placement.placement()} if self.vehicle_mesh
+                         else None),
+            },
+            "obstacles": [{"name": o.name, "path": o.path, **o.placement()} for o in self.obstacles],
+            "collision": self.collision.describe(),
+            "effects": {"turret_moving": self.effects(True), "turret_still": self.effects(False)},
         }
 
 
@@ -113,10 +179,11 @@ def load_scene(path: str) -> Scene:
     terrain = _table(data, "terrain", path)
     _only(terrain, {"path", "up"}, path, "[terrain]")
     terrain_path = _file(terrain, "path", base, path, "[terrain]") if "path" in terrain else None
-    terrain_up = _choice(terrain, "up", ("z", "y"), "z", path, "[terrain]")
+    terrain_up = _choice(terrain, "up", ("z", "y", None), None, path, "[terrain]")
 
     veh = _table(data, "vehicle", path)
-    _only(veh, VEHICLE_KEYS | {"preset", "mesh", "mesh_up"}, path, "[vehicle]")
+    _only(veh, VEHICLE_KEYS | {"preset", "mesh", "mesh_up", "mesh_scale", "mesh_yaw_deg", "mesh_pitch_deg",
+                               "mesh_roll_deg"}, path, "[vehicle]")
     preset = veh.get("preset", "t72")
     if not isinstance(preset, str) or preset.lower() not in PRESETS:
         raise InputError(path, f"unknown preset {preset!r}; choose one of {', '.join(PRESETS)}", where="[vehicle] preset")
@@ -134,7 +201,15 @@ def load_scene(path: str) -> Scene:
     except ValueError as exc:
         raise InputError(path, str(exc), where="[vehicle]") from None
     mesh = _file(veh, "mesh", base, path, "[vehicle]") if "mesh" in veh else None
-    mesh_up = _choice(veh, "mesh_up", ("z", "y"), "z", path, "[vehicle]")
+    loose = sorted(k for k in veh if k.startswith("mesh_")) if mesh is None else []
+    if loose:
+        raise InputError(path, f"{loose[0]} places the vehicle mesh, but the scene names no mesh",
+                         where=f"[vehicle] {loose[0]}")
+    mesh_placement = MeshPlacement(_choice(veh, "mesh_up", ("z", "y", None), None, path, "[vehicle]"),
+                                   _scale(veh, "mesh_scale", path, "[vehicle]"),
+                                   _angle(veh, "mesh_yaw_deg", path, "[vehicle]"),
+                                   _angle(veh, "mesh_pitch_deg", path, "[vehicle]"),
+                                   _angle(veh, "mesh_roll_deg", path, "[vehicle]"))
 
     raw_obstacles = data.get("obstacle", [])
     if not isinstance(raw_obstacles, list):
@@ -145,7 +220,7 @@ def load_scene(path: str) -> Scene:
         where = f"[[obstacle]] {i + 1}"
         if not isinstance(ob, dict):
             raise InputError(path, "must be a table", where=where)
-        _only(ob, {"name", "path", "up", "position", "yaw_deg"}, path, where)
+        _only(ob, {"name", "path", "up", "position", "yaw_deg", "pitch_deg", "roll_deg", "scale"}, path, where)
         name = ob.get("name", f"obstacle{i + 1}")
         if not isinstance(name, str) or not name:
             raise InputError(path, "name must be a non-empty string", where=f"{where} name")
@@ -154,16 +229,19 @@ def load_scene(path: str) -> Scene:
         names.add(name)
         if "path" not in ob:
             raise InputError(path, "an obstacle needs a path", where=f"{where} path")
-        position = ob.get("position", [0.0, 0.0, 0.0])
-        if (not isinstance(position, list) or len(position) != 3
-                or not all(isinstance(p, (int, float)) and not isinstance(p, bool) and math.isfinite(p) for p in position)):
+        mesh_path = _file(ob, "path", base, path, where)
+        if "position" not in ob:
+            raise InputError(path, "an obstacle needs a position [x, y, z]: where the mesh's origin goes, in the "
+                                   "terrain's coordinates (e.g. with a UTM terrain, eastings and northings)",
+                             where=f"{where} position")
+        position = ob["position"]
+        if (not isinstance(position, list) or len(position) != 3 or not all(_finite(p) for p in position)):
             raise InputError(path, f"position must be three finite numbers [x, y, z], got {position!r}", where=f"{where} position")
-        yaw = ob.get("yaw_deg", 0.0)
-        if isinstance(yaw, bool) or not isinstance(yaw, (int, float)) or not math.isfinite(yaw):
-            raise InputError(path, f"yaw_deg must be a finite number, got {yaw!r}", where=f"{where} yaw_deg")
-        obstacles.append(ObstacleSpec(name, _file(ob, "path", base, path, where),
-                                      _choice(ob, "up", ("z", "y"), "z", path, where),
-                                      tuple(float(p) for p in position), float(yaw)))
+        obstacles.append(ObstacleSpec(name, mesh_path,
+                                      _choice(ob, "up", ("z", "y", None), None, path, where),
+                                      tuple(float(p) for p in position),
+                                      _angle(ob, "yaw_deg", path, where), _angle(ob, "pitch_deg", path, where),
+                                      _angle(ob, "roll_deg", path, where), _scale(ob, "scale", path, where)))
 
     col = _table(data, "collision", path)
     _only(col, {"k", "aabb_levels", "split", "leaf_size"}, path, "[collision]")
@@ -177,8 +255,29 @@ def load_scene(path: str) -> Scene:
     leaf = col.get("leaf_size", 4)
     if not isinstance(leaf, int) or isinstance(leaf, bool) or not 1 <= leaf <= 64:
         raise InputError(path, f"leaf_size must be a whole number from 1 to 64, got {leaf!r}", where="[collision] leaf_size")
-    return Scene(path, terrain_path, terrain_up, vehicle, mesh, mesh_up, obstacles,
+    return Scene(path, terrain_path, terrain_up, vehicle, mesh, mesh_placement, obstacles,
                  CollisionSettings(int(k), int(levels), split, int(leaf)))
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _angle(table, key, path, where) -> float:
+    value = table.get(key, 0.0)
+    if not _finite(value):
+        raise InputError(path, f"{key} must be a finite number (degrees), got {value!r}", where=f"{where} {key}")
+    return float(value)
+
+
+def _scale(table, key, path, where) -> tuple:
+    """A positive finite number (uniform) or [sx, sy, sz] of them, as (sx, sy, sz)."""
+    value = table.get(key, 1.0)
+    values = value if isinstance(value, list) else [value]
+    if len(values) not in (1, 3) or not all(_finite(v) and v > 0 for v in values):
+        raise InputError(path, f"{key} must be a positive finite number or three of them [sx, sy, sz], "
+                               f"got {value!r}", where=f"{where} {key}")
+    return tuple(float(v) for v in values) * (3 if len(values) == 1 else 1)
 
 
 def _table(data, key, path):
@@ -197,8 +296,9 @@ def _only(table, allowed, path, where):
 
 def _choice(table, key, options, default, path, where):
     value = table.get(key, default)
-    if value not in options:
-        raise InputError(path, f"must be one of {', '.join(options)}, got {value!r}", where=f"{where} {key}")
+    if value not in options or (value is None and key in table):
+        shown = ", ".join(o for o in options if o is not None)
+        raise InputError(path, f"must be one of {shown}, got {value!r}", where=f"{where} {key}")
     return value
 
 

@@ -1,4 +1,8 @@
-"""A plain summary of a terrain store, for ``tankcd info``."""
+"""A plain summary of a terrain store, a tree or a scene, for ``tankcd info``.
+
+Facts are ordered dicts of plain values (numbers, strings, lists, nested dicts)
+with snake_case keys: ``info --json`` prints them as they are, the text output
+spells the keys with spaces."""
 
 from __future__ import annotations
 
@@ -18,9 +22,7 @@ def describe_store(path: str) -> dict:
         raise InputError(path, "no such file")
     if not is_store(path):
         if path.lower().endswith(".toml"):
-            from tankcd_cli.replay.scene import load_scene
-
-            return load_scene(path).describe()
+            return describe_scene(path)
         raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
     with read_errors(path, "HDF5 file"):
         with h5py.File(path, "r") as h5:
@@ -32,8 +34,16 @@ def describe_store(path: str) -> dict:
 
         tree, part = read_tree(path)
         facts = {"file": path, "kind": "bounding-volume tree"}
-        facts.update({k: v for k, v in tree.attrs.items() if k in ("source", "source_sha256", "placement", "tankcd_version")})
+        facts.update({k: v for k, v in tree.attrs.items() if k in ("source", "source_sha256", "tankcd_version")})
+        if "placement" in tree.attrs:  # written as JSON text by the obstacle cache: an object here
+            import json
+
+            try:
+                facts["placement"] = json.loads(tree.attrs["placement"])
+            except (TypeError, ValueError):
+                facts["placement"] = str(tree.attrs["placement"])
         facts.update(tree.describe())
+        facts["bounds"] = {"min": [float(v) for v in tree.lo[0, :3]], "max": [float(v) for v in tree.hi[0, :3]]}
         return facts
     with read_errors(path, "tankcd terrain store"):
         a = read_attrs(path)
@@ -47,21 +57,26 @@ def describe_store(path: str) -> dict:
         lo, hi = a.get("extent_min", [0, 0, 0]), a.get("extent_max", [0, 0, 0])
         return {
             "file": path,
-            "kind": "terrain store (format %s v%s)" % (a.get("format"), a.get("format_version")),
+            "kind": "terrain store",
+            "layout": "mesh",
+            "format": a.get("format"),
+            "format_version": a.get("format_version"),
             "source": a.get("source"),
-            "source sha256": a.get("source_sha256"),
-            "source format": a.get("source_format"),
-            "written by": f"tankcd {a.get('tankcd_version')} at {a.get('created_utc')}",
+            "source_sha256": a.get("source_sha256"),
+            "source_format": a.get("source_format"),
+            "tankcd_version": a.get("tankcd_version"),
+            "created_utc": a.get("created_utc"),
             "vertices": n,
             "faces": m,
-            "DEM grid": f"{grid[0]} x {grid[1]} posts" if grid else "no (irregular mesh: triangle buckets)",
-            "extent x": [lo[0], hi[0]],
-            "extent y": [lo[1], hi[1]],
-            "extent z": [lo[2], hi[2]],
+            "dem_grid_posts": [int(grid[0]), int(grid[1])] if grid else None,  # None: an irregular mesh
+            "extent_x": [lo[0], hi[0]],
+            "extent_y": [lo[1], hi[1]],
+            "extent_z": [lo[2], hi[2]],
             **_classes(a),
-            "class raster": f"{raster[0]} x {raster[1]} cells",
-            "clean-up": (f"{a.get('merged_vertices')} merged, {a.get('unreferenced_vertices')} unreferenced vertices; "
-                         f"{a.get('degenerate_faces')} degenerate, {a.get('repeated_faces')} repeated faces dropped"),
+            "class_raster_cells": [int(raster[0]), int(raster[1])],
+            "clean_up": {"merged_vertices": a.get("merged_vertices"),
+                         "unreferenced_vertices": a.get("unreferenced_vertices"),
+                         "degenerate_faces": a.get("degenerate_faces"), "repeated_faces": a.get("repeated_faces")},
         }
 
 
@@ -84,26 +99,30 @@ def _describe_grid(path: str, a: dict) -> dict:
     size = os.path.getsize(path)
     facts = {
         "file": path,
-        "kind": "terrain store, grid layout (format %s v%s)" % (a.get("format"), a.get("format_version")),
+        "kind": "terrain store",
+        "layout": "grid",
+        "format": a.get("format"),
+        "format_version": a.get("format_version"),
         "source": a.get("source"),
-        "source sha256": a.get("source_sha256"),
-        "source format": a.get("source_format"),
-        "written by": f"tankcd {a.get('tankcd_version')} at {a.get('created_utc')}",
+        "source_sha256": a.get("source_sha256"),
+        "source_format": a.get("source_format"),
+        "tankcd_version": a.get("tankcd_version"),
+        "created_utc": a.get("created_utc"),
         "crs": crs_name or ("local grid (no CRS)" if not crs else "unnamed CRS"),
-        "reprojected from": a.get("source_crs_name") if a.get("reprojected") else None,
-        "grid": f"{rows} x {cols} posts",
+        "reprojected_from": a.get("source_crs_name") if a.get("reprojected") else None,
+        "grid_posts": [int(rows), int(cols)],
         "posts": rows * cols,
-        "posts with data": a.get("valid_posts"),
-        "post spacing": spacing,
-        "north-west post": origin,
-        "extent x": [lo[0], hi[0]],
-        "extent y": [lo[1], hi[1]],
-        "extent z": [lo[2], hi[2]],
-        "size km": [round((hi[0] - lo[0]) / 1000, 3), round((hi[1] - lo[1]) / 1000, 3)],
-        "cells split": f"along the {a.get('diagonal')} diagonal",
-        "tiles": f"{chunks[0]} x {chunks[1]} posts" if chunks else "none",
+        "posts_with_data": a.get("valid_posts"),
+        "post_spacing": spacing,
+        "north_west_post": origin,
+        "extent_x": [lo[0], hi[0]],
+        "extent_y": [lo[1], hi[1]],
+        "extent_z": [lo[2], hi[2]],
+        "size_km": [round((hi[0] - lo[0]) / 1000, 3), round((hi[1] - lo[1]) / 1000, 3)],
+        "diagonal": a.get("diagonal"),  # each cell split along it
+        "tile_posts": [int(chunks[0]), int(chunks[1])] if chunks else None,
         "heights": dtype,
-        "bytes per post": round(size / max(rows * cols, 1), 2),
+        "bytes_per_post": round(size / max(rows * cols, 1), 2),
         **_classes(a),
     }
     return {k: v for k, v in facts.items() if v is not None}
@@ -112,14 +131,84 @@ def _describe_grid(path: str, a: dict) -> dict:
 def _classes(a: dict) -> dict:
     """How a store's classes were made, and their area shares."""
     return {
-        "curvature method": a.get("curvature_method"),
-        "boundary treatment": a.get("boundary_treatment"),
-        "class average": a.get("class_average"),
+        "curvature_method": a.get("curvature_method"),
+        "boundary_treatment": a.get("boundary_treatment"),
+        "class_average": a.get("class_average"),
         "vehicle": a.get("vehicle"),
-        "threshold flat": a.get("threshold_flat"),
-        "threshold uneven": a.get("threshold_uneven"),
-        "thresholds from": a.get("threshold_derivation"),
-        "area flat": f"{a.get('share_flat', 0):.1%}",
-        "area general": f"{a.get('share_general', 0):.1%}",
-        "area uneven": f"{a.get('share_uneven', 0):.1%}",
+        "threshold_flat": a.get("threshold_flat"),
+        "threshold_uneven": a.get("threshold_uneven"),
+        "thresholds_from": a.get("threshold_derivation"),
+        "area_flat": f"{a.get('share_flat', 0):.1%}",
+        "area_general": f"{a.get('share_general', 0):.1%}",
+        "area_uneven": f"{a.get('share_uneven', 0):.1%}",
     }
+
+
+def describe_scene(path: str) -> dict:
+    """A scene resolved and checked as replay will read it: every file it names is read with
+    replay's readers (a bad one is an InputError, exit 3), each mesh placed as replay places it.
+
+    Adds to ``Scene.describe``: the terrain's kind and extent; the vehicle mesh's triangles,
+    bounds in the vehicle frame and parts; per obstacle the up axis applied, its triangles,
+    world bounds and whether they overlap the terrain's horizontal extent."""
+    import numpy as np
+
+    from tankcd_cli.collision.obstacles import placed_mesh, vehicle_mesh_triangles
+    from tankcd_cli.replay.scene import load_scene
+
+    sc = load_scene(path)
+    facts = sc.describe()
+    extent = None
+    if sc.terrain_path:
+        terrain = _scene_terrain(sc)
+        facts["terrain"].update(terrain)
+        extent = terrain["extent_x"], terrain["extent_y"]
+    mesh = facts["vehicle"]["mesh"]
+    if mesh is not None:
+        tris, parts, names = vehicle_mesh_triangles(sc)
+        pts = tris.reshape(-1, 3)
+        mesh["triangles"] = int(len(tris))
+        mesh["bounds"] = {"min": pts.min(axis=0).tolist(), "max": pts.max(axis=0).tolist()}
+        mesh["parts"] = {name: int((parts == i).sum()) for i, name in enumerate(names)}
+    for spec, ob in zip(sc.obstacles, facts["obstacles"]):
+        raw, world = placed_mesh(spec)
+        pts = world[np.unique(raw.faces)]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        ob["up_applied"] = getattr(raw, "up", None) or spec.up
+        ob["triangles"] = int(len(raw.faces))
+        ob["bounds"] = {"min": lo.tolist(), "max": hi.tolist()}
+        ob["on_terrain"] = None if extent is None else bool(
+            hi[0] >= extent[0][0] and lo[0] <= extent[0][1] and hi[1] >= extent[1][0] and lo[1] <= extent[1][1])
+    return facts
+
+
+def _scene_terrain(sc) -> dict:
+    """The kind and extent of a scene's terrain, read as replay reads it (a store's attributes,
+    a DEM's grid, a mesh's vertices)."""
+    path = sc.terrain_path
+    from tankcd_cli.terrain.store import is_store
+
+    if is_store(path):
+        d = describe_store(path)
+        if d.get("kind") != "terrain store":
+            raise InputError(path, f"is a {d.get('kind')}, not a terrain", where="[terrain] path")
+        return {"kind": f"terrain store ({d['layout']} layout)", "crs": d.get("crs"),
+                "extent_x": d["extent_x"], "extent_y": d["extent_y"], "extent_z": d["extent_z"]}
+    from tankcd_cli.terrain.dem_sources import open_dem
+
+    dem = open_dem(path)
+    if dem is not None:
+        with dem:
+            i = dem.info
+        x0, y0 = float(i.origin[0]), float(i.origin[1])
+        dx, dy = float(i.spacing[0]), float(i.spacing[1])
+        return {"kind": f"DEM ({i.format}, {i.rows} x {i.cols} posts, classified on the fly)", "crs": i.crs_name,
+                "extent_x": [x0, x0 + (i.cols - 1) * dx], "extent_y": [y0 - (i.rows - 1) * dy, y0]}
+    from tankcd_cli.terrain.classify import load_terrain
+
+    raw = load_terrain(path, up=sc.terrain_up)
+    lo, hi = raw.vertices.min(axis=0), raw.vertices.max(axis=0)
+    return {"kind": f"mesh ({raw.format}, {len(raw.faces):,} triangles, classified on the fly)",
+            "up_applied": getattr(raw, "up", None) or sc.terrain_up_axis,
+            "extent_x": [float(lo[0]), float(hi[0])], "extent_y": [float(lo[1]), float(hi[1])],
+            "extent_z": [float(lo[2]), float(hi[2])]}

@@ -32,7 +32,7 @@ WALL_OBJ = ("v 500006 4500000 99\nv 500006 4500008 99\nv 500006 4500008 103\nv 5
 
 def scene_text(terrain: str, wall: str) -> str:
     return (f'[terrain]\npath = "{terrain}"\n\n[vehicle]\npreset = "t72"\n\n'
-            f'[[obstacle]]\nname = "wall"\npath = "{wall}"\n')
+            f'[[obstacle]]\nname = "wall"\npath = "{wall}"\nposition = [0.0, 0.0, 0.0]\n')
 
 
 # format -> (file name, valid text)
