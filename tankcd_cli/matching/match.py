@@ -27,8 +27,10 @@ Matchers (``MATCHERS``):
                above, from the exact ground under the patches (every terrain
                triangle clipped to them), the patches re-projected for the
                hull's tilt and solved again until the tilt settles.
-``auto``       the matcher the worst region class under the footprint calls for:
-               flat two_point, general four_point, uneven six_point.
+``auto``       the matcher the worst region class under the footprint calls for
+               (``AUTO_RULE``, from measurement: flat two_point, general and uneven
+               six_point; the paper gave general ground four points, which the
+               corpus of ``tradeoff.corpus`` finds less accurate there).
 
 With ``escalate``, every key-point pose is then checked against the reference's
 certificate (``certified``) and those that fail it are solved by the reference
@@ -59,6 +61,10 @@ from tankcd_cli.vehicle import Vehicle, key_points
 KEY_POINT_MATCHERS = ("two_point", "four_point", "six_point")
 REFERENCE = 3  # the code of the reference matcher
 MATCHERS = KEY_POINT_MATCHERS + ("reference",)
+# the key-point matcher ``auto`` gives each region class: the most accurate against the reference
+# on the generated corpus of terrain families (``tankcd_cli.tradeoff.corpus``; a test holds the
+# two together). Where the class is unknown, the reference.
+AUTO_RULE = {"flat": "two_point", "general": "six_point", "uneven": "six_point"}
 MATCHER_CHOICES = MATCHERS + ("auto",)
 # what placed a pose (the ``matcher`` codes of ``Poses``): a matcher, or a key-point matcher whose
 # pose failed the certificate and was solved again by the reference (ESCALATED + its code)
@@ -139,7 +145,8 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     if regions or matcher == "auto":
         region = surface.region_under(x, y, yaw, vehicle.track_length, vehicle.footprint_width)
     if matcher == "auto":
-        choice = np.where(region == REGION_UNKNOWN, 3, np.minimum(region, 2)).astype(np.int64)
+        rule = np.array([MATCHERS.index(AUTO_RULE[name]) for name in ("flat", "general", "uneven")], dtype=np.int64)
+        choice = np.where(region <= 2, rule[np.minimum(region, 2)], REFERENCE).astype(np.int64)
     else:
         choice = np.full(n, MATCHERS.index(matcher), dtype=np.int64)
 

@@ -53,6 +53,7 @@ class Results:
     points: list = field(default_factory=list)
     axes: dict = field(default_factory=dict)  # stage -> (query name, error name)
     headline: dict = field(default_factory=dict)
+    corpus: dict = field(default_factory=dict)  # the per-class matcher table (tradeoff.corpus)
     machine: dict = field(default_factory=dict)
     inputs: dict = field(default_factory=dict)
 

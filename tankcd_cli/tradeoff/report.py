@@ -68,6 +68,10 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
                                vehicle, budget, say)
         measure.collision_stage(res, surface, vehicle, obstacle_tris, budget, say)
         measure.internal_stage(res, vehicle, budget, say)
+        from tankcd_cli.tradeoff.corpus import measure_corpus
+
+        say("corpus: which key-point matcher each region class gets")
+        res.corpus = measure_corpus(vehicle)
     write_report(res, out_dir)
     return res
 
@@ -190,6 +194,13 @@ def markdown(res: Results) -> str:
            f"{', '.join(inp.get('obstacles') or []) or 'none'}), trajectory {inp.get('trajectory')}; generated analytic "
            "surfaces and an obstacle course.", "", headline_table(res),
            "![error versus time](tradeoff.png)", ""]
+    if res.corpus:
+        from tankcd_cli.tradeoff.corpus import corpus_table
+
+        out += ["## Which matcher each region class gets", "",
+                "The rule `auto` ships (`AUTO_RULE`) is this table's: per class, the key-point matcher with the "
+                "lowest median attitude error against the reference (within 1 %, the cheaper). Regenerate it alone "
+                "with `python -m tankcd_cli.tradeoff.corpus`.", "", corpus_table(res.corpus)]
     notes = {
         "curvature": "Error against the closed-form H (interior: more than 3 m from the border); class_changed_share "
                      "is the share of vertices whose region class differs from the class the exact H gives.",

@@ -1,0 +1,212 @@
+"""A generated corpus of terrain families, and which key-point matcher each region class should get.
+
+The rule ``auto`` ships (``matching.match.AUTO_RULE``) is the one this corpus supports: per
+region class, the key-point matcher with the lowest median attitude error against the
+rigid-hull reference (ties within 1 % go to the cheaper matcher). The corpus is deterministic
+(fixed seeds): every family of ground a battlefield has, smooth and rough, at two amplitudes
+and two post spacings, as DEM grids and as jittered TINs, with poses at random places and
+headings, each counted in the class ``auto`` sees under it.
+
+    python -m tankcd_cli.tradeoff.corpus      # prints the table the rule comes from
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+EXTENT = 60.0  # m, each terrain's side
+POSES_PER_TERRAIN = 240
+SPACINGS = (0.5, 1.0)  # m
+AMPLITUDES = (0.5, 1.0)  # a scale on each family's heights
+LAYOUTS = ("grid", "tin")
+CLASS_NAMES = ("flat", "general", "uneven")
+
+
+def _waves(x, y, a):
+    return a * 0.6 * np.sin(2 * np.pi * x / 17.0) * np.cos(2 * np.pi * y / 23.0)
+
+
+def _hill(x, y, a):
+    return a * 3.0 * np.exp(-((x - 30) ** 2 + (y - 30) ** 2) / (2 * 9.0 ** 2))
+
+
+def _ridge(x, y, a):
+    d = (x - 30) * np.cos(0.5) + (y - 30) * np.sin(0.5)
+    return a * 2.0 * np.exp(-d ** 2 / (2 * 4.0 ** 2))
+
+
+def _saddle(x, y, a):
+    return a * 0.004 * ((x - 30) ** 2 - (y - 30) ** 2)
+
+
+def _rough(x, y, a):
+    rng = np.random.default_rng(7)
+    z = np.zeros_like(x)
+    for k in range(1, 7):  # a sum of random waves: ground rough at every scale down to ~3 m
+        lam = 24.0 / k
+        phase, angle = rng.uniform(0, 2 * np.pi, 2)
+        z += 0.5 / k * np.sin(2 * np.pi * (x * np.cos(angle) + y * np.sin(angle)) / lam + phase)
+    return a * z
+
+
+def _steps(x, y, a):
+    return a * 0.3 * np.floor((x + 0.3 * y) / 9.0)
+
+
+def _ditch(x, y, a):
+    d = np.abs((x - 30) * np.cos(0.3) + (y - 30) * np.sin(0.3))
+    return -a * 1.5 * np.clip((1.6 - d) / 0.4, 0.0, 1.0)
+
+
+def _berm(x, y, a):
+    d = np.abs((x - 30) * np.cos(-0.4) + (y - 30) * np.sin(-0.4))
+    return a * 1.0 * np.clip(1 - d / 2.0, 0.0, None)
+
+
+def _craters(x, y, a):
+    z = np.zeros_like(x)
+    for cx, cy, r, depth in ((18, 20, 4.0, 1.2), (40, 38, 6.0, 1.8), (25, 45, 3.0, 0.9)):
+        rr = np.hypot(x - cx, y - cy)
+        z += np.where(rr < r, -depth * (1 - (rr / r) ** 2) ** 2, 0.0) + 0.4 * np.exp(-(((rr - r) / 1.2) ** 2))
+    return a * z
+
+
+def _knife(x, y, a):
+    d = np.abs((x - 30) * np.cos(0.7) + (y - 30) * np.sin(0.7))
+    return a * np.maximum(0.0, 1.0 * (1 - d / 2.5))
+
+
+FAMILIES = {"waves": _waves, "hill": _hill, "ridge": _ridge, "saddle": _saddle, "rough": _rough, "steps": _steps,
+            "ditch": _ditch, "berm": _berm, "craters": _craters, "knife_edge": _knife}
+
+
+@dataclass(frozen=True)
+class CorpusTerrain:
+    family: str
+    layout: str
+    spacing: float
+    amplitude: float
+
+    @property
+    def name(self) -> str:
+        return f"{self.family} {self.layout} {self.spacing:g} m x{self.amplitude:g}"
+
+
+def corpus_terrains() -> list[CorpusTerrain]:
+    return [CorpusTerrain(f, lay, s, a) for f in FAMILIES for lay in LAYOUTS for s in SPACINGS for a in AMPLITUDES]
+
+
+def build_surface(t: CorpusTerrain, vehicle, seed: int = 0):
+    """The terrain's surface (classified for ``vehicle``), at UTM-like coordinates."""
+    from tankcd_cli.terrain import synthetic as S
+
+    f = FAMILIES[t.family]
+    x0, y0 = 500_000.0, 4_500_000.0
+    n = int(round(EXTENT / t.spacing)) + 1
+    xs = np.arange(n) * t.spacing
+    if t.layout == "grid":
+        X, Y = np.meshgrid(xs, xs)
+        return S.surface_of(S.dem_terrain(100.0 + f(X, Y, t.amplitude), origin=(x0, y0), spacing=t.spacing),
+                            vehicle=vehicle)
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(seed)
+    X, Y = np.meshgrid(xs, xs)
+    xy = np.column_stack([X.ravel(), Y.ravel()]) + rng.uniform(-0.35, 0.35, (n * n, 2)) * t.spacing
+    faces = Delaunay(xy).simplices.astype(np.int64)
+    a, b, c = xy[faces[:, 0]], xy[faces[:, 1]], xy[faces[:, 2]]
+    cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
+    faces[cw] = faces[cw][:, [0, 2, 1]]
+    v = np.column_stack([xy[:, 0] + x0, xy[:, 1] + y0, 100.0 + f(xy[:, 0], xy[:, 1], t.amplitude)])
+    return S.surface_of(S.mesh_terrain(v, faces), vehicle=vehicle)
+
+
+def corpus_poses(vehicle, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Footprint centres and headings inside a terrain (a hull length from its edges)."""
+    rng = np.random.default_rng(seed)
+    margin = max(vehicle.hull_length, vehicle.track_length) + 1.0
+    x = 500_000.0 + rng.uniform(margin, EXTENT - margin, POSES_PER_TERRAIN)
+    y = 4_500_000.0 + rng.uniform(margin, EXTENT - margin, POSES_PER_TERRAIN)
+    return x, y, rng.uniform(-np.pi, np.pi, POSES_PER_TERRAIN)
+
+
+def _up(p) -> np.ndarray:
+    return p.rotation[:, :, 2]
+
+
+def measure_corpus(vehicle=None, progress=None) -> dict:
+    """Per region class and key-point matcher: attitude and height errors against the reference
+    and the time, over the whole corpus. Returns {"rows": [...], "winners": {class: matcher}}."""
+    from tankcd_cli.matching.match import KEY_POINT_MATCHERS, OK, match
+    from tankcd_cli.vehicle import vehicle_preset
+
+    vehicle = vehicle or vehicle_preset("t72")
+    say = progress or (lambda s: None)
+    att = {(c, m): [] for c in range(3) for m in KEY_POINT_MATCHERS}
+    dz = {(c, m): [] for c in range(3) for m in KEY_POINT_MATCHERS}
+    seconds = dict.fromkeys(KEY_POINT_MATCHERS + ("reference",), 0.0)
+    poses = 0
+    for i, t in enumerate(corpus_terrains()):
+        say(f"corpus: {t.name} ({i + 1}/{len(corpus_terrains())})")
+        surface = build_surface(t, vehicle, seed=i)
+        x, y, yaw = corpus_poses(vehicle, seed=1000 + i)
+        s = time.perf_counter()
+        ref = match(surface, vehicle, x, y, yaw, "reference", measure=False)
+        seconds["reference"] += time.perf_counter() - s
+        poses += len(x)
+        for m in KEY_POINT_MATCHERS:
+            s = time.perf_counter()
+            p = match(surface, vehicle, x, y, yaw, m, measure=False)
+            seconds[m] += time.perf_counter() - s
+            ok = (p.status == OK) & (ref.status == OK) & (ref.region <= 2)
+            cos = np.clip(np.einsum("ij,ij->i", _up(p)[ok], _up(ref)[ok]), -1.0, 1.0)
+            for c in range(3):
+                sel = ref.region[ok] == c
+                att[c, m].append(np.degrees(np.arccos(cos[sel])))
+                dz[c, m].append(np.abs(p.position[ok, 2] - ref.position[ok, 2])[sel])
+    rows = []
+    winners = {}
+    for c in range(3):
+        best = None
+        for m in KEY_POINT_MATCHERS:
+            a = np.concatenate(att[c, m]) if att[c, m] else np.zeros(0)
+            h = np.concatenate(dz[c, m]) if dz[c, m] else np.zeros(0)
+            row = {"class": CLASS_NAMES[c], "matcher": m, "poses": int(len(a)),
+                   "attitude_median_deg": float(np.median(a)) if len(a) else float("nan"),
+                   "attitude_p95_deg": float(np.percentile(a, 95)) if len(a) else float("nan"),
+                   "height_median_mm": float(np.median(h) * 1000) if len(h) else float("nan"),
+                   "height_p95_mm": float(np.percentile(h, 95) * 1000) if len(h) else float("nan"),
+                   "us_per_pose": seconds[m] / max(poses, 1) * 1e6}
+            rows.append(row)
+            # matchers are listed cheapest first: a later one must beat the best by 1 % to win
+            if len(a) and (best is None or row["attitude_median_deg"] < 0.99 * best["attitude_median_deg"]):
+                best = row
+        winners[CLASS_NAMES[c]] = best["matcher"] if best else None
+    return {"rows": rows, "winners": winners, "poses": poses, "terrains": len(corpus_terrains()),
+            "reference_us_per_pose": seconds["reference"] / max(poses, 1) * 1e6}
+
+
+def corpus_table(result: dict) -> str:
+    """The per-class table (markdown) and the rule it supports."""
+    lines = [f"Corpus: {result['terrains']} terrains ({', '.join(FAMILIES)}; grids and jittered TINs at "
+             f"{' and '.join(f'{s:g}' for s in SPACINGS)} m posts, two amplitudes), {result['poses']:,} poses; "
+             "errors against the rigid-hull reference "
+             f"({result['reference_us_per_pose']:.1f} us a pose).", "",
+             "| class | matcher | poses | attitude median / p95, deg | height median / p95, mm | us a pose |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for r in result["rows"]:
+        win = " **(rule)**" if result["winners"].get(r["class"]) == r["matcher"] else ""
+        lines.append(f"| {r['class']} | {r['matcher']}{win} | {r['poses']:,} | {r['attitude_median_deg']:.3f} / "
+                     f"{r['attitude_p95_deg']:.2f} | {r['height_median_mm']:.1f} / {r['height_p95_mm']:.1f} | "
+                     f"{r['us_per_pose']:.2f} |")
+    lines += ["", "Rule: " + ", ".join(f"{c} -> {m}" for c, m in result["winners"].items()) + "."]
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    import sys
+
+    print(corpus_table(measure_corpus(progress=lambda s: print(s, file=sys.stderr))))
