@@ -41,7 +41,7 @@ def town(target_triangles: int, seed: int = 0):
 
 
 def poses(n, side, rng):
-    from tankcd_cli.matching.pose import rotation_matrix
+    from tankcd_cli.geometry.pose import rotation_matrix
 
     xy = rng.uniform(0, side, (n, 2))
     yaw = rng.uniform(-np.pi, np.pi, n)

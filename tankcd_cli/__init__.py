@@ -1,12 +1,19 @@
 """tankcd: place a tank on real terrain and tell when it collides.
 
-The package is laid out by pipeline stage, every import pointing down:
+The package in layers, lowest first; a module imports its own layer and those
+below it, never one above (``tests/test_layers.py`` holds it):
 
-- ``cli/``      one module per command (thin: parse, call one function, report)
-- ``terrain/``  loading clean-up, mean curvature, region classes, the HDF5 store
-- ``io/``       file readers and atomic writers
-- ``vehicle``   vehicle presets (dimensions from public sources)
-- ``errors``, ``tolerances``: the shared error type and the one tolerance table
+1. foundation: ``errors``, ``tolerances``, ``_threads``
+2. geometry: ``geometry/`` (rotations, k-DOPs, triangle tests, cylinders, the
+   support-plane LP), ``vehicle``, ``vehicle_mesh``
+3. io: ``io/`` file readers and atomic writers
+4. world: ``scene`` (the scene schema and what it places where)
+5. terrain: ``terrain/`` clean-up, curvature, classes, stores, surfaces, the
+   exact footprint pass
+6. matching and trees: ``matching/``, ``bvh/``
+7. collision: ``collision/``
+8. runs: ``replay/``, ``tradeoff/``, ``plots``, ``describe``, ``sample``
+9. command line: ``cli/`` (thin: parse, call one function, report)
 """
 
 __version__ = "0.1.0"

@@ -129,7 +129,7 @@ def test_a_wrong_plane_fails_and_the_lowest_passes():
 def test_the_certificate_is_one_footprint_pass_at_the_planes_tilt():
     """Independent check of ``certified``: the lowest supporting plane under the patches at the
     given plane's tilt, by the footprint pass called directly."""
-    from tankcd_cli.matching.pose import attitude_from_slopes
+    from tankcd_cli.geometry.pose import attitude_from_slopes
 
     surface = _knife_edge()
     x, y, yaw = _poses_along(41, 60.0)

@@ -6,7 +6,7 @@ import pytest
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
 from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force, support_planes_fixed
-from tankcd_cli.matching.footprint import footprint_batch
+from tankcd_cli.terrain.footprint import footprint_batch
 from tankcd_cli.matching.match import EPS_XY, patch_quads
 from tankcd_cli.terrain import synthetic as S
 from tankcd_cli.vehicle import vehicle_preset

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force
 from tankcd_cli.matching.match import MATCHERS, OFF, OK, PARTLY_OFF, match, patch_quads
-from tankcd_cli.matching.pose import euler_from_quaternion, quaternion_from_euler, rotation_matrix, wrap_angle
+from tankcd_cli.geometry.pose import euler_from_quaternion, quaternion_from_euler, rotation_matrix, wrap_angle
 from tankcd_cli.terrain import synthetic as S
 from tankcd_cli.vehicle import vehicle_preset
 

@@ -86,7 +86,7 @@ def test_locate_names_the_face_under_each_point():
 
 
 def test_ground_above_body_points_matches_height_queries():
-    from tankcd_cli.matching.pose import rotation_matrix
+    from tankcd_cli.geometry.pose import rotation_matrix
 
     rng = np.random.default_rng(6)
     Z = rng.normal(0, 0.4, (30, 30))

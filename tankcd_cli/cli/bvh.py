@@ -35,7 +35,7 @@ def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, forc
         if model:
             raise click.UsageError("give MODEL or --scene, not both")
         from tankcd_cli.collision.obstacles import cache_path, load_obstacles
-        from tankcd_cli.replay.scene import load_scene
+        from tankcd_cli.scene import load_scene
 
         sc = load_scene(scene)
         obstacles = load_obstacles(sc, cache=True, rebuild=force, progress=step)

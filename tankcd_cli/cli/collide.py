@@ -27,7 +27,7 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import read_poses
-    from tankcd_cli.replay.scene import load_scene
+    from tankcd_cli.scene import load_scene
 
     report.kernels()
     step = report.progress("collide")

@@ -36,7 +36,7 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
 
     refuse_clashes({"--scene": scene}, {"-o/--output": output, "--png": png})
     if scene:
-        from tankcd_cli.replay.scene import load_scene
+        from tankcd_cli.scene import load_scene
 
         vehicle = load_scene(scene).vehicle
     else:

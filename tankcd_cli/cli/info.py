@@ -24,7 +24,7 @@ def info(report, file, as_json):
     the terrain), with the effects the scene enables.
 
     --json prints the same facts as one JSON object with snake_case keys."""
-    from tankcd_cli.terrain.describe import describe_store
+    from tankcd_cli.describe import describe_store
 
     facts = describe_store(file)
     if as_json:

@@ -102,7 +102,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     step = report.progress("replay")
     sc = None
     if scene:
-        from tankcd_cli.replay.scene import load_scene
+        from tankcd_cli.scene import load_scene
 
         sc = load_scene(scene)
         if sc.terrain_path is None:

@@ -14,7 +14,7 @@ from tankcd_cli.bvh.build import Tree, build_tree
 from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.store import read_tree, write_tree
 from tankcd_cli.errors import InputError
-from tankcd_cli.replay.scene import CollisionSettings, ObstacleSpec, Scene
+from tankcd_cli.scene import CollisionSettings, ObstacleSpec, Scene
 from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
 
 
@@ -29,14 +29,14 @@ class Obstacle:
 def read_mesh(path: str, up: str | None):
     """A mesh read as replay reads it (``read_terrain``); ``up`` None is the format's convention."""
     from tankcd_cli.io.terrain_readers import read_terrain
-    from tankcd_cli.replay.scene import reader_up
+    from tankcd_cli.scene import reader_up
 
     return read_terrain(path, up=reader_up(up))
 
 
 def placement_matrix(scale, yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
     """M (3, 3) with M @ p = R(yaw, pitch, roll) @ (scale * p), R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    from tankcd_cli.matching.pose import rotation_matrix
+    from tankcd_cli.geometry.pose import rotation_matrix
 
     R = rotation_matrix(np.radians(roll_deg), np.radians(pitch_deg), np.radians(yaw_deg))
     return R * np.asarray(scale, dtype=float)[None, :]

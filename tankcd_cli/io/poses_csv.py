@@ -81,7 +81,7 @@ def read_poses(path: str, chunk_rows: int = 65536):
     from tankcd_cli.errors import InputError
     from tankcd_cli.io.csv_columns import numeric_chunks
     from tankcd_cli.io.files import open_input
-    from tankcd_cli.matching.pose import rotation_matrix
+    from tankcd_cli.geometry.pose import rotation_matrix
 
     name, fh = open_input(path, text=True)
     blank = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "t")

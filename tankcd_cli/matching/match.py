@@ -55,7 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tankcd_cli.matching.pose import attitude_from_slopes, quaternion_from_euler, rotation_matrix, wrap_angle
+from tankcd_cli.geometry.pose import attitude_from_slopes, quaternion_from_euler, rotation_matrix, wrap_angle
 from tankcd_cli.vehicle import Vehicle, key_points
 
 KEY_POINT_MATCHERS = ("two_point", "four_point", "six_point")

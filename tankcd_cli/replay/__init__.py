@@ -1,1 +1,2 @@
-"""Replay: trajectories through the matchers (and, later, the scene's effects), streamed in chunks."""
+"""Replay: trajectories through the matchers and the effects the scene calls for, streamed in
+chunks (``pipeline``, ``run``), fleets of them (``fleet``), the demo, and the replay map's data."""

@@ -22,7 +22,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.matching.match import PLACED_BY, STATUS
     from tankcd_cli.plots import grid_map_png, replay_map_png
     from tankcd_cli.replay.pipeline import prepare, replay_chunks
-    from tankcd_cli.replay.scene import load_scene
+    from tankcd_cli.scene import load_scene
     from tankcd_cli.sample import write_sample
     from tankcd_cli.terrain.dem_classify import classify_dem
     from tankcd_cli.terrain.grid_store import open_grid

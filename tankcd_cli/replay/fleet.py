@@ -148,7 +148,7 @@ def _load_world_locked(world: World, progress):
 
         scene = None
         if world.scene:
-            from tankcd_cli.replay.scene import load_scene
+            from tankcd_cli.scene import load_scene
 
             scene = load_scene(world.scene)
             if scene.terrain_path is None:
@@ -184,7 +184,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
     from tankcd_cli.terrain.store import is_store
 
     if world.scene:
-        from tankcd_cli.replay.scene import load_scene
+        from tankcd_cli.scene import load_scene
 
         scene = load_scene(world.scene)
         terrain, up = scene.terrain_path, scene.terrain_up

@@ -144,8 +144,9 @@ cdef void _grid_height_one(double x, double y, const double* post_z, Py_ssize_t 
 
 cdef uint8_t _worst_class_one(double px, double py, double yaw, const double* su, const double* sv, Py_ssize_t m,
                               const uint8_t* classes, Py_ssize_t rows, Py_ssize_t cols, double ox, double oy,
-                              double dx, double dy, Py_ssize_t r_off, Py_ssize_t c_off) noexcept nogil:
-    """Highest class among the posts nearest to the m sample offsets of one footprint; 255 if none."""
+                              double dx, double dy, Py_ssize_t r_off, Py_ssize_t c_off, int top) noexcept nogil:
+    """Highest class among the posts nearest to the m sample offsets of one footprint; 255 if none.
+    Stops once ``top`` (the highest class there is) is found."""
     cdef double co = cos(yaw)
     cdef double si = sin(yaw)
     cdef int worst = -1
@@ -166,7 +167,7 @@ cdef uint8_t _worst_class_one(double px, double py, double yaw, const double* su
                 c = classes[row * cols + col]
                 if c != 255 and c > worst:
                     worst = c
-        if worst >= 2:  # uneven, the highest class: nothing later can raise it
+        if worst >= top:  # the highest class: nothing later can raise it
             break
     if worst >= 0:
         return <uint8_t>worst
@@ -252,10 +253,11 @@ def grid_heights_slopes(px, py, post_z, post_origin, post_size, Py_ssize_t r_off
     return z_arr, gx_arr, gy_arr
 
 
-def grid_worst_class(px, py, yaw, su, sv, classes, post_origin, post_size, Py_ssize_t r_off, Py_ssize_t c_off):
+def grid_worst_class(px, py, yaw, su, sv, classes, post_origin, post_size, Py_ssize_t r_off, Py_ssize_t c_off,
+                     int top=254):
     """Highest class code among the posts nearest to sample offsets (su, sv) of each footprint
     (local centres px, py, headings yaw); 255 where none is known. ``classes`` is a window
-    like ``post_z`` (255 at NODATA)."""
+    like ``post_z`` (255 at NODATA); ``top``, the highest code there can be, ends a search early."""
     cdef const double[::1] x = _f64(px)
     cdef const double[::1] y = _f64(py)
     cdef const double[::1] w = _f64(yaw)
@@ -286,7 +288,7 @@ def grid_worst_class(px, py, yaw, su, sv, classes, post_origin, post_size, Py_ss
     cdef const uint8_t* cp = &cls[0, 0] if rows > 0 and cols > 0 else NULL
     cdef Py_ssize_t i
     for i in prange(n, nogil=True, schedule="static"):
-        out[i] = _worst_class_one(xp[i], yp[i], wp[i], up, vp, m, cp, rows, cols, ox, oy, dx, dy, r_off, c_off)
+        out[i] = _worst_class_one(xp[i], yp[i], wp[i], up, vp, m, cp, rows, cols, ox, oy, dx, dy, r_off, c_off, top)
     return out_arr
 
 

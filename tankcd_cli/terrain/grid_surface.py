@@ -27,10 +27,11 @@ from collections import OrderedDict
 
 import numpy as np
 
+from tankcd_cli.terrain.regions import NO_CLASS, UNEVEN
+
 BLOCK = 512  # posts per window side before margins
 WINDOW_POSTS = 4_000_000  # a query whose points all fit one window this large reads one (32 MB of heights)
 WINDOW_BYTES = 64 << 20  # assembled windows kept, at most (the newest always)
-NO_CLASS = 255
 
 
 class GridSurface:
@@ -186,7 +187,7 @@ class GridSurface:
         for idx, blocks in self._groups(lx, ly, margin):
             win, r_off, c_off = self._window(blocks, margin, True)
             out[idx] = grid_worst_class(lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), su, sv, win,
-                                        self.post_origin, self.spacing, r_off, c_off)
+                                        self.post_origin, self.spacing, r_off, c_off, UNEVEN)
         return out
 
     def highest_above_plane_bound(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray) -> np.ndarray:
@@ -214,8 +215,8 @@ class GridSurface:
 
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True):
-        """The exact footprint pass (see ``matching.footprint.footprint_batch``) on the posts."""
-        from tankcd_cli.matching.footprint import footprint_batch
+        """The exact footprint pass (see ``terrain.footprint.footprint_batch``) on the posts."""
+        from tankcd_cli.terrain.footprint import footprint_batch
 
         lx, ly = self.to_local(x, y)
         n = len(lx)

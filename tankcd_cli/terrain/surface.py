@@ -123,9 +123,9 @@ class TerrainSurface:
 
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True):
-        """The exact footprint pass (see ``matching.footprint.footprint_batch``); ``arithmetic``
+        """The exact footprint pass (see ``terrain.footprint.footprint_batch``); ``arithmetic``
         lets full DEM cells be read from the posts (False: clip every triangle, the oracle)."""
-        from tankcd_cli.matching.footprint import footprint_batch
+        from tankcd_cli.terrain.footprint import footprint_batch
 
         lx, ly = self.to_local(x, y)
         return footprint_batch(mode, lx, ly, np.ascontiguousarray(yaw, dtype=float), quads, self.vertices, self.faces,

@@ -1,6 +1,7 @@
 """What accuracy costs in time: every variant of every stage on the same inputs, against an independent truth.
 
-``measure`` runs the stages and returns records (one per variant and
-measure) plus one (time, error) point per variant for the plots; ``write``
-turns them into ``tradeoff.md``, ``tradeoff.csv`` and ``tradeoff.png``.
+``measure`` runs the stages and returns records (one per variant and measure)
+plus one (time, error) point per variant for the plots; ``report`` runs them
+and writes ``tradeoff.md``, ``tradeoff.csv`` and ``tradeoff.png``; ``corpus``
+generates the terrain families that decide ``auto``'s rule.
 """

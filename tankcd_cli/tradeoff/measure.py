@@ -189,7 +189,7 @@ def tripod_planes(surface, vehicle, x, y, yaw) -> tuple[np.ndarray, np.ndarray]:
 
 def _tripod_poses(surface, vehicle, x, y, yaw):
     from tankcd_cli.matching.match import footprint_penetration, wheel_gap
-    from tankcd_cli.matching.pose import attitude_from_slopes
+    from tankcd_cli.geometry.pose import attitude_from_slopes
 
     plane, on = tripod_planes(surface, vehicle, x, y, yaw)
     roll, pitch = attitude_from_slopes(plane[:, 1], plane[:, 2])
@@ -207,7 +207,7 @@ def angle_deg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _up(roll, pitch, yaw):
-    from tankcd_cli.matching.pose import rotation_matrix
+    from tankcd_cli.geometry.pose import rotation_matrix
 
     return rotation_matrix(roll, pitch, yaw)[:, :, 2]
 

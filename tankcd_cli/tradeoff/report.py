@@ -21,7 +21,7 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
     """Measure every stage on the scene (default: the sample battlefield) and write the report into out_dir."""
     from tankcd_cli.collision.obstacles import placed_triangles
     from tankcd_cli.replay.pipeline import load_terrain_surface
-    from tankcd_cli.replay.scene import load_scene
+    from tankcd_cli.scene import load_scene
     from tankcd_cli.terrain import synthetic
     from tankcd_cli.tradeoff import measure
 

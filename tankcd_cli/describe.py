@@ -154,7 +154,7 @@ def describe_scene(path: str) -> dict:
     import numpy as np
 
     from tankcd_cli.collision.obstacles import placed_mesh, vehicle_mesh_triangles
-    from tankcd_cli.replay.scene import load_scene
+    from tankcd_cli.scene import load_scene
 
     sc = load_scene(path)
     facts = sc.describe()

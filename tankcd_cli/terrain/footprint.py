@@ -20,4 +20,4 @@ Python face.
 
 from __future__ import annotations
 
-from tankcd_cli.matching._footprint import MAX_POLY, footprint_batch  # noqa: F401
+from tankcd_cli.terrain._footprint import MAX_POLY, footprint_batch  # noqa: F401

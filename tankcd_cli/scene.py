@@ -138,7 +138,7 @@ class Scene:
 
     def describe(self) -> dict:
         """The resolved scene as plain, nested values with snake_case keys (no file is read;
-        ``tankcd_cli.terrain.describe.describe_scene`` adds what the files hold)."""
+        ``tankcd_cli.describe.describe_scene`` adds what the files hold)."""
         v = self.vehicle
         return {
             "file": self.path,

@@ -1,4 +1,4 @@
-"""Compiled kernels of ``tankcd_cli.matching.footprint`` (see its docstring).
+"""Compiled kernels of ``tankcd_cli.terrain.footprint`` (see its docstring).
 
 Every helper works on raw pointers into C-contiguous float64 / int64 arrays; ``footprint_batch``
 is the Python face. Each thread keeps its own scratch: the clipped corners of a pose's patches
