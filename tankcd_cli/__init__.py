@@ -3,7 +3,7 @@
 The package in layers, lowest first; a module imports its own layer and those
 below it, never one above (``tests/test_layers.py`` holds it):
 
-1. foundation: ``errors``, ``tolerances``, ``_threads``
+1. foundation: ``errors``, ``names`` (shared names and codes), ``tolerances``, ``_threads``
 2. geometry: ``geometry/`` (rotations, k-DOPs, triangle tests, cylinders, the
    support-plane LP), ``vehicle``, ``vehicle_mesh``
 3. io: ``io/`` file readers and atomic writers

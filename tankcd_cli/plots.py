@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.names import CLASS_NAMES
+
 
 def class_map_png(store, path: str) -> None:
     """Class map (left) and signed mean curvature (right) of a terrain store, as a PNG."""
@@ -22,7 +24,7 @@ def class_map_png(store, path: str) -> None:
     face_class = store.vertex_class[f].max(axis=1)
     pc = axes[0].tripcolor(tri, facecolors=face_class, cmap=cmap, norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3))
     cb = fig.colorbar(pc, ax=axes[0], ticks=[0, 1, 2], shrink=0.85)
-    cb.ax.set_yticklabels(["flat", "general", "uneven"])
+    cb.ax.set_yticklabels(list(CLASS_NAMES))
     a = store.attrs
     axes[0].set_title(f"region classes ({a.get('vehicle')} footprint; |H| < {a.get('threshold_flat'):.4f} flat, "
                       f">= {a.get('threshold_uneven'):.4f} uneven)", fontsize=9)
@@ -178,7 +180,7 @@ def grid_map_png(store_path: str, path: str, title: str | None = None) -> None:
     im = axes[0].imshow(cls, cmap=cmap, norm=BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3), extent=extent,
                         interpolation="nearest")
     cb = fig.colorbar(im, ax=axes[0], ticks=[0, 1, 2], shrink=0.85)
-    cb.ax.set_yticklabels(["flat", "general", "uneven"])
+    cb.ax.set_yticklabels(list(CLASS_NAMES))
     step = f", worst of {ov['step']} x {ov['step']} posts" if ov["step"] > 1 else ""
     axes[0].set_title(f"region classes ({a.get('vehicle')} footprint{step})", fontsize=9)
     curv = ov["curvature"]

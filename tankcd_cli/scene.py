@@ -49,6 +49,7 @@ import os
 from dataclasses import dataclass, field, fields
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.names import KDOP_KS, SPLITS, TREE_DEFAULTS, UP_AXES
 from tankcd_cli.vehicle import PRESETS, Vehicle, vehicle_preset
 
 VEHICLE_KEYS = {f.name for f in fields(Vehicle)} - {"name"}
@@ -89,10 +90,10 @@ class MeshPlacement:
 
 @dataclass(frozen=True)
 class CollisionSettings:
-    k: int = 18
-    aabb_levels: int = 2
-    split: str = "sah"
-    leaf_size: int = 4
+    k: int = TREE_DEFAULTS["k"]
+    aabb_levels: int = TREE_DEFAULTS["aabb_levels"]
+    split: str = TREE_DEFAULTS["split"]
+    leaf_size: int = TREE_DEFAULTS["leaf_size"]
 
     def describe(self) -> dict:
         return {"k": self.k, "aabb_levels": self.aabb_levels, "split": self.split, "leaf_size": self.leaf_size}
@@ -179,7 +180,7 @@ def load_scene(path: str) -> Scene:
     terrain = _table(data, "terrain", path)
     _only(terrain, {"path", "up"}, path, "[terrain]")
     terrain_path = _file(terrain, "path", base, path, "[terrain]") if "path" in terrain else None
-    terrain_up = _choice(terrain, "up", ("z", "y", None), None, path, "[terrain]")
+    terrain_up = _choice(terrain, "up", UP_AXES + (None,), None, path, "[terrain]")
 
     veh = _table(data, "vehicle", path)
     _only(veh, VEHICLE_KEYS | {"preset", "mesh", "mesh_up", "mesh_scale", "mesh_yaw_deg", "mesh_pitch_deg",
@@ -205,7 +206,7 @@ def load_scene(path: str) -> Scene:
     if loose:
         raise InputError(path, f"{loose[0]} places the vehicle mesh, but the scene names no mesh",
                          where=f"[vehicle] {loose[0]}")
-    mesh_placement = MeshPlacement(_choice(veh, "mesh_up", ("z", "y", None), None, path, "[vehicle]"),
+    mesh_placement = MeshPlacement(_choice(veh, "mesh_up", UP_AXES + (None,), None, path, "[vehicle]"),
                                    _scale(veh, "mesh_scale", path, "[vehicle]"),
                                    _angle(veh, "mesh_yaw_deg", path, "[vehicle]"),
                                    _angle(veh, "mesh_pitch_deg", path, "[vehicle]"),
@@ -238,21 +239,21 @@ def load_scene(path: str) -> Scene:
         if (not isinstance(position, list) or len(position) != 3 or not all(_finite(p) for p in position)):
             raise InputError(path, f"position must be three finite numbers [x, y, z], got {position!r}", where=f"{where} position")
         obstacles.append(ObstacleSpec(name, mesh_path,
-                                      _choice(ob, "up", ("z", "y", None), None, path, where),
+                                      _choice(ob, "up", UP_AXES + (None,), None, path, where),
                                       tuple(float(p) for p in position),
                                       _angle(ob, "yaw_deg", path, where), _angle(ob, "pitch_deg", path, where),
                                       _angle(ob, "roll_deg", path, where), _scale(ob, "scale", path, where)))
 
     col = _table(data, "collision", path)
     _only(col, {"k", "aabb_levels", "split", "leaf_size"}, path, "[collision]")
-    k = col.get("k", 18)
-    if k not in (6, 14, 18, 26) or isinstance(k, bool):
-        raise InputError(path, f"k must be 6, 14, 18 or 26, got {k!r}", where="[collision] k")
-    levels = col.get("aabb_levels", 2)
+    k = col.get("k", TREE_DEFAULTS["k"])
+    if k not in KDOP_KS or isinstance(k, bool):
+        raise InputError(path, f"k must be one of {', '.join(map(str, KDOP_KS))}, got {k!r}", where="[collision] k")
+    levels = col.get("aabb_levels", TREE_DEFAULTS["aabb_levels"])
     if not isinstance(levels, int) or isinstance(levels, bool) or levels < 0:
         raise InputError(path, f"aabb_levels must be a whole number >= 0, got {levels!r}", where="[collision] aabb_levels")
-    split = _choice(col, "split", ("median", "sah"), "sah", path, "[collision]")
-    leaf = col.get("leaf_size", 4)
+    split = _choice(col, "split", SPLITS, TREE_DEFAULTS["split"], path, "[collision]")
+    leaf = col.get("leaf_size", TREE_DEFAULTS["leaf_size"])
     if not isinstance(leaf, int) or isinstance(leaf, bool) or not 1 <= leaf <= 64:
         raise InputError(path, f"leaf_size must be a whole number from 1 to 64, got {leaf!r}", where="[collision] leaf_size")
     return Scene(path, terrain_path, terrain_up, vehicle, mesh, mesh_placement, obstacles,

@@ -5,8 +5,7 @@ ground-contact footprint (between the tracks, halfway along the contact
 length, at track-bottom height). Lengths in metres, angles in degrees only in
 the preset tables (``gun_min_deg``, ``gun_max_deg``).
 
-Sources (gathered in the shared ``vehicles.md``; "(estimate)" where no source
-states a value directly):
+Sources ("(estimate)" where no source states a value directly):
 
 - T-72: tankimira.ru "T-72 Ural" (hull length 6.86 m, width 3.46 m, height
   2.19-2.23 m); Simple English Wikipedia "T-72" (9.53 m with the gun forward,
@@ -36,6 +35,8 @@ states a value directly):
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+
+from tankcd_cli.names import PRESET_NAMES
 
 import math
 
@@ -141,7 +142,7 @@ def _m1() -> Vehicle:
                    drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20)
 
 
-PRESETS: dict[str, Vehicle] = {"t72": _t72(), "t55": _t55(), "m1": _m1()}
+PRESETS: dict[str, Vehicle] = dict(zip(PRESET_NAMES, (_t72(), _t55(), _m1())))
 
 
 def vehicle_preset(name: str = "t72", **overrides) -> Vehicle:

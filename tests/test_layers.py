@@ -7,7 +7,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent.parent / "tankcd_cli"
 
 LAYERS = [
-    ("foundation", ["tankcd_cli", "tankcd_cli.errors", "tankcd_cli.tolerances", "tankcd_cli._threads"]),
+    ("foundation", ["tankcd_cli", "tankcd_cli.errors", "tankcd_cli.names", "tankcd_cli.tolerances", "tankcd_cli._threads"]),
     ("geometry", ["tankcd_cli.geometry", "tankcd_cli.vehicle", "tankcd_cli.vehicle_mesh"]),
     ("io", ["tankcd_cli.io"]),
     ("world", ["tankcd_cli.scene"]),

@@ -7,6 +7,7 @@ import os
 import click
 
 from tankcd_cli.cli.options import refuse_clashes, verbosity_options
+from tankcd_cli.names import KDOP_KS, SPLITS, TREE_DEFAULTS, UP_AXES
 
 
 @click.command(short_help="Build a serialized bounding-volume tree of a model or of a scene's obstacles.")
@@ -15,14 +16,15 @@ from tankcd_cli.cli.options import refuse_clashes, verbosity_options
               help="Output tree (default: MODEL's stem + .bvh.h5 beside it).")
 @click.option("--scene", type=click.Path(), default=None,
               help="Build (or refresh) the cached trees of every obstacle of this scene instead.")
-@click.option("--k", "k", type=click.Choice(["6", "14", "18", "26"]), default="18", show_default=True,
+@click.option("--k", "k", type=click.Choice([str(k) for k in KDOP_KS]), default=str(TREE_DEFAULTS["k"]), show_default=True,
               help="k-DOP type (6 is the AABB).")
-@click.option("--aabb-levels", type=click.IntRange(0, 64), default=2, show_default=True,
+@click.option("--aabb-levels", type=click.IntRange(0, 64), default=TREE_DEFAULTS["aabb_levels"], show_default=True,
               help="Top levels that use only the AABB (the paper's hybrid); 0: all k-DOP.")
-@click.option("--split", type=click.Choice(["median", "sah"]), default="sah", show_default=True,
+@click.option("--split", type=click.Choice(SPLITS), default=TREE_DEFAULTS["split"], show_default=True,
               help="Split rule: the surface-area heuristic, or the median of the longest axis.")
-@click.option("--leaf-size", type=click.IntRange(1, 64), default=4, show_default=True, help="Triangles per leaf.")
-@click.option("--up", type=click.Choice(["z", "y"]), default="z", help="Up axis of MODEL.")
+@click.option("--leaf-size", type=click.IntRange(1, 64), default=TREE_DEFAULTS["leaf_size"], show_default=True,
+              help="Triangles per leaf.")
+@click.option("--up", type=click.Choice(UP_AXES), default="z", help="Up axis of MODEL.")
 @click.option("--force", is_flag=True, help="With --scene: rebuild even up-to-date trees.")
 @verbosity_options
 @click.pass_obj

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from tankcd_cli.cli.options import refuse_clashes, scene_inputs, verbosity_options
+from tankcd_cli.names import EXIT_COLLISION
 
 
 @click.command(short_help="Test the vehicle at given poses against the scene's obstacles.")
@@ -63,4 +64,4 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
                 f"{totals['collisions']} collisions; {totals['node_tests']:,} node-pair and {totals['tri_tests']:,} "
                 f"triangle tests ({report.elapsed():.2f} s)")
     if fail_on_collision and totals["collisions"]:
-        click.get_current_context().exit(1)
+        click.get_current_context().exit(EXIT_COLLISION)

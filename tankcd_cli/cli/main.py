@@ -25,12 +25,12 @@ COMMANDS = {
     "tradeoff": ("tankcd_cli.cli.tradeoff", "Measure what accuracy costs in time: tables, CSV and plots."),
 }
 
-EXIT_DONE, EXIT_COLLISION, EXIT_USAGE, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3, 4
+from tankcd_cli.names import EXIT_BAD_INPUT, EXIT_DONE, EXIT_INTERNAL  # noqa: E402
 
 
 class LazyGroup(click.Group):
     """Loads a command's module only when that command runs, so --help is instant,
-    and maps exceptions onto the contract's exit codes."""
+    and maps exceptions onto the exit codes (``names``; README "Exit codes")."""
 
     def list_commands(self, ctx):
         return sorted(COMMANDS)

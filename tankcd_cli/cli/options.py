@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-VEHICLE_PRESETS = ("t72", "t55", "m1")
+from tankcd_cli.names import PRESET_NAMES as VEHICLE_PRESETS
 
 
 def vehicle_option(f):

@@ -7,6 +7,7 @@ import sys
 import click
 
 from tankcd_cli.cli.options import refuse_clashes, scene_inputs, vehicle_option, verbosity_options
+from tankcd_cli.names import EXIT_BAD_INPUT, EXIT_COLLISION, EXIT_INTERNAL, MATCHER_CHOICES, UP_AXES
 
 SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
@@ -21,7 +22,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               show_default=True, help="Poses CSV output (- for stdout).")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
               help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
-@click.option("--matcher", type=click.Choice(["auto", "two_point", "four_point", "six_point", "reference"]),
+@click.option("--matcher", type=click.Choice(MATCHER_CHOICES),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
 @click.option("--escalate/--no-escalate", default=False, show_default=True,
               help="Check every key-point pose against the reference's certificate and solve those that fail "
@@ -30,7 +31,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="The certificate's height tolerance at the footprint's corners, m (default: half the "
                    "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
 @vehicle_option
-@click.option("--up", type=click.Choice(["z", "y"]), default="z", help="Up axis of a terrain mesh classified on the fly.")
+@click.option("--up", type=click.Choice(UP_AXES), default="z", help="Up axis of a terrain mesh classified on the fly.")
 @click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
 @click.option("--fail-on-collision", is_flag=True,
               help="Exit 1 when any collision (obstacle, internal, terrain) occurs or a row is off the terrain.")
@@ -194,7 +195,7 @@ def _exit_on_failures(result: dict, fail_on_collision: bool, allow_off_terrain: 
     if not fail_on_collision:
         return
     if sum(result["collisions"].values()) or (result["off_terrain"] and not allow_off_terrain):
-        click.get_current_context().exit(1)
+        click.get_current_context().exit(EXIT_COLLISION)
 
 
 def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
@@ -249,8 +250,8 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
     statuses = {f["status"] for f in fleet["failures"]}
     ctx = click.get_current_context()
     if "internal_error" in statuses:
-        ctx.exit(4)
+        ctx.exit(EXIT_INTERNAL)
     if "bad_input" in statuses:
-        ctx.exit(3)
+        ctx.exit(EXIT_BAD_INPUT)
     if fail_on_collision and (sum(fleet["collisions"].values()) or (fleet["off_terrain"] and not allow_off_terrain)):
-        ctx.exit(1)
+        ctx.exit(EXIT_COLLISION)

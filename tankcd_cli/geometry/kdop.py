@@ -19,10 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.names import KDOP_KS as KS  # the k-DOP types there are
+
 _AXES = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
 _CORNERS = [(1, 1, 1), (1, -1, -1), (1, 1, -1), (1, -1, 1)]
 _EDGES = [(1, 1, 0), (1, -1, 0), (1, 0, 1), (1, 0, -1), (0, 1, 1), (0, 1, -1)]
-KS = (6, 14, 18, 26)
 MAX_TRIPLES = 2  # the axes and one diagonal triple: each more tightens little and costs a third more
 
 

@@ -1,4 +1,4 @@
-"""Rotation conventions (the contract's): REP 103, R = Rz(yaw) Ry(pitch) Rx(roll).
+"""Rotation conventions (docs/formats.md, Conventions): REP 103, R = Rz(yaw) Ry(pitch) Rx(roll).
 
 x forward, y left, z up; nose-up pitch is negative, right-side-down roll is
 positive. Radians here; degrees only in files and on the command line.

@@ -4,7 +4,7 @@ Given points (u_k, v_k, z_k), find the plane z = a + b u + c v with
 a + b u_k + c v_k >= z_k for every k and the smallest a (its height over the
 origin): a three-variable linear programme whose optimum is the facet of the
 points' upper convex hull above the origin. This is how a rigid hull rests on
-the ground under it (the contract's reference pose), and it is also how the
+the ground under it (the reference pose of docs/formats.md), and it is also how the
 six-point matcher picks its three supporting points.
 
 ``support_plane`` walks the upper hull towards the origin (a simplex method on

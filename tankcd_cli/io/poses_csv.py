@@ -1,13 +1,14 @@
-"""Poses CSV (the contract's output of ``replay``, input of ``collide``)."""
+"""Poses CSV (docs/formats.md): the output of ``replay``, the input of ``collide``."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.names import CLASS_NAMES, NO_CLASS, NO_CLASS_NAME, NO_MATCHER
+
 COLUMNS = ("step", "t", "x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz",
            "region", "matcher", "penetration", "gap", "status")
-REGION_NAMES = {0: "flat", 1: "general", 2: "uneven", 255: "unknown"}
-NO_MATCHER = "none"  # the matcher column of a row without a pose (status off)
+REGION_NAMES = {**dict(enumerate(CLASS_NAMES)), NO_CLASS: NO_CLASS_NAME}
 
 
 def header() -> str:
@@ -19,7 +20,7 @@ _ROW_NO_MEASURE = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,
 
 
 _DECIMALS = np.array([0, 6, 4, 4, 4, 5, 5, 5, 8, 8, 8, 8, 4, 4])
-_REGION_LABELS = ("flat", "general", "uneven", "unknown")
+_REGION_LABELS = CLASS_NAMES + (NO_CLASS_NAME,)
 # output columns in COLUMNS order: (0, j) is number j, (1, j) label column j (region, matcher, status)
 _LAYOUT = np.array([(0, j) for j in range(12)] + [(1, 0), (1, 1), (0, 12), (0, 13), (1, 2)])
 

@@ -1,4 +1,4 @@
-"""Trajectory CSV (the contract's input of ``replay``), read in chunks and validated strictly.
+"""Trajectory CSV (docs/formats.md; the input of ``replay``), read in chunks and validated strictly.
 
 Header row required, column order free, extra columns ignored. Required:
 ``t`` (s, non-decreasing), ``x``, ``y`` (m), ``yaw_deg``; optional

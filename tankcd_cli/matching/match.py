@@ -22,7 +22,7 @@ Matchers (``MATCHERS``):
                supporting points are those whose plane has no point above it and
                the footprint centre over their triangle: the facet of the
                points' upper convex hull above the centre.
-``reference``  the contract's ground truth: the lowest plane over the footprint
+``reference``  the ground truth (docs/formats.md, Conventions): the lowest plane over the footprint
                centre that no ground point of either track's contact patch rises
                above, from the exact ground under the patches (every terrain
                triangle clipped to them), the patches re-projected for the
@@ -58,22 +58,10 @@ import numpy as np
 from tankcd_cli.geometry.pose import attitude_from_slopes, quaternion_from_euler, rotation_matrix, wrap_angle
 from tankcd_cli.vehicle import Vehicle, key_points
 
-KEY_POINT_MATCHERS = ("two_point", "four_point", "six_point")
-REFERENCE = 3  # the code of the reference matcher
-MATCHERS = KEY_POINT_MATCHERS + ("reference",)
-# the key-point matcher ``auto`` gives each region class: the most accurate against the reference
-# on the generated corpus of terrain families (``tankcd_cli.tradeoff.corpus``; a test holds the
-# two together). Where the class is unknown, the reference.
-AUTO_RULE = {"flat": "two_point", "general": "six_point", "uneven": "six_point"}
-MATCHER_CHOICES = MATCHERS + ("auto",)
-# what placed a pose (the ``matcher`` codes of ``Poses``): a matcher, or a key-point matcher whose
-# pose failed the certificate and was solved again by the reference (ESCALATED + its code)
-PLACED_BY = MATCHERS + tuple(f"{m}+reference" for m in KEY_POINT_MATCHERS)
-ESCALATED = 4  # codes >= ESCALATED were escalated
+from tankcd_cli.names import (AUTO_RULE, CLASS_NAMES, ESCALATED, KEY_POINT_MATCHERS,  # noqa: F401 (shared names)
+                              MATCHER_CHOICES, MATCHERS, NO_CLASS, OFF, OK, PARTLY_OFF, PLACED_BY, REFERENCE, STATUS)
+
 ESCALATION_ATTITUDE_DEG = 1.0  # the attitude error a certified key-point pose may have (see escalation_tolerance)
-STATUS = ("ok", "partly_off", "off")
-OK, PARTLY_OFF, OFF = 0, 1, 2
-REGION_UNKNOWN = 255
 EPS_XY = 1e-9  # m: xy distances below this are zero in the support-plane walk
 
 
@@ -141,11 +129,11 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     y = np.atleast_1d(np.asarray(y, dtype=float))
     yaw = wrap_angle(np.atleast_1d(np.asarray(yaw, dtype=float)))
     n = len(x)
-    region = np.full(n, REGION_UNKNOWN, dtype=np.uint8)
+    region = np.full(n, NO_CLASS, dtype=np.uint8)
     if regions or matcher == "auto":
         region = surface.region_under(x, y, yaw, vehicle.track_length, vehicle.footprint_width)
     if matcher == "auto":
-        rule = np.array([MATCHERS.index(AUTO_RULE[name]) for name in ("flat", "general", "uneven")], dtype=np.int64)
+        rule = np.array([MATCHERS.index(AUTO_RULE[name]) for name in CLASS_NAMES], dtype=np.int64)
         choice = np.where(region <= 2, rule[np.minimum(region, 2)], REFERENCE).astype(np.int64)
     else:
         choice = np.full(n, MATCHERS.index(matcher), dtype=np.int64)

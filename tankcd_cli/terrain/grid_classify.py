@@ -10,7 +10,7 @@ Per post (row 0 north, NaN at NODATA; x = column dx, y = -row dy):
 
 - **Mean curvature H**, 1/m, by ``method``:
   ``grid`` (the default for DEMs) central differences over the 3 x 3 posts
-  around it, put in the contract's formula (second order, as GIS tools do it);
+  around it, put in the formula of docs/formats.md (second order, as GIS tools do it);
   ``cotan``, ``sphere``, ``jet`` the mesh estimators (``curvature.py``) on the
   implicit triangulation, exactly as the mesh layout computes them.
   Posts without the neighbours a formula needs (the DEM's edges, NODATA

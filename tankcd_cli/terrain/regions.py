@@ -42,9 +42,7 @@ import numpy as np
 
 from tankcd_cli.vehicle import Vehicle
 
-FLAT, GENERAL, UNEVEN = 0, 1, 2
-CLASS_NAMES = ("flat", "general", "uneven")
-NO_CLASS = 255  # class-raster cells with no terrain
+from tankcd_cli.names import CLASS_NAMES, FLAT, GENERAL, NO_CLASS, UNEVEN  # noqa: F401 (shared names)
 
 
 @dataclass(frozen=True)

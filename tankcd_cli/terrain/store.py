@@ -1,6 +1,6 @@
 """The terrain store (HDF5): what ``classify`` writes and every later command reads.
 
-Layout (contract paths first; the rest makes later queries fast):
+Layout (docs/formats.md; the documented paths first, the rest makes later queries fast):
 
 /mesh/vertices            (n, 3) float64   world coordinates, m
 /mesh/faces               (m, 3) int32/64  vertex indices

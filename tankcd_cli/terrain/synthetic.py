@@ -24,7 +24,7 @@ class HeightField:
     hess: Callable[[Array, Array], tuple[Array, Array, Array]]
 
     def mean_curvature(self, x: Array, y: Array) -> Array:
-        """Signed H (1/m), the contract's formula: hilltops positive."""
+        """Signed H (1/m), the formula of docs/formats.md: hilltops positive."""
         fx, fy = self.grad(x, y)
         fxx, fxy, fyy = self.hess(x, y)
         return -((1 + fy**2) * fxx - 2 * fx * fy * fxy + (1 + fx**2) * fyy) / (2 * (1 + fx**2 + fy**2) ** 1.5)

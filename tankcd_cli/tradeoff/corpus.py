@@ -17,12 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tankcd_cli.names import CLASS_NAMES
+
 EXTENT = 60.0  # m, each terrain's side
 POSES_PER_TERRAIN = 240
 SPACINGS = (0.5, 1.0)  # m
 AMPLITUDES = (0.5, 1.0)  # a scale on each family's heights
 LAYOUTS = ("grid", "tin")
-CLASS_NAMES = ("flat", "general", "uneven")
 
 
 def _waves(x, y, a):
