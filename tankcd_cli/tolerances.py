@@ -1,4 +1,5 @@
-"""Every numerical tolerance of tankcd, in one documented place."""
+"""Every numerical tolerance of tankcd, in one documented place (the compiled kernels carry
+copies of three, which a test holds equal to these)."""
 
 from __future__ import annotations
 
@@ -29,3 +30,29 @@ class Tolerances:
 
 
 DEFAULT = Tolerances()
+
+
+# --- the rest, one constant each ---------------------------------------------------------------
+
+EPS_XY = 1e-9
+"""m. Horizontal distances below this are zero in the support-plane walk and the patch
+clipping (far below any post spacing, far above float64 rounding at UTM coordinates)."""
+
+BARY_EPS = 1e-9
+"""Barycentric units. A point this close to a triangle's edge counts as inside it (point
+location on meshes and grids), so a point on a shared edge is never lost between two
+triangles. Compiled into ``terrain/_grid_kernels.pyx`` and ``terrain/_surface_kernels.pyx``
+(a test holds them to this value)."""
+
+TRIANGLE_REL_EPS = 1e-12
+"""Relative to the coordinates' magnitude. Triangle-triangle tests treat signed distances
+this small as zero: touching and coplanar contact count as contact. Compiled into
+``geometry/_triangles.pyx`` (a test holds it to this value)."""
+
+HULL_CONTACT = 0.01
+"""m. Ground this far above the hull's bottom face is a terrain-contact event (a centimetre:
+below it, survey noise on a flat bottom would report contacts nobody can act on)."""
+
+ESCALATION_ATTITUDE_DEG = 1.0
+"""deg. The attitude error a key-point pose may have and pass the reference's certificate
+(``matching.match.escalation_tolerance`` turns it into a height at the footprint's corners)."""

@@ -227,7 +227,8 @@ def test_poses_equal_the_mesh_layout(both_surfaces, matcher):
 
 def test_footprint_arithmetic_equals_clipping_on_posts(both_surfaces):
     """Full cells read by arithmetic give what clipping the posts' triangles gives (the oracle)."""
-    from tankcd_cli.matching.match import hull_bottom_depth, match
+    from tankcd_cli.collision.terrain_contact import hull_bottom_depth
+    from tankcd_cli.matching.match import match
 
     (grid, _), z = both_surfaces
     x, y, yaw = _points(z, 2000, 9)
@@ -241,7 +242,8 @@ def test_footprint_arithmetic_equals_clipping_on_posts(both_surfaces):
 def test_hull_bound_never_below_the_exact_pass(both_surfaces):
     """The posts' bound over a hull's bottom is never below the exact footprint pass, and tight
     enough to clear most poses; a mesh knows no bound (+inf)."""
-    from tankcd_cli.matching.match import EPS_XY, hull_bottom_face, match
+    from tankcd_cli.collision.terrain_contact import hull_bottom_face
+    from tankcd_cli.matching.match import EPS_XY, match
 
     (grid, mesh), z = both_surfaces
     x, y, yaw = _points(z, 3000, 11)
@@ -262,7 +264,8 @@ def test_hull_bound_never_below_the_exact_pass(both_surfaces):
 
 @pytest.mark.parametrize("which", [0, 1])
 def test_hull_contacts_equal_the_exact_depth(both_surfaces, which):
-    from tankcd_cli.matching.match import hull_bottom_contacts, hull_bottom_depth, match
+    from tankcd_cli.collision.terrain_contact import hull_bottom_contacts, hull_bottom_depth
+    from tankcd_cli.matching.match import match
 
     (grid, mesh), z = both_surfaces
     surface = (grid, mesh)[which]

@@ -343,8 +343,8 @@ def test_property_dem_arithmetic_equals_clipping_every_triangle(seed, spacing, h
 def test_hull_bottom_depth_is_the_supremum_of_dense_sampling(spacing):
     """Terrain contact under the hull: the exact pass is never below a dense sampling of the
     bottom face, and above it by no more than the ground can rise between samples."""
-    from tankcd_cli.matching.match import hull_bottom_depth
-    from tankcd_cli.replay.pipeline import hull_bottom_points
+    from tankcd_cli.collision.terrain_contact import hull_bottom_depth
+    from tankcd_cli.collision.terrain_contact import hull_bottom_points
 
     rng = np.random.default_rng(3)
     n = int(60 / spacing)

@@ -20,9 +20,8 @@ from typing import Callable, Iterator
 import numpy as np
 
 from tankcd_cli.matching.match import OFF, OK, Poses, match
+from tankcd_cli.tolerances import HULL_CONTACT as HULL_CONTACT_TOLERANCE
 from tankcd_cli.vehicle import Vehicle
-
-HULL_CONTACT_TOLERANCE = 0.01  # m: ground this far above the hull bottom is a terrain contact
 
 
 @dataclass
@@ -197,16 +196,8 @@ def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator
         yield chunk, poses, events
 
 
-def hull_bottom_points(vehicle: Vehicle, along: int = 9, across: int = 5) -> np.ndarray:
-    """Points (k, 3) of the hull's bottom face in the vehicle frame (at ground-clearance height)."""
-    u = np.linspace(-vehicle.hull_length / 2, vehicle.hull_length / 2, along)
-    v = np.linspace(-vehicle.hull_width / 2, vehicle.hull_width / 2, across)
-    U, V = np.meshgrid(u, v)
-    return np.column_stack([U.ravel(), V.ravel(), np.full(U.size, vehicle.ground_clearance)])
-
-
 def _hull_bottom(setup, chunk, poses, idx):
-    from tankcd_cli.matching.match import hull_bottom_contacts
+    from tankcd_cli.collision.terrain_contact import hull_bottom_contacts
 
     hit, depth = hull_bottom_contacts(setup.surface, setup.vehicle, chunk.x[idx], chunk.y[idx], poses.yaw[idx],
                                       poses.plane[idx], poses.roll[idx], poses.pitch[idx], HULL_CONTACT_TOLERANCE)
