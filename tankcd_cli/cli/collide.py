@@ -22,10 +22,12 @@ from tankcd_cli.names import EXIT_COLLISION
 def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collision, no_cache):
     """Place the scene's vehicle (its mesh, or one generated from the preset) at every
     pose of POSES and report each obstacle it touches, one JSON event per contact."""
-    import sys
-
-    from tankcd_cli.collision.obstacles import collide_obstacles, load_obstacles, vehicle_tree
-    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.collision.obstacles import (
+        collide_obstacles,
+        load_obstacles,
+        vehicle_tree,
+    )
+    from tankcd_cli.io.atomic import output_text
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import read_poses
     from tankcd_cli.scene import load_scene
@@ -54,12 +56,8 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
                 totals["collisions"] += 1
             out.flush()
 
-    if events_path == "-":
-        run(sys.stdout)
-    else:
-        with atomic_path(events_path, ".jsonl") as tmp:
-            with open(tmp, "w") as out:
-                run(out)
+    with output_text(events_path, ".jsonl") as out:
+        run(out)
     report.info(f"collide: {totals['rows']:,} poses ({totals['skipped']} without a pose), {len(obstacles)} obstacles, "
                 f"{totals['collisions']} collisions; {totals['node_tests']:,} node-pair and {totals['tri_tests']:,} "
                 f"triangle tests ({report.elapsed():.2f} s)")

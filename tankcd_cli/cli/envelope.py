@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-
 import click
 
 from tankcd_cli.cli.options import VEHICLE_PRESETS, refuse_clashes, verbosity_options
@@ -31,7 +29,7 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     import numpy as np
 
     from tankcd_cli.collision.internal import DRUMS, elevation_envelope
-    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.atomic import atomic_path, output_text
     from tankcd_cli.vehicle import vehicle_preset
 
     refuse_clashes({"--scene": scene}, {"-o/--output": output, "--png": png})
@@ -48,12 +46,8 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
         by = DRUMS[who] if (lim or not np.isfinite(e)) and who >= 0 else "gun"
         lines.append(f"{a:.3f},{'' if not np.isfinite(e) else f'{e:.2f}'},{by},{str(bool(ok)).lower()}\n")
     text = "".join(lines)
-    if output == "-":
-        sys.stdout.write(text)
-    else:
-        with atomic_path(output, ".csv") as tmp:
-            with open(tmp, "w") as fh:
-                fh.write(text)
+    with output_text(output, ".csv") as fh:
+        fh.write(text)
     if png:
         from tankcd_cli.plots import envelope_png
 

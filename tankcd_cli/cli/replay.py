@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
-import sys
-
 import click
 
-from tankcd_cli.cli.options import refuse_clashes, scene_inputs, vehicle_option, verbosity_options
-from tankcd_cli.names import EXIT_BAD_INPUT, EXIT_COLLISION, EXIT_INTERNAL, MATCHER_CHOICES, UP_AXES
+from tankcd_cli.cli.options import (
+    refuse_clashes,
+    scene_inputs,
+    vehicle_option,
+    verbosity_options,
+)
+from tankcd_cli.names import (
+    EXIT_BAD_INPUT,
+    EXIT_COLLISION,
+    EXIT_INTERNAL,
+    MATCHER_CHOICES,
+    UP_AXES,
+)
 
 SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
@@ -86,12 +95,11 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                       fail_on_collision, allow_off_terrain, summary_path, split_lines)
     trajectory = trajectories[0]
     import itertools
-    import json
 
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.trajectory import read_trajectory
     from tankcd_cli.replay.pipeline import load_terrain_surface, prepare
-    from tankcd_cli.replay.run import new_counts, summary, write_replay
+    from tankcd_cli.replay.run import new_counts, summary, write_outputs
     from tankcd_cli.vehicle import vehicle_preset
 
     if poses_path == "-" and "-" in (events_path, summary_path):
@@ -130,34 +138,16 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
         drawing = ReplayDrawing(colour_by=png_colour)
 
-    def write_all(out, ev_out):
-        stream = itertools.chain([first] if first else [], chunks)
-        write_replay(setup, stream, matcher, out, ev_out, counts, on_chunk=lambda n: report.bar(f"replay: {n:,} rows"),
-                     source=trajectory, observe=drawing.observe if drawing else None)
-        report.bar(None)
-
-    def with_events(out):
-        if events_path is None:
-            write_all(out, None)
-        elif events_path == "-":
-            write_all(out, sys.stdout)
-        else:
-            with atomic_path(events_path, ".jsonl") as tmp:
-                with open(tmp, "w") as ev:
-                    write_all(out, ev)
-
-    if poses_path == "-":
-        with_events(sys.stdout)
-    else:
-        with atomic_path(poses_path, ".csv") as tmp:
-            with open(tmp, "w", newline="") as out:
-                with_events(out)
+    stream = itertools.chain([first] if first else [], chunks)
+    write_outputs(setup, stream, matcher, poses_path, events_path, counts, source=trajectory,
+                  on_chunk=lambda n: report.bar(f"replay: {n:,} rows"), observe=drawing.observe if drawing else None)
+    report.bar(None)
     result = summary(counts, setup, report.elapsed())
     if drawing is not None:
         step(f"drawing {png}")
         with atomic_path(png, ".png") as tmp:
             drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(surface), setup.obstacles)
-    _report_summary(report, result, summary_path, summary_file, setup.effects, counts["rows"])
+    _report_summary(report, result, summary_path, setup.effects, counts["rows"])
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 
@@ -169,18 +159,22 @@ def _store_of(surface):
     return getattr(surface, "store", None)
 
 
-def _report_summary(report, result: dict, summary_path, summary_file, effects: dict, rows: int) -> None:
+def _write_summary(summary_path, result: dict) -> None:
+    """--summary FILE or - (stdout): the summary as JSON."""
     import json
 
-    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.atomic import output_text
 
-    if summary_file is not None:
-        with atomic_path(summary_file, ".json") as tmp:
-            with open(tmp, "w") as fh:
-                json.dump(result, fh, indent=2)
-                fh.write("\n")
-    elif summary_path == "-":
-        click.echo(json.dumps(result))
+    if summary_path in (None, SUMMARY_STDERR):
+        return
+    with output_text(summary_path, ".json") as fh:
+        fh.write(json.dumps(result, indent=None if summary_path == "-" else 2) + "\n")
+
+
+def _report_summary(report, result: dict, summary_path, effects: dict, rows: int) -> None:
+    import json
+
+    _write_summary(summary_path, result)
     if summary_path == SUMMARY_STDERR:
         click.echo(json.dumps(result), err=True)
     else:
@@ -203,7 +197,14 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
     import json
     import os
 
-    from tankcd_cli.replay.fleet import World, classified_world, expand_trajectories, plan_tasks, run_fleet, write_summary
+    from tankcd_cli.replay.fleet import (
+        World,
+        classified_world,
+        expand_trajectories,
+        plan_tasks,
+        run_fleet,
+        write_summary,
+    )
 
     if out_dir is None:
         raise click.UsageError("several trajectories need --out-dir (one poses and one events file each)")
@@ -231,15 +232,7 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
         click.echo(f"tankcd: error: {failure['error']}", err=True)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     brief = {k: v for k, v in fleet.items() if k != "results"}
-    if summary_path not in (None, SUMMARY_STDERR):
-        if summary_path == "-":
-            click.echo(json.dumps(brief))
-        else:
-            from tankcd_cli.io.atomic import atomic_path
-
-            with atomic_path(summary_path, ".json") as tmp:
-                with open(tmp, "w") as fh:
-                    json.dump(brief, fh, indent=2)
+    _write_summary(summary_path, brief)
     if summary_path == SUMMARY_STDERR:
         click.echo(json.dumps(brief), err=True)
     else:

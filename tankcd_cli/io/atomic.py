@@ -62,3 +62,19 @@ def _create_beside(target: str, directory: str, suffix: str) -> str:
         except OSError as exc:
             raise InputError(target, f"cannot write output: {exc.strerror or exc}") from None
     raise InputError(target, "cannot write output: no free temporary name beside it")
+
+
+@contextlib.contextmanager
+def output_text(target: str | None, suffix: str = "", newline: str | None = None) -> Iterator:
+    """The one way a command writes a text output: ``None`` gives no stream (None), ``-`` standard
+    output, anything else a file written beside the target and renamed onto it when complete
+    (see ``atomic_path``: an error leaves the target untouched)."""
+    if target is None:
+        yield None
+    elif target == "-":
+        yield sys.stdout
+        sys.stdout.flush()
+    else:
+        with atomic_path(target, suffix) as tmp:
+            with open(tmp, "w", newline=newline) as fh:
+                yield fh

@@ -55,11 +55,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tankcd_cli.geometry.pose import attitude_from_slopes, quaternion_from_euler, rotation_matrix, wrap_angle
-from tankcd_cli.names import (AUTO_RULE, CLASS_NAMES, ESCALATED, KEY_POINT_MATCHERS,  # noqa: F401 (shared names)
-                              MATCHER_CHOICES, MATCHERS, NO_CLASS, OFF, OK, PARTLY_OFF, PLACED_BY, REFERENCE, STATUS)
+from tankcd_cli.geometry.pose import (
+    attitude_from_slopes,
+    quaternion_from_euler,
+    rotation_matrix,
+    wrap_angle,
+)
+from tankcd_cli.names import (  # noqa: F401 (shared names)
+    AUTO_RULE,
+    CLASS_NAMES,
+    ESCALATED,
+    KEY_POINT_MATCHERS,
+    MATCHER_CHOICES,
+    MATCHERS,
+    NO_CLASS,
+    OFF,
+    OK,
+    PARTLY_OFF,
+    PLACED_BY,
+    REFERENCE,
+    STATUS,
+)
 from tankcd_cli.tolerances import EPS_XY, ESCALATION_ATTITUDE_DEG
 from tankcd_cli.vehicle import Vehicle, key_points
+
 
 @dataclass
 class Poses:

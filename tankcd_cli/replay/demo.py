@@ -17,14 +17,14 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
-    from tankcd_cli.terrain.dem_sources import ascii_dem
     from tankcd_cli.io.trajectory import read_trajectory
     from tankcd_cli.matching.match import PLACED_BY, STATUS
     from tankcd_cli.plots import grid_map_png, replay_map_png
     from tankcd_cli.replay.pipeline import prepare, replay_chunks
-    from tankcd_cli.scene import load_scene
     from tankcd_cli.sample import write_sample
+    from tankcd_cli.scene import load_scene
     from tankcd_cli.terrain.dem_classify import classify_dem
+    from tankcd_cli.terrain.dem_sources import ascii_dem
     from tankcd_cli.terrain.grid_store import open_grid
 
     say = progress or (lambda s: None)

@@ -75,8 +75,8 @@ def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehic
 
         say(f"reading terrain store {path}")
         return TerrainSurface.from_store(read_store(path)), None
-    from tankcd_cli.terrain.dem_sources import open_dem
     from tankcd_cli.terrain.classify import classify_terrain, load_terrain
+    from tankcd_cli.terrain.dem_sources import open_dem
     from tankcd_cli.terrain.store import read_store, write_store
     from tankcd_cli.terrain.surface import TerrainSurface
 

@@ -96,6 +96,18 @@ def summary(counts: dict, setup: ReplaySetup, seconds: float) -> dict:
             "seconds_by_effect": {k: round(v, 3) for k, v in setup.seconds.items()}}
 
 
+def write_outputs(setup: ReplaySetup, chunks: Iterable, matcher: str, poses_path: str, events_path: str | None,
+                  counts: dict, source: str | None = None, on_chunk: Callable[[int], None] | None = None,
+                  observe: Callable | None = None) -> dict:
+    """``write_replay`` into the poses output (``-`` for stdout) and the events output (None: only
+    counted), each written atomically (``io.atomic.output_text``); returns ``counts`` updated."""
+    from tankcd_cli.io.atomic import output_text
+
+    with output_text(poses_path, ".csv", newline="") as out, output_text(events_path, ".jsonl") as ev:
+        write_replay(setup, chunks, matcher, out, ev, counts, on_chunk=on_chunk, source=source, observe=observe)
+    return counts
+
+
 def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, events_path: str | None,
                     matcher: str = "auto", setup_cache: dict | None = None, part=None) -> dict:
     """Replay one trajectory file (or one :class:`~tankcd_cli.io.trajectory.TrajectoryPart` of it)
@@ -107,7 +119,6 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
     """
     import time
 
-    from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.trajectory import read_trajectory
     from tankcd_cli.replay.pipeline import prepare
 
@@ -132,12 +143,5 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
             ends["t_last"] = float(chunk.t[-1])
             yield chunk
     stream = remember_last(itertools.chain([first] if first else [], chunks))
-    with atomic_path(poses_path, ".csv") as tmp_poses:
-        with open(tmp_poses, "w", newline="") as out:
-            if events_path is None:
-                write_replay(setup, stream, matcher, out, None, counts, source=trajectory)
-            else:
-                with atomic_path(events_path, ".jsonl") as tmp_events:
-                    with open(tmp_events, "w") as ev:
-                        write_replay(setup, stream, matcher, out, ev, counts, source=trajectory)
+    write_outputs(setup, stream, matcher, poses_path, events_path, counts, source=trajectory)
     return {**summary(counts, setup, time.perf_counter() - start), **ends}

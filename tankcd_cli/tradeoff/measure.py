@@ -126,7 +126,12 @@ def _pct(values: np.ndarray, q: float) -> float:
 def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
     from tankcd_cli.terrain import synthetic
     from tankcd_cli.terrain.curvature import METHODS, mean_curvature
-    from tankcd_cli.terrain.regions import classify_values, default_thresholds, footprint_curvature, vertex_areas
+    from tankcd_cli.terrain.regions import (
+        classify_values,
+        default_thresholds,
+        footprint_curvature,
+        vertex_areas,
+    )
 
     truth = "closed-form H of the analytic surface"
     res.axes["curvature"] = ("vertex", "median |H - H_true| / median |H_true|")
@@ -188,8 +193,8 @@ def tripod_planes(surface, vehicle, x, y, yaw) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _tripod_poses(surface, vehicle, x, y, yaw):
-    from tankcd_cli.matching.match import footprint_penetration, wheel_gap
     from tankcd_cli.geometry.pose import attitude_from_slopes
+    from tankcd_cli.matching.match import footprint_penetration, wheel_gap
 
     plane, on = tripod_planes(surface, vehicle, x, y, yaw)
     roll, pitch = attitude_from_slopes(plane[:, 1], plane[:, 2])
@@ -474,7 +479,13 @@ def internal_stage(res: Results, vehicle, budget: Budget, say) -> None:
 # --- the headline: auto against always-reference on a whole replay ----------------------
 
 def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, say, name: str) -> None:
-    from tankcd_cli.matching.match import ESCALATED, OFF, PLACED_BY, escalation_tolerance, match
+    from tankcd_cli.matching.match import (
+        ESCALATED,
+        OFF,
+        PLACED_BY,
+        escalation_tolerance,
+        match,
+    )
 
     say(f"headline: auto vs reference on {name}")
     n = len(x)
