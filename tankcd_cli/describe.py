@@ -59,13 +59,7 @@ def describe_store(path: str) -> dict:
             "file": path,
             "kind": "terrain store",
             "layout": "mesh",
-            "format": a.get("format"),
-            "format_version": a.get("format_version"),
-            "source": a.get("source"),
-            "source_sha256": a.get("source_sha256"),
-            "source_format": a.get("source_format"),
-            "tankcd_version": a.get("tankcd_version"),
-            "created_utc": a.get("created_utc"),
+            **_provenance(a),
             "vertices": n,
             "faces": m,
             "dem_grid_posts": [int(grid[0]), int(grid[1])] if grid else None,  # None: an irregular mesh
@@ -78,6 +72,12 @@ def describe_store(path: str) -> dict:
                          "unreferenced_vertices": a.get("unreferenced_vertices"),
                          "degenerate_faces": a.get("degenerate_faces"), "repeated_faces": a.get("repeated_faces")},
         }
+
+
+def _provenance(a: dict) -> dict:
+    """What a store says of where it came from (both layouts)."""
+    keys = ("format", "format_version", "source", "source_sha256", "source_format", "tankcd_version", "created_utc")
+    return {k: a.get(k) for k in keys}
 
 
 def _describe_grid(path: str, a: dict) -> dict:
@@ -101,13 +101,7 @@ def _describe_grid(path: str, a: dict) -> dict:
         "file": path,
         "kind": "terrain store",
         "layout": "grid",
-        "format": a.get("format"),
-        "format_version": a.get("format_version"),
-        "source": a.get("source"),
-        "source_sha256": a.get("source_sha256"),
-        "source_format": a.get("source_format"),
-        "tankcd_version": a.get("tankcd_version"),
-        "created_utc": a.get("created_utc"),
+        **_provenance(a),
         "crs": crs_name or ("local grid (no CRS)" if not crs else "unnamed CRS"),
         "reprojected_from": a.get("source_crs_name") if a.get("reprojected") else None,
         "grid_posts": [int(rows), int(cols)],

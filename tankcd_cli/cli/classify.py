@@ -145,19 +145,13 @@ def _refuse_clashes(terrain, output, png, explicit):
     -o names it (the new store is written beside it and replaces it when complete)."""
     from tankcd_cli.cli.options import refuse_clashes
     from tankcd_cli.io.files import same_path
+    from tankcd_cli.terrain.store import is_store
 
     in_place = terrain != "-" and same_path(output, terrain)
-    if in_place and not (explicit and _is_hdf5(terrain)):
-        hint = " (to rewrite a store in place, name it with -o)" if _is_hdf5(terrain) else ""
+    if in_place and not (explicit and is_store(terrain)):
+        hint = " (to rewrite a store in place, name it with -o)" if is_store(terrain) else ""
         raise click.UsageError(f"-o/--output {output} is also TERRAIN {terrain}: give -o another path{hint}")
     refuse_clashes({} if in_place else {"TERRAIN": terrain}, {"-o/--output": output, "--png": png})
     if png is not None and same_path(png, terrain):
         raise click.UsageError(f"--png {png} is also TERRAIN {terrain}: give another output path")
 
-
-def _is_hdf5(path: str) -> bool:
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(8) == b"\x89HDF\r\n\x1a\n"
-    except OSError:
-        return False
