@@ -133,9 +133,14 @@ class Scene:
 
     def effects(self, turret_moves: bool) -> dict:
         """Which effects a replay of this scene simulates (the scene decides, not the user)."""
-        return {"terrain_contact": True,
-                "obstacles": bool(self.obstacles),
-                "internal": bool(self.vehicle.fuel_drums and turret_moves)}
+        return effects_for(self.vehicle, bool(self.obstacles), turret_moves)
+
+    def required_terrain(self) -> str:
+        """The terrain path, for the commands that need one (bad input naming the key if none)."""
+        if self.terrain_path is None:
+            raise InputError(self.path, "names no [terrain] path; this command needs a terrain",
+                             where="[terrain] path")
+        return self.terrain_path
 
     def describe(self) -> dict:
         """The resolved scene as plain, nested values with snake_case keys (no file is read;
@@ -156,6 +161,19 @@ class Scene:
             "collision": self.collision.describe(),
             "effects": {"turret_moving": self.effects(True), "turret_still": self.effects(False)},
         }
+
+
+def effects_for(vehicle: Vehicle, obstacles: bool, turret_moves: bool) -> dict:
+    """The effects a replay simulates: the hull bottom against the terrain always; obstacle
+    checks only with obstacles; the gun against the drums only with drums fitted and a turret
+    that moves (a trajectory with turret columns)."""
+    return {"terrain_contact": True, "obstacles": bool(obstacles),
+            "internal": bool(vehicle.fuel_drums and turret_moves)}
+
+
+def effects_of(scene: "Scene | None", vehicle: Vehicle, turret_moves: bool) -> dict:
+    """``effects_for`` a scene, or for a bare terrain (``--terrain``: no obstacles)."""
+    return scene.effects(turret_moves) if scene is not None else effects_for(vehicle, False, turret_moves)
 
 
 def load_scene(path: str) -> Scene:

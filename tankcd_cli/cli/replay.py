@@ -114,11 +114,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         from tankcd_cli.scene import load_scene
 
         sc = load_scene(scene)
-        if sc.terrain_path is None:
-            from tankcd_cli.errors import InputError
-
-            raise InputError(scene, "names no [terrain] path; replay needs a terrain", where="[terrain] path")
-        vehicle, terrain, up = sc.vehicle, sc.terrain_path, sc.terrain_up
+        vehicle, terrain, up = sc.vehicle, sc.required_terrain(), sc.terrain_up
     else:
         vehicle = vehicle_preset(vehicle_name)
     refuse_clashes({"TRAJECTORY": trajectory, "--scene": scene, "--terrain": terrain,

@@ -151,9 +151,7 @@ def _load_world_locked(world: World, progress):
             from tankcd_cli.scene import load_scene
 
             scene = load_scene(world.scene)
-            if scene.terrain_path is None:
-                raise InputError(world.scene, "names no [terrain] path; replay needs a terrain", where="[terrain] path")
-            vehicle, terrain, up = scene.vehicle, scene.terrain_path, scene.terrain_up
+            vehicle, terrain, up = scene.vehicle, scene.required_terrain(), scene.terrain_up
         else:
             vehicle, terrain, up = vehicle_preset(world.vehicle), world.terrain, world.up
         surface, _ = load_terrain_surface(world.store or terrain, up=up, vehicle=vehicle, progress=progress)
@@ -167,10 +165,10 @@ def _setups(surface, vehicle, scene) -> dict:
     import dataclasses
 
     from tankcd_cli.replay.pipeline import prepare
+    from tankcd_cli.scene import effects_of
 
     still = prepare(surface, vehicle, scene, turret_moves=False)
-    moving = dataclasses.replace(still, effects=scene.effects(True) if scene is not None else
-                                 {**still.effects, "internal": bool(vehicle.fuel_drums)},
+    moving = dataclasses.replace(still, effects=effects_of(scene, vehicle, True),
                                  seconds={k: 0.0 for k in still.seconds})
     return {False: still, True: moving}
 
@@ -194,7 +192,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
         return world
     store = os.path.join(out_dir, ".fleet-terrain.h5")
     (progress or (lambda s: None))(f"classifying {terrain} once for the fleet")
-    args = [sys.executable, "-m", "tankcd_cli", "-q", "classify", terrain, "-o", store, "--up", up]
+    args = [sys.executable, "-m", "tankcd_cli", "-q", "classify", terrain, "-o", store] + (["--up", up] if up else [])
     if not world.scene:
         args += ["--vehicle", world.vehicle]
     proc = subprocess.run(args, capture_output=True, text=True)

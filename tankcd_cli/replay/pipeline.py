@@ -142,8 +142,9 @@ def _remove_tree(folder: str, owner: int) -> None:
 def prepare(surface, vehicle: Vehicle, scene=None, turret_moves: bool = False,
             progress: Callable[[str], None] | None = None) -> ReplaySetup:
     """Load only what the scene's effects need."""
-    effects = scene.effects(turret_moves) if scene is not None else {"terrain_contact": True, "obstacles": False,
-                                                                     "internal": bool(vehicle.fuel_drums and turret_moves)}
+    from tankcd_cli.scene import effects_of
+
+    effects = effects_of(scene, vehicle, turret_moves)
     setup = ReplaySetup(surface, vehicle, effects)
     if effects["obstacles"]:
         from tankcd_cli.collision.obstacles import load_obstacles, vehicle_tree

@@ -42,10 +42,7 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
         else:
             scene_name = os.path.basename(scene_path)
         scene = load_scene(scene_path)
-        if scene.terrain_path is None:
-            from tankcd_cli.errors import InputError
-
-            raise InputError(scene_path, "names no [terrain] path: the trade-offs are measured on a terrain")
+        scene.required_terrain()
         vehicle = scene.vehicle
         say(f"terrain: {scene.terrain_path}")
         surface, _ = load_terrain_surface(scene.terrain_path, up=scene.terrain_up, vehicle=vehicle)
