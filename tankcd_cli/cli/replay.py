@@ -143,8 +143,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         step(f"drawing {png}")
         with atomic_path(png, ".png") as tmp:
             drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(surface), setup.obstacles)
-    _report_summary(report, result, summary_path, setup.effects, counts["rows"])
-    _exit_on_failures(result, fail_on_collision, allow_off_terrain)
+    _report_summary(report, result.as_dict(), summary_path, setup.effects, counts["rows"])
+    _exit_on_failures(result.as_dict(), fail_on_collision, allow_off_terrain)
 
 
 def _store_of(surface):

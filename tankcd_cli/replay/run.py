@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import asdict, dataclass
 from typing import Callable, Iterable
 
 import numpy as np
@@ -85,15 +86,38 @@ def _warn_if_beside(surface, counts: dict, source: str | None) -> None:
          "(are both in the same coordinates?)")
 
 
-def summary(counts: dict, setup: ReplaySetup, seconds: float) -> dict:
-    """The closing summary: rows, collisions by kind, effects that ran, seconds (also per effect)."""
+@dataclass
+class ReplaySummary:
+    """A replay's closing summary (docs/formats.md, "Replay summary").
+
+    rows : trajectory rows read (each gave a pose row)
+    collisions : events per kind (obstacle, internal, terrain)
+    off_terrain : rows whose footprint is not wholly on the terrain
+    effects : which effects ran; matchers : rows per matcher (what placed them)
+    seconds : the replay's time; seconds_by_effect : matching and each effect's share of it
+    """
+
+    rows: int
+    collisions: dict
+    off_terrain: int
+    effects: dict
+    matchers: dict
+    seconds: float
+    seconds_by_effect: dict
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def summary(counts: dict, setup: ReplaySetup, seconds: float) -> ReplaySummary:
+    """The closing summary of ``write_replay``'s counts."""
     from tankcd_cli.matching.match import PLACED_BY
 
-    return {"rows": counts["rows"], "collisions": {k: counts["events"][k] for k in KINDS},
-            "off_terrain": counts["events"]["off_terrain"], "effects": setup.effects,
-            "matchers": {name: int(c) for name, c in zip(PLACED_BY, counts["matcher"]) if c},
-            "seconds": round(seconds, 3),
-            "seconds_by_effect": {k: round(v, 3) for k, v in setup.seconds.items()}}
+    return ReplaySummary(rows=counts["rows"], collisions={k: counts["events"][k] for k in KINDS},
+                         off_terrain=counts["events"]["off_terrain"], effects=dict(setup.effects),
+                         matchers={name: int(c) for name, c in zip(PLACED_BY, counts["matcher"]) if c},
+                         seconds=round(seconds, 3),
+                         seconds_by_effect={k: round(v, 3) for k, v in setup.seconds.items()})
 
 
 def write_outputs(setup: ReplaySetup, chunks: Iterable, matcher: str, poses_path: str, events_path: str | None,
@@ -144,4 +168,4 @@ def replay_to_files(surface, vehicle, scene, trajectory: str, poses_path: str, e
             yield chunk
     stream = remember_last(itertools.chain([first] if first else [], chunks))
     write_outputs(setup, stream, matcher, poses_path, events_path, counts, source=trajectory)
-    return {**summary(counts, setup, time.perf_counter() - start), **ends}
+    return {**summary(counts, setup, time.perf_counter() - start).as_dict(), **ends}
