@@ -68,8 +68,16 @@ def test_bvh_of_a_model_and_info(run, scene):
 
 
 def test_info_scene_lists_effects(run, scene):
-    out = run("info", "scene.toml").stdout
-    assert "block" in out and "obstacles True" in out
+    res = run("info", "scene.toml")
+    assert res.exit_code == 0, res.stderr
+    assert "block" in res.stdout
+    facts = json.loads(run("info", "scene.toml", "--json").stdout)
+    # obstacles make obstacle checks run; the gun against the drums only with a turret that moves
+    assert facts["effects"]["turret_moving"]["obstacles"] is True
+    assert facts["effects"]["turret_still"]["internal"] is False
+    assert facts["effects"]["turret_moving"]["internal"] is True
+    (block,) = facts["obstacles"]
+    assert block["name"] == "block" and block["triangles"] == 12
 
 
 @pytest.mark.parametrize("text,fragment", [

@@ -86,6 +86,7 @@ def test_terrain_only_scene_loads_no_trees(run, tmp_path, monkeypatch):
 def test_no_turret_columns_no_gun_checks(run, tmp_path):
     (tmp_path / "t.csv").write_text("t,x,y,yaw_deg\n0,500100,4500027,180\n")
     result = run("replay", "t.csv", "--scene", SAMPLE / "scene.toml", "--summary")
+    assert result.exit_code == 0, result.stderr
     summary = json.loads(result.stderr.strip().splitlines()[-1])
     assert summary["effects"]["internal"] is False and summary["effects"]["obstacles"] is True
 
