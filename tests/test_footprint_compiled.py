@@ -17,10 +17,8 @@ UTM = (500_000.0, 4_500_000.0)
 
 def _args(surface, mode, x, y, yaw, quads, planes, arithmetic=True):
     lx, ly = surface.to_local(x, y)
-    return (mode, lx, ly, yaw, quads, surface.vertices, surface.faces,
-            surface.plane, surface.cell_origin, surface.cell_size, surface.cell_shape[0], surface.cell_shape[1],
-            surface.cell_start, surface.cell_face, surface.post_z.size > 0,
-            surface.post_z if arithmetic else np.empty((0, 0)), surface.post_origin, surface.post_size, planes, EPS_XY)
+    return (mode, lx, ly, yaw, quads, planes, EPS_XY, surface.mesh_ground(),
+            surface.post_ground() if arithmetic else None)
 
 
 def _same(a, b):
@@ -55,7 +53,7 @@ def test_zero_divisors_raise_as_numba_did():
     surface = S.surface_of(S.dem_terrain(np.zeros((10, 10)), origin=UTM))
     q = np.ascontiguousarray(patch_quads(T72, np.zeros(1), np.zeros(1)))
     args = list(_args(surface, 0, [UTM[0] + 5], [UTM[1] + 5], [0.0], q, np.zeros((1, 3)), arithmetic=False))
-    args[9] = np.array([0.0, 1.0])  # a zero cell size
+    args[7] = args[7]._replace(cell_size=np.array([0.0, 1.0]))  # a zero cell size
     with pytest.raises(ZeroDivisionError):
         footprint_batch(*args)
 

@@ -27,10 +27,6 @@ class Contacts:
         return self.found > 0
 
 
-def _size(tree: Tree) -> np.ndarray:
-    return (tree.hi[:, :3] - tree.lo[:, :3]).sum(axis=1)
-
-
 def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.ndarray, all_contacts: bool = False,
             max_contacts: int = 16) -> Contacts:
     """Test ``moving`` placed by x -> R x + t at each pose against ``static``.
@@ -38,7 +34,7 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     rotation : (N, 3, 3); translation : (N, 3), m
     all_contacts : every intersecting triangle pair (else stop at the first)
     """
-    from tankcd_cli.bvh.traverse import ALL, FIRST, collide_batch
+    from tankcd_cli.bvh.traverse import ALL, FIRST, MovingTree, StaticTree, collide_batch
 
     if moving.k != static.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {static.k})")
@@ -49,10 +45,7 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     # poses differ a lot in cost (a clear pose ends at the roots, a grazing one goes deep): the
     # compiled kernel hands them to the threads in small chunks (POSE_CHUNK, OpenMP dynamic schedule)
     found, pairs, points, node_tests, tri_tests = collide_batch(
-        R, t, d, W, moving.triangles, moving.source_index, moving.left, moving.right, moving.start, moving.count,
-        moving.depth, moving.aabb_levels, moving.centre, moving.half, _size(moving),
-        static.triangles, static.source_index, static.lo, static.hi, static.left, static.right, static.start,
-        static.count, static.depth, static.aabb_levels, _size(static), ALL if all_contacts else FIRST, max_contacts)
+        R, t, d, W, MovingTree.of(moving), StaticTree.of(static), ALL if all_contacts else FIRST, max_contacts)
     return Contacts(found, pairs, points, node_tests, tri_tests)
 
 

@@ -648,21 +648,29 @@ cdef void _block(const Job* jb, Scratch* sc, Py_ssize_t lo, Py_ssize_t hi) noexc
             jb.status[i] = 0 if used > 0 else 1
 
 
-def footprint_batch(mode, cx, cy, yaw, quads, V, F, plane, origin, size, ny, nx, start, cell_face, listed_once,
-                    post_z, post_origin, post_size, planes_in, eps, grid=False, r_off=0, c_off=0,
-                    arithmetic=True):
+_NO_MESH = (np.zeros((1, 3)), np.zeros((1, 3), np.int64), np.zeros((1, 3)), np.zeros(2), np.ones(2), 0, 0,
+            np.zeros(1, np.int64), np.zeros(1, np.int64), True)
+_NO_POSTS = (np.empty((0, 0)), np.zeros(2), np.ones(2), 0, 0)
+
+
+def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arithmetic=True):
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
     centre; mode 1, the highest ground above ``planes_in`` (signed, m).
 
-    A mesh passes its faces and locator cells (V .. cell_face) and, for a DEM, its posts.
-    ``grid`` passes the posts alone (a window of them: see ``_grid_patch_points``), and the
-    cells that are not wholly full are clipped from triangles made of their posts;
-    ``arithmetic=False`` clips every cell (the oracle the arithmetic is tested against).
+    mesh : the faces and their locator (``terrain.footprint.MeshGround``), or None for a DEM held
+        as posts alone (then cells that are not wholly full are clipped from triangles made of
+        their posts)
+    posts : a DEM's posts, or a window of them (``terrain.footprint.PostGround``), or None
+    arithmetic : read full DEM cells from the posts (False clips every cell: the oracle the
+        arithmetic is tested against)
 
     cx, cy : (N,) local footprint centres; yaw : (N,) rad
     quads : (N, 2, 4, 2) the two patches' corners (u, v), counter-clockwise
     Returns (N, 3) planes or (N,) heights, the covered share of the patches (N,), status (N,).
     """
+    grid = mesh is None
+    V, F, plane, origin, size, ny, nx, start, cell_face, listed_once = _NO_MESH if grid else mesh
+    post_z, post_origin, post_size, r_off, c_off = _NO_POSTS if posts is None else posts
     cdef const double[::1] cx_v = np.ascontiguousarray(cx, dtype=np.float64)
     cdef const double[::1] cy_v = np.ascontiguousarray(cy, dtype=np.float64)
     cdef const double[::1] yaw_v = np.ascontiguousarray(yaw, dtype=np.float64)

@@ -20,4 +20,33 @@ Python face.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
+
 from tankcd_cli.terrain._footprint import MAX_POLY, footprint_batch  # noqa: F401
+
+
+class MeshGround(NamedTuple):
+    """A mesh's faces and the locator the pass finds them by (``terrain.surface.TerrainSurface``)."""
+
+    vertices: np.ndarray  # (n, 3) local
+    faces: np.ndarray  # (m, 3)
+    plane: np.ndarray  # (m, 3) each face's plane
+    cell_origin: np.ndarray  # (2,) the locator grid
+    cell_size: np.ndarray  # (2,)
+    ny: int
+    nx: int
+    cell_start: np.ndarray  # CSR of the faces per locator cell
+    cell_face: np.ndarray
+    listed_once: bool  # whether each face sits in one cell only (no duplicates to skip)
+
+
+class PostGround(NamedTuple):
+    """A DEM's posts, or a window of them (``terrain.grid_kernels``' window convention)."""
+
+    post_z: np.ndarray  # (rows, cols), south row first, NaN at NODATA
+    post_origin: np.ndarray  # (2,) local x, y of the whole grid's post [0, 0]
+    post_size: np.ndarray  # (2,) spacing
+    r_off: int = 0  # the window's post [0, 0] is the grid's [r_off, c_off]
+    c_off: int = 0

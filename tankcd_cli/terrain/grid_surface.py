@@ -216,7 +216,7 @@ class GridSurface:
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True):
         """The exact footprint pass (see ``terrain.footprint.footprint_batch``) on the posts."""
-        from tankcd_cli.terrain.footprint import footprint_batch
+        from tankcd_cli.terrain.footprint import PostGround, footprint_batch
 
         lx, ly = self.to_local(x, y)
         n = len(lx)
@@ -226,15 +226,12 @@ class GridSurface:
         if n == 0:
             return out, covered, status
         margin = self._margin(_reach(quads))
-        empty_i = np.zeros(1, dtype=np.int64)
-        empty_f = np.zeros((1, 3))
         for idx, blocks in self._groups(lx, ly, margin):
             win, r_off, c_off = self._window(blocks, margin, False)
             out[idx], covered[idx], status[idx] = footprint_batch(
                 mode, lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), np.ascontiguousarray(quads[idx]),
-                empty_f, empty_i.reshape(1, 1).repeat(3, axis=1), empty_f, np.zeros(2), np.ones(2), 0, 0, empty_i,
-                empty_i, True, win, self.post_origin, self.spacing, np.ascontiguousarray(planes_in[idx]), eps,
-                True, r_off, c_off, arithmetic)
+                np.ascontiguousarray(planes_in[idx]), eps, None,
+                PostGround(win, self.post_origin, self.spacing, r_off, c_off), arithmetic)
         return out, covered, status
 
 

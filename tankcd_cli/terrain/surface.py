@@ -128,11 +128,24 @@ class TerrainSurface:
         from tankcd_cli.terrain.footprint import footprint_batch
 
         lx, ly = self.to_local(x, y)
-        return footprint_batch(mode, lx, ly, np.ascontiguousarray(yaw, dtype=float), quads, self.vertices, self.faces,
-                               self.plane, self.cell_origin, self.cell_size, self.cell_shape[0], self.cell_shape[1],
-                               self.cell_start, self.cell_face, self.post_z.size > 0,
-                               self.post_z if arithmetic else np.empty((0, 0)), self.post_origin, self.post_size,
-                               planes_in, eps)
+        posts = self.post_ground() if arithmetic and self.post_z.size else None
+        return footprint_batch(mode, lx, ly, np.ascontiguousarray(yaw, dtype=float), quads, planes_in, eps,
+                               self.mesh_ground(), posts)
+
+    def mesh_ground(self):
+        """The faces and their locator, as the footprint pass reads them."""
+        from tankcd_cli.terrain.footprint import MeshGround
+
+        # a DEM's faces each sit in one locator cell; an irregular mesh's may span several
+        return MeshGround(self.vertices, self.faces, self.plane, self.cell_origin, self.cell_size,
+                          self.cell_shape[0], self.cell_shape[1], self.cell_start, self.cell_face,
+                          self.post_z.size > 0)
+
+    def post_ground(self):
+        """A DEM mesh's posts, as the footprint pass reads them."""
+        from tankcd_cli.terrain.footprint import PostGround
+
+        return PostGround(self.post_z, self.post_origin, self.post_size)
 
     def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points.
