@@ -305,7 +305,7 @@ def test_patch_quads_are_the_tilted_rectangles_seen_from_above():
 def test_property_dem_arithmetic_equals_clipping_every_triangle(seed, spacing, holes):
     """The footprint pass reads full DEM cells by arithmetic; clipping every triangle (the general
     path, used for meshes) is the oracle: same supporting planes, penetration and coverage."""
-    from tankcd_cli.matching.match import _footprint, patch_quads
+    from tankcd_cli.matching.match import patch_quads
 
     rng = np.random.default_rng(seed)
     n = int(40 / spacing)
@@ -322,9 +322,10 @@ def test_property_dem_arithmetic_equals_clipping_every_triangle(seed, spacing, h
     yaw[:40] = rng.choice([0.0, np.pi / 2, np.pi / 4, -np.pi, 3 * np.pi / 4], 40)
     quads = patch_quads(T72, rng.normal(0, 0.1, m), rng.normal(0, 0.1, m))
     planes = np.column_stack([rng.normal(0, 1, m), rng.normal(0, 0.1, m), rng.normal(0, 0.1, m)])
+    queries = {0: lambda exact: surface.support_plane_under(x, y, yaw, quads, exact_cells=exact),
+               1: lambda exact: surface.highest_over_patches(x, y, yaw, quads, planes, exact_cells=exact)}
     for mode in (0, 1):
-        fast = _footprint(surface, mode, x, y, yaw, quads, planes, dem=True)
-        slow = _footprint(surface, mode, x, y, yaw, quads, planes, dem=False)
+        fast, slow = queries[mode](True), queries[mode](False)
         np.testing.assert_array_equal(fast[2], slow[2])
         np.testing.assert_allclose(fast[1], slow[1], atol=1e-12)
         if mode == 1:
@@ -335,8 +336,8 @@ def test_property_dem_arithmetic_equals_clipping_every_triangle(seed, spacing, h
         np.testing.assert_allclose(fast[0][:, 0], slow[0][:, 0], atol=1e-9, equal_nan=True)
         differ = np.flatnonzero(~np.isclose(fast[0], slow[0], atol=1e-9, equal_nan=True).all(axis=1))
         for planes_found in (fast[0][differ], slow[0][differ]):
-            above, _, _ = _footprint(surface, 1, x[differ], y[differ], yaw[differ], quads[differ], planes_found)
-            assert (above[:, 0] <= 1e-9).all()
+            above, _, _ = surface.highest_over_patches(x[differ], y[differ], yaw[differ], quads[differ], planes_found)
+            assert (above <= 1e-9).all()
 
 
 @pytest.mark.parametrize("spacing", [0.5, 1.0])

@@ -53,8 +53,8 @@ def hull_bottom_depth(surface, vehicle, x, y, yaw, planes, roll, pitch, dem: boo
     if len(x) == 0:
         return np.zeros(0)
     quads, bottom = hull_bottom_face(vehicle, planes, roll, pitch)
-    out, _, status = surface.footprint(1, x, y, yaw, quads, bottom, EPS_XY, arithmetic=dem)
-    return np.where(status == 0, out[:, 0], -np.inf)
+    high, _, status = surface.highest_over_patches(x, y, yaw, quads, bottom, exact_cells=dem)
+    return np.where(status == 0, high, -np.inf)
 
 
 def hull_bottom_contacts(surface, vehicle, x, y, yaw, planes, roll, pitch, tolerance: float):
@@ -70,7 +70,7 @@ def hull_bottom_contacts(surface, vehicle, x, y, yaw, planes, roll, pitch, toler
     quads, bottom = hull_bottom_face(vehicle, planes, roll, pitch)
     bound = surface.highest_above_plane_bound(x, y, yaw, quads, bottom)
     maybe = np.flatnonzero(~(bound <= tolerance - 1e-6))  # NaN and +inf bounds go to the exact pass
-    out, _, status = surface.footprint(1, x[maybe], y[maybe], yaw[maybe], quads[maybe], bottom[maybe], EPS_XY)
-    depth = np.where(status == 0, out[:, 0], -np.inf)
+    high, _, status = surface.highest_over_patches(x[maybe], y[maybe], yaw[maybe], quads[maybe], bottom[maybe])
+    depth = np.where(status == 0, high, -np.inf)
     hit = depth > tolerance
     return maybe[hit], depth[hit]

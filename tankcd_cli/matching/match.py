@@ -208,8 +208,7 @@ def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, toleranc
         return ok
     p = planes[finite]
     roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
-    lowest, _, status = _footprint(surface, 0, x[finite], y[finite], yaw[finite], patch_quads(vehicle, roll, pitch),
-                                   np.zeros((len(finite), 3)))
+    lowest, _, status = surface.support_plane_under(x[finite], y[finite], yaw[finite], patch_quads(vehicle, roll, pitch))
     d = p - lowest
     h, w = vehicle.track_length / 2, vehicle.footprint_width / 2
     with np.errstate(invalid="ignore"):
@@ -283,13 +282,6 @@ def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.nda
     return np.stack([xi * cp + eta * sp * sr, eta * cr], axis=-1)
 
 
-def _footprint(surface, mode, x, y, yaw, quads, planes_in, dem: bool = True):
-    """The footprint pass; ``dem`` lets full DEM cells be read by arithmetic (False: clip every
-    triangle, the general path, kept as the oracle the arithmetic is tested against)."""
-    return surface.footprint(mode, x, y, yaw, np.ascontiguousarray(quads), np.ascontiguousarray(planes_in), EPS_XY,
-                             arithmetic=dem)
-
-
 def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):
     """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,).
 
@@ -316,7 +308,7 @@ def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, til
     active = np.arange(n)
     for round_ in range(max(1, tilt_iterations)):
         quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
-        pl, cov, st = _footprint(surface, 0, x[active], y[active], yaw[active], quads, np.zeros((len(active), 3)))
+        pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads)
         good = st == 0
         if round_ == 0:
             planes[active], covered[active], status[active] = pl, cov, st
@@ -363,8 +355,8 @@ def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, til
 
 def footprint_penetration(surface, vehicle, x, y, yaw, planes, roll, pitch):
     """Deepest ground point above each plane over the tilted contact patches (>= 0), and the covered share."""
-    out, covered, status = _footprint(surface, 1, x, y, yaw, patch_quads(vehicle, roll, pitch), planes)
-    depth = np.where(status == 0, np.maximum(out[:, 0], 0.0), np.nan)
+    high, covered, status = surface.highest_over_patches(x, y, yaw, patch_quads(vehicle, roll, pitch), planes)
+    depth = np.where(status == 0, np.maximum(high, 0.0), np.nan)
     return depth, covered
 
 

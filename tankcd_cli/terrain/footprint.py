@@ -50,3 +50,4 @@ class PostGround(NamedTuple):
     post_size: np.ndarray  # (2,) spacing
     r_off: int = 0  # the window's post [0, 0] is the grid's [r_off, c_off]
     c_off: int = 0
+

@@ -27,6 +27,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from tankcd_cli.terrain.patches import PatchQueries
 from tankcd_cli.terrain.regions import NO_CLASS, UNEVEN
 
 BLOCK = 512  # posts per window side before margins
@@ -34,7 +35,7 @@ WINDOW_POSTS = 4_000_000  # a query whose points all fit one window this large r
 WINDOW_BYTES = 64 << 20  # assembled windows kept, at most (the newest always)
 
 
-class GridSurface:
+class GridSurface(PatchQueries):
     """A DEM's surface read by window.
 
     tiles : a :class:`~tankcd_cli.terrain.tiles.TileReader` over ``grid/height`` and ``classes/grid``

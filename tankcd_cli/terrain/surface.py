@@ -18,9 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tankcd_cli.terrain.patches import PatchQueries
+
 
 @dataclass(frozen=True)
-class TerrainSurface:
+class TerrainSurface(PatchQueries):
     """Arrays for point location and heights (all in local x, y; z absolute).
 
     origin : (2,) world x, y of the local origin, m

@@ -1,0 +1,34 @@
+"""The public queries of the ground under a vehicle's contact patches (both surfaces share them)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class PatchQueries:
+    """The public queries of the ground under a vehicle's patches, shared by both surfaces
+    (``TerrainSurface``, ``GridSurface``), each of which provides ``footprint`` (the pass).
+
+    Patches are (N, 2, 4, 2) quadrilaterals in each pose's heading frame; planes (N, 3) are
+    a + b u + c v in that frame; x, y are world footprint centres, yaw rad.
+    """
+
+    def support_plane_under(self, x, y, yaw, quads, exact_cells: bool = True):
+        """The lowest plane over each footprint centre that no ground under the patches rises
+        above: planes (N, 3), the share of the patches over terrain (N,), status (N,) (0 found)."""
+        from tankcd_cli.tolerances import EPS_XY
+
+        quads = np.ascontiguousarray(quads)
+        return self.footprint(0, x, y, yaw, quads, np.zeros((len(quads), 3)), EPS_XY, arithmetic=exact_cells)
+
+    def highest_over_patches(self, x, y, yaw, quads, planes, exact_cells: bool = True):
+        """How far the ground under the patches rises above each plane (signed, m; (N,)), the
+        share of the patches over terrain (N,), status (N,) (0: some ground under them).
+
+        ``exact_cells=False`` clips every cell's triangles instead of reading full DEM cells by
+        arithmetic: the oracle the arithmetic is tested against."""
+        from tankcd_cli.tolerances import EPS_XY
+
+        out, covered, status = self.footprint(1, x, y, yaw, np.ascontiguousarray(quads), np.ascontiguousarray(planes),
+                                              EPS_XY, arithmetic=exact_cells)
+        return out[:, 0], covered, status
