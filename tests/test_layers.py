@@ -2,6 +2,7 @@
 names them. A module may import its own layer and those below it, never one above."""
 
 import ast
+import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "tankcd_cli"
@@ -30,13 +31,21 @@ def layer_of(module: str):
 
 
 def _modules():
-    for path in sorted(PACKAGE.rglob("*.py")):
+    """Python modules and the compiled kernels' Cython sources (.pyx, .pxd), by module name."""
+    for path in sorted(p for ext in ("*.py", "*.pyx", "*.pxd") for p in PACKAGE.rglob(ext)):
         name = ".".join(("tankcd_cli",) + path.relative_to(PACKAGE).with_suffix("").parts)
         yield name.removesuffix(".__init__"), path
 
 
 def _imports(path: Path):
-    """Every tankcd_cli import of a module, function-level ones included (they hide layering bugs too)."""
+    """Every tankcd_cli import of a module, function-level ones included (they hide layering bugs too);
+    in Cython sources the ``from X import`` and ``from X cimport`` lines."""
+    if path.suffix in (".pyx", ".pxd"):
+        for number, line in enumerate(path.read_text().splitlines(), start=1):
+            match = re.match(r"\s*(?:from\s+(\S+)\s+c?import|c?import\s+(\S+))", line)
+            if match:
+                yield match.group(1) or match.group(2), number
+        return
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             yield node.module, node.lineno

@@ -13,6 +13,8 @@ from libc.stdlib cimport free, malloc
 
 import numpy as np
 
+from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64
+
 from tankcd_cli.geometry._triangles cimport _pymax, tri_tri_c
 
 FIRST, ALL = 0, 1
@@ -168,14 +170,6 @@ cdef void _pose(Py_ssize_t p, const double* R, const double* tv, const double* D
     cdef double scale = fabs(tp[0]) + fabs(tp[1]) + fabs(tp[2]) + reach
     found[p] = _walk(Rp, tp, f, g, shift, tr, mode, pairs + 2 * cap * p, points + 3 * cap * p, cap, stack,
                      1e-12 * scale, node_tests + p, tri_tests + p)
-
-
-def _f64(a):
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _i64(a):
-    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 def collide_batch(R, tv, D, W, a, b, mode, max_contacts):

@@ -10,6 +10,8 @@ from libc.stdint cimport uint8_t
 
 import numpy as np
 
+from tankcd_cli.geometry.arrays import f64 as _f64, pair as _pair
+
 from tankcd_cli.terrain._grid_kernels cimport cell_from_posts, full_cell_c, ifloor
 
 BARY_EPS = 1e-9  # as the mesh locator: points this close (barycentric units) to an edge count as inside
@@ -178,17 +180,6 @@ cdef inline const double* _ptr2(const double[:, ::1] a) noexcept nogil:
     if a.shape[0] == 0 or a.shape[1] == 0:
         return NULL
     return &a[0, 0]
-
-
-def _f64(a):
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _pair(a, name):
-    arr = _f64(a).ravel()
-    if arr.shape[0] < 2:
-        raise ValueError(f"{name} must hold 2 values")
-    return arr
 
 
 # --- Python-level kernels ----------------------------------------------------------------------

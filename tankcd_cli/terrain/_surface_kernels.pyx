@@ -9,6 +9,8 @@ from libc.stdint cimport int64_t
 
 import numpy as np
 
+from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64, pair as _pair
+
 from tankcd_cli.terrain._grid_kernels cimport full_cell_c, ifloor
 
 BARY_EPS = 1e-9  # points this close (in barycentric units) to a triangle's edge count as inside
@@ -162,20 +164,6 @@ cdef double _highest_one(const double* R, const double* p, const double* points,
 
 
 # --- argument conversion ------------------------------------------------------------------------
-
-def _f64(a):
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _i64(a):
-    return np.ascontiguousarray(a, dtype=np.int64)
-
-
-def _pair(a, name):
-    arr = _f64(a).ravel()
-    if arr.shape[0] < 2:
-        raise ValueError(f"{name} must hold 2 values")
-    return arr
 
 
 cdef class _Args:
