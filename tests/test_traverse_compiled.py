@@ -1,12 +1,14 @@
 """The compiled triangle test and tree walk: the inputs the numba kernels took, any thread count, same answers."""
 
+import dataclasses
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
 from tankcd_cli.bvh.build import build_tree
 from tankcd_cli.bvh.query import collide
-from tankcd_cli.bvh.traverse import ALL, FIRST, MovingTree, StaticTree, brute_force_batch, collide_batch, node_size
+from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch, collide_batch
 from tankcd_cli.geometry import kdop
 from tankcd_cli.geometry.triangles import tri_tri, tri_tri_brute
 from tankcd_cli.vehicle_mesh import box, cylinder
@@ -47,10 +49,9 @@ def test_collide_batch_same_on_one_and_two_threads_and_any_int_width():
     assert one.hit.any() and not one.hit.all()
     d = kdop.directions(18)
     W = np.stack([np.linalg.inv(d[x]) for x in kdop.triples(18)])
-    i32 = [a.astype(np.int32) for a in (ta.source_index, ta.left, ta.right, ta.start, ta.count, ta.depth)]
-    j32 = [a.astype(np.int32) for a in (tb.left, tb.right, tb.start, tb.count, tb.depth)]
-    a = MovingTree(ta.triangles, *i32, ta.aabb_levels, ta.centre, ta.half, node_size(ta))
-    b = StaticTree(tb.triangles, tb.source_index.astype(np.int32), tb.lo, tb.hi, *j32, tb.aabb_levels, node_size(tb))
+    narrow = ("source_index", "left", "right", "start", "count", "depth")
+    a = dataclasses.replace(ta, **{f: getattr(ta, f).astype(np.int32) for f in narrow})
+    b = dataclasses.replace(tb, **{f: getattr(tb, f).astype(np.int32) for f in narrow})
     res = collide_batch(R, t, d, W, a, b, ALL, 8)
     np.testing.assert_array_equal(res[0], one.found)
     np.testing.assert_array_equal(res[1], one.pairs)

@@ -175,16 +175,21 @@ cdef void _pose(Py_ssize_t p, const double* R, const double* tv, const double* D
 def collide_batch(R, tv, D, W, a, b, mode, max_contacts):
     """Walk A at every pose (R (N, 3, 3), t (N, 3)) against B.
 
-    a : the moving tree's arrays (``bvh.traverse.MovingTree``); b : the static tree's
-    (``bvh.traverse.StaticTree``); D, W : the k-DOP directions and the inverses of their triples.
+    a, b : the moving and the static tree (``bvh.build.Tree``: the arrays are read from it);
+    D, W : the k-DOP directions and the inverses of their triples.
 
     Returns contacts found per pose (N,) (all of them in mode ALL, 0 or 1 in
     FIRST), the first ``max_contacts`` pairs (N, c, 2) of input triangle
     indices and their contact points (N, c, 3), and the node-pair and
     triangle-pair tests made (N,).
     """
-    a_tri, a_idx, a_left, a_right, a_start, a_count, a_depth, a_levels, a_centre, a_half, a_size = a
-    b_tri, b_idx, b_lo, b_hi, b_left, b_right, b_start, b_count, b_depth, b_levels, b_size = b
+    a_tri, a_idx, a_left, a_right, a_start, a_count, a_depth, a_levels, a_centre, a_half = (
+        a.triangles, a.source_index, a.left, a.right, a.start, a.count, a.depth, a.aabb_levels, a.centre, a.half)
+    b_tri, b_idx, b_lo, b_hi, b_left, b_right, b_start, b_count, b_depth, b_levels = (
+        b.triangles, b.source_index, b.lo, b.hi, b.left, b.right, b.start, b.count, b.depth, b.aabb_levels)
+    # a node's size (the sum of its AABB's sides) decides which node of a pair to open
+    a_size = (np.asarray(a.hi)[:, :3] - np.asarray(a.lo)[:, :3]).sum(axis=1)
+    b_size = (np.asarray(b_hi)[:, :3] - np.asarray(b_lo)[:, :3]).sum(axis=1)
     cdef const double[:, :, ::1] R_ = _f64(R)
     cdef const double[:, ::1] tv_ = _f64(tv)
     cdef const double[:, ::1] D_ = _f64(D)

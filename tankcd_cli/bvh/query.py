@@ -34,7 +34,7 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     rotation : (N, 3, 3); translation : (N, 3), m
     all_contacts : every intersecting triangle pair (else stop at the first)
     """
-    from tankcd_cli.bvh.traverse import ALL, FIRST, MovingTree, StaticTree, collide_batch
+    from tankcd_cli.bvh.traverse import ALL, FIRST, collide_batch
 
     if moving.k != static.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {static.k})")
@@ -45,7 +45,7 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     # poses differ a lot in cost (a clear pose ends at the roots, a grazing one goes deep): the
     # compiled kernel hands them to the threads in small chunks (POSE_CHUNK, OpenMP dynamic schedule)
     found, pairs, points, node_tests, tri_tests = collide_batch(
-        R, t, d, W, MovingTree.of(moving), StaticTree.of(static), ALL if all_contacts else FIRST, max_contacts)
+        R, t, d, W, moving, static, ALL if all_contacts else FIRST, max_contacts)
     return Contacts(found, pairs, points, node_tests, tri_tests)
 
 
