@@ -1,19 +1,31 @@
 """Terrain readers: a registry keyed by file suffix, returning plain arrays.
 
 Every reader returns a :class:`RawTerrain` in the world frame (x east, y north,
-z up, metres, float64). Mesh formats go through trimesh (OBJ, PLY, STL, OFF,
-GLB/GLTF) or straight through meshio (VTK, VTU, Gmsh, XDMF, ...), as trimesh
-itself recommends for meshio's formats; ESRI ASCII grids have their own reader
-that keeps the grid structure for O(1) height queries later on.
+z up, metres, float64). OBJ has its own reader (which also keeps the file's
+objects or groups as parts); PLY, STL, OFF and glTF/GLB go through trimesh
+(glTF/GLB as a scene, node by node, so external buffers resolve beside the file
+and node names become parts); Collada too when trimesh's optional loader
+(pycollada) is installed; VTK, VTU, Gmsh, XDMF, ... go straight through meshio,
+as trimesh itself recommends for meshio's formats; ESRI ASCII grids have their
+own reader that keeps the grid structure for O(1) height queries later on.
+
+What a surface cannot use but the writing program put there on purpose (OBJ
+line and point elements and faces of fewer than three vertices, glTF line and
+point primitives, meshio line, vertex and volume cells) is left out and counted
+in ``RawTerrain.skipped``; what is broken (unparseable numbers, indices out of
+range, non-finite coordinates) is an InputError.
 """
 
 from __future__ import annotations
 
 import hashlib
-import math
 import io
+import json
+import math
 import os
-from dataclasses import dataclass
+import re
+import struct
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,6 +34,13 @@ from tankcd_cli.errors import InputError
 TRIMESH_SUFFIXES = ("obj", "ply", "stl", "off", "glb", "gltf")
 MESHIO_SUFFIXES = ("vtk", "vtu", "msh", "mesh", "xdmf", "xmf", "med", "inp", "dat", "tec", "ugrid", "su2", "avs", "f3grid", "wkt")
 GRID_SUFFIXES = ("asc",)
+COLLADA_SUFFIXES = ("dae",)  # only with pycollada (trimesh's optional loader)
+IMAGE_SUFFIXES = ("png", "jpg", "jpeg", "bmp")  # refused with advice; tif/tiff are rasters, read elsewhere
+Y_UP_FORMATS = ("gltf", "glb")  # y-up by their specification
+
+COLLADA_UNSUPPORTED = "Collada is not supported here: convert it to GLB or OBJ (e.g. in Blender)"
+IMAGE_NOT_A_MESH = ("an image, not a mesh: a height map goes through classify as a raster (GeoTIFF) "
+                    "or an ESRI ASCII grid")
 
 
 @dataclass(frozen=True)
@@ -41,7 +60,29 @@ class Grid:
 
 @dataclass(frozen=True)
 class RawTerrain:
-    """A terrain as read: vertices (n, 3) float64 m, faces (m, 3) int64, optional grid."""
+    """A terrain (or any mesh) as read.
+
+    vertices : (n, 3) float64, m, world frame (z up, whatever the file's convention)
+    faces : (m, 3) int64 -- triangles; polygons are split into fans from their first vertex
+    grid : Grid or None -- the raster structure of a DEM
+    source, sha256, format : the file's name as given, the SHA-256 of its bytes (of the
+        .gltf itself, not of its external buffers), the format read (the suffix or ``fmt``)
+    up : "z" or "y" -- the up axis actually applied: a y-up file was turned +90 deg about x
+        ((x, y, z) -> (x, -z, y)) into z-up
+    skipped : {description: count} -- what the file holds that a surface cannot use and
+        was left out, e.g. {"faces with fewer than 3 vertices": 201, "line elements": 3,
+        "point elements": 1}; counts are elements as the file has them (OBJ lines, glTF
+        primitive instances, meshio cells). Empty when nothing was left out.
+    face_part : (m,) int32 or None -- per triangle, its index into ``part_names``; None when
+        the file names no parts (an OBJ without ``o``/``g`` lines, a glTF whose nodes have
+        no names, PLY, STL, OFF, meshio formats, DEMs)
+    part_names : tuple of str -- the parts in order of their first triangle, each named
+        once (repeated names are one part). OBJ: the ``o`` object names, or the ``g``
+        group names when the file has no objects; triangles outside any are "default".
+        glTF/GLB: the names of the nodes carrying the meshes (a node without a name is
+        "node <i>", its index in the file); Collada: the scene's node names. Empty when
+        ``face_part`` is None.
+    """
 
     vertices: np.ndarray
     faces: np.ndarray
@@ -50,17 +91,54 @@ class RawTerrain:
     sha256: str
     format: str
     up: str = "z"
+    skipped: dict = field(default_factory=dict)
+    face_part: np.ndarray | None = None
+    part_names: tuple = ()
+
+
+@dataclass
+class _Mesh:
+    """What a mesh reader returns: geometry in the file's own axes, what it left out, parts."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    skipped: dict = field(default_factory=dict)
+    face_part: np.ndarray | None = None
+    part_names: tuple = ()
+
+
+def _collada_available() -> bool:
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec("collada") is not None
+    except (ImportError, ValueError):
+        return False
 
 
 def known_formats() -> tuple[str, ...]:
-    return GRID_SUFFIXES + TRIMESH_SUFFIXES + MESHIO_SUFFIXES
+    collada = COLLADA_SUFFIXES if _collada_available() else ()
+    return GRID_SUFFIXES + TRIMESH_SUFFIXES + collada + MESHIO_SUFFIXES
 
 
-def read_terrain(path: str, up: str = "z", fmt: str | None = None) -> RawTerrain:
+def default_up(fmt: str, data: bytes | None = None) -> str:
+    """The up axis of a format's own convention: "y" for glTF/GLB (their specification),
+    Collada's ``<up_axis>`` (Y_UP when absent, as its specification says), "z" for the rest."""
+    if fmt in Y_UP_FORMATS:
+        return "y"
+    if fmt in COLLADA_SUFFIXES and data is not None:
+        m = re.search(rb"<up_axis>\s*([XYZ])_UP\s*</up_axis>", data[:65536])
+        return "y" if m is None or m.group(1) == b"Y" else "z"  # X_UP, rare, is not turned
+    return "z"
+
+
+def read_terrain(path: str, up: str | None = None, fmt: str | None = None) -> RawTerrain:
     """Read a terrain mesh or DEM.
 
     path : file path, or "-" for standard input (then ``fmt`` is required)
-    up : "z" (default) or "y"; a y-up mesh is turned +90 deg about x into z-up
+    up : "z", "y" or None (default): the format's own convention (``default_up``): "y" for
+        glTF/GLB, "z" for the others and always for DEM grids. A y-up mesh is turned
+        +90 deg about x into z-up.
     fmt : format name overriding the suffix (e.g. "obj", "asc")
     """
     name = "<stdin>" if path == "-" else path
@@ -71,28 +149,49 @@ def read_terrain(path: str, up: str = "z", fmt: str | None = None) -> RawTerrain
         if path.lower().endswith(".tar.gz"):
             fmt = "tar.gz"
     fmt = fmt.lower()
+    if fmt in IMAGE_SUFFIXES:
+        raise InputError(name, IMAGE_NOT_A_MESH)
+    if fmt in COLLADA_SUFFIXES and not _collada_available():
+        raise InputError(name, COLLADA_UNSUPPORTED)
     if fmt not in known_formats():
         raise InputError(name, f"unknown terrain format {fmt!r}; known: {', '.join(known_formats())}, h5 (a store)")
+    if up not in (None, "z", "y"):
+        raise InputError(name, f"unknown up axis {up!r}; use z or y")
     data = _read_bytes(path, name)
     if not data.strip():
         raise InputError(name, "file is empty")
     digest = hashlib.sha256(data).hexdigest()
     if fmt in GRID_SUFFIXES:
         vertices, faces, grid = parse_esri_ascii(data, name)
-    elif fmt in TRIMESH_SUFFIXES:
-        vertices, faces = _read_trimesh(data, fmt, name)
-        grid = None
+        mesh = _Mesh(vertices, faces)
+        if up is None:
+            up = "z"
     else:
-        vertices, faces = _read_meshio(path, data, fmt, name)
         grid = None
-    if up not in ("z", "y"):
-        raise InputError(name, f"unknown up axis {up!r}; use z or y")
+        if fmt == "obj":
+            mesh = _read_obj(data, name)
+        elif fmt in ("gltf", "glb") or fmt in COLLADA_SUFFIXES:
+            mesh = _read_scene(path, data, fmt, name)
+        elif fmt in TRIMESH_SUFFIXES:
+            mesh = _read_trimesh(data, fmt, name)
+        else:
+            mesh = _read_meshio(path, data, fmt, name)
+        if up is None:
+            up = default_up(fmt, data)
+    vertices, faces = mesh.vertices, mesh.faces
     if up == "y":
         if grid is not None:
             raise InputError(name, "--up y makes no sense for a DEM grid (grids are z-up)")
         vertices = np.column_stack([vertices[:, 0], -vertices[:, 2], vertices[:, 1]])
+    if len(faces) == 0 and mesh.skipped:
+        left_out = ", ".join(f"{count} {what}" for what, count in mesh.skipped.items())
+        raise InputError(name, f"no triangle faces (a terrain needs a surface, not points or lines; left out: {left_out})")
     _check_arrays(vertices, faces, name)
-    return RawTerrain(vertices, faces, grid, name, digest, fmt, up)
+    face_part = mesh.face_part
+    if face_part is not None:
+        face_part = np.asarray(face_part, dtype=np.int32)
+    return RawTerrain(vertices, faces, grid, name, digest, fmt, up, dict(mesh.skipped), face_part,
+                      tuple(mesh.part_names) if face_part is not None else ())
 
 
 def _read_bytes(path: str, name: str) -> bytes:
@@ -290,16 +389,37 @@ def _locate_bad_token(lines: list[str], body_start: int, name: str) -> None:
 
 # --- meshes ------------------------------------------------------------------
 
+SHORT_FACES = "faces with fewer than 3 vertices"
+OBJ_LINES = "line elements"
+OBJ_POINTS = "point elements"
+DEFAULT_PART = "default"  # the OBJ specification's name for faces outside any group
+
+_OBJ_KNOWN_PREFIXES = ("v ", "f ", "vt", "vn", "vp", "#", "s ", "usemtl", "mtllib", "l ", "p ", "o ", "g ")
+
+
 def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
     """Vertices and triangles of a plain OBJ (``v x y z`` and triangular ``f a b c``, indices
-    with or without ``/vt/vn``), or None when the file needs a full reader (polygons, negative
-    indices, unparseable lines). Saves importing trimesh (most of a second) for the common case.
+    with or without ``/vt/vn``), or None when the file needs a full reader (polygons, short
+    faces, negative indices, unparseable or unusual lines). Saves importing anything (and a
+    Python loop over the lines) for the common case. ``l`` and ``p`` elements are ignored here;
+    ``_simple_obj`` counts them.
     """
+    simple = _simple_obj(data)
+    return None if simple is None else (simple.vertices, simple.faces)
+
+
+def _simple_obj(data: bytes) -> _Mesh | None:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         return None
     lines = text.splitlines()
+    # a line this reader does not recognise (tabs after the keyword, leading blanks, continuation
+    # lines, a bare "g") goes to the full reader rather than being dropped silently
+    if any(ln.strip() for ln in lines if ln and not ln.startswith(_OBJ_KNOWN_PREFIXES)):
+        return None
+    if any(ln.endswith("\\") for ln in lines):
+        return None
     v_lines = [ln[2:] for ln in lines if ln.startswith("v ")]
     f_lines = [ln[2:] for ln in lines if ln.startswith("f ")]
     if not v_lines or not f_lines:
@@ -310,7 +430,7 @@ def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
             return None
         vertices = np.array(v_tokens, dtype=np.float64).reshape(-1, 3)
         f_tokens = " ".join(f_lines).split()
-        if len(f_tokens) != 3 * len(f_lines):  # polygons
+        if len(f_tokens) != 3 * len(f_lines):  # polygons, short faces
             return None
         if "/" in f_lines[0] or any("/" in t for t in f_tokens[:3]):
             f_tokens = [t.split("/", 1)[0] for t in f_tokens]
@@ -319,41 +439,138 @@ def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     if (faces <= 0).any():  # relative (negative) indices: the full reader resolves them
         return None
-    return vertices, faces - 1
+    skipped = {}
+    n_lines = sum(1 for ln in lines if ln.startswith("l "))
+    n_points = sum(1 for ln in lines if ln.startswith("p "))
+    if n_lines:
+        skipped[OBJ_LINES] = n_lines
+    if n_points:
+        skipped[OBJ_POINTS] = n_points
+    return _Mesh(vertices, faces - 1, skipped)
 
 
-def _check_obj_lines(data: bytes, name: str) -> None:
-    """Reject the vertex and face lines a full reader would skip or misread (it drops short faces silently)."""
+def _read_obj(data: bytes, name: str) -> _Mesh:
+    """An OBJ: the fast reader when it suffices and the file names no objects or groups,
+    the full one otherwise."""
+    if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark would hide the first line's keyword
+        data = data[3:]
+    if re.search(rb"^[ \t]*[og](?:[ \t]|\r?$)", data, re.MULTILINE) is None:
+        simple = _simple_obj(data)
+        if simple is not None:
+            return simple
+    return parse_obj(data, name)
+
+
+def _obj_index(token: str, n_vertices: int) -> int | None:
+    """0-based vertex index of a face token (``7``, ``7/2``, ``7//3``, ``-1/...``), resolving
+    negative indices against the vertices read so far; None when not a usable index."""
+    head = token.split("/", 1)[0]
+    digits = head[1:] if head.startswith("-") else head
+    if not (digits.isascii() and digits.isdigit()):
+        return None
+    i = int(head)
+    if i == 0 or abs(i) >= 2**31:
+        return None
+    if i < 0:
+        i += n_vertices
+        return i if i >= 0 else None
+    return i - 1
+
+
+def parse_obj(data: bytes, name: str) -> _Mesh:
+    """The full OBJ reader: vertices, faces (polygons as fans from their first vertex, as trimesh
+    splits them), the ``o``/``g`` parts, and counts of what a surface cannot use: faces of fewer
+    than three vertices, ``l`` and ``p`` elements. Other statements (texture coordinates,
+    normals, materials, smoothing groups, free-form geometry) are ignored as every reader does.
+    A vertex without three finite numbers or a face index that is not a number, zero, or out
+    of range is an InputError naming the line.
+    """
     text = data.decode("utf-8", errors="replace")
+    if "\\\n" in text or "\\\r\n" in text:  # continuation lines
+        text = re.sub(r"\\\r?\n", " ", text)
+    coords: list[float] = []
+    tris: list[int] = []
+    tri_line: list[int] = []  # the line of each triangle, for messages
+    tri_obj: list[int] = []
+    tri_grp: list[int] = []
+    objects: dict[str, int] = {}
+    groups: dict[str, int] = {}
+    cur_obj = cur_grp = -1
+    n_vertices = 0
+    short = n_lines = n_points = 0
     for number, line in enumerate(text.splitlines(), start=1):
         tokens = line.split()
-        if not tokens or tokens[0] not in ("v", "f"):
+        if not tokens:
             continue
-        if tokens[0] == "v":
+        key = tokens[0]
+        if key == "v":
             try:
                 xyz = [float(t) for t in tokens[1:4]]
             except ValueError:
                 xyz = []
             if len(xyz) < 3 or not all(math.isfinite(c) for c in xyz):
                 raise InputError(name, f"a vertex needs three finite numbers: {line.strip()[:60]!r}", where=f"line {number}")
-        else:
-            ok = len(tokens) >= 4
-            for t in tokens[1:]:
-                head = t.split("/", 1)[0]
-                ok = ok and head.lstrip("-").isdigit() and 0 < abs(int(head)) < 2**31
-            if not ok:
-                raise InputError(name, f"a face needs three or more vertex indices (from 1, or negative): "
-                                       f"{line.strip()[:60]!r}", where=f"line {number}")
+            coords += xyz
+            n_vertices += 1
+        elif key == "f":
+            idx = [_obj_index(t, n_vertices) for t in tokens[1:]]
+            if any(i is None for i in idx):
+                raise InputError(name, f"a face's vertex indices are whole numbers from 1 (or negative, "
+                                       f"counting back from the last vertex): {line.strip()[:60]!r}",
+                                 where=f"line {number}")
+            if len(idx) < 3:
+                short += 1
+                continue
+            k = len(idx) - 2
+            for j in range(1, len(idx) - 1):
+                tris += (idx[0], idx[j], idx[j + 1])
+            tri_line += [number] * k
+            tri_obj += [cur_obj] * k
+            tri_grp += [cur_grp] * k
+        elif key == "l":
+            n_lines += 1
+        elif key == "p":
+            n_points += 1
+        elif key == "o":
+            cur_obj = objects.setdefault(line.strip()[1:].strip() or DEFAULT_PART, len(objects))
+        elif key == "g":
+            cur_grp = groups.setdefault(line.strip()[1:].strip() or DEFAULT_PART, len(groups))
+    vertices = np.array(coords, dtype=np.float64).reshape(-1, 3)
+    faces = np.array(tris, dtype=np.int64).reshape(-1, 3)
+    if len(faces):
+        out = faces.max(axis=1) >= n_vertices
+        if out.any():
+            t = int(np.flatnonzero(out)[0])
+            raise InputError(name, f"vertex index out of range (the file has {n_vertices} vertices)",
+                             where=f"line {tri_line[t]}")
+    skipped = {}
+    for what, count in ((SHORT_FACES, short), (OBJ_LINES, n_lines), (OBJ_POINTS, n_points)):
+        if count:
+            skipped[what] = count
+    face_part, part_names = None, ()
+    for labels, names in ((tri_obj, objects), (tri_grp, groups)):
+        if names and len(faces) and max(labels) >= 0:
+            face_part, part_names = _compact_parts(np.array(labels, dtype=np.int64), list(names))
+            break
+    return _Mesh(vertices, faces, skipped, face_part, part_names)
 
 
-def _read_trimesh(data: bytes, fmt: str, name: str) -> tuple[np.ndarray, np.ndarray]:
-    if fmt == "obj":
-        if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark would hide the first line's keyword
-            data = data[3:]
-        simple = read_simple_obj(data)
-        if simple is not None:
-            return simple
-        _check_obj_lines(data, name)
+def _compact_parts(labels: np.ndarray, names: list[str]) -> tuple[np.ndarray, tuple]:
+    """Per-triangle labels (-1: outside any named part) renumbered to the parts that own
+    triangles, in order of their first triangle; -1 becomes the part "default"."""
+    names = names + [DEFAULT_PART]
+    labels = np.where(labels < 0, len(names) - 1, labels)
+    # one part per name: the unlabelled triangles join an explicit "default" if there is one
+    canonical = {n: names.index(n) for n in names}
+    labels = np.array([canonical[n] for n in names], dtype=np.int64)[labels]
+    used, first = np.unique(labels, return_index=True)
+    order = used[np.argsort(first)]
+    remap = np.full(len(names), -1, dtype=np.int64)
+    remap[order] = np.arange(len(order))
+    return remap[labels].astype(np.int32), tuple(names[i] for i in order)
+
+
+def _read_trimesh(data: bytes, fmt: str, name: str) -> _Mesh:
     import trimesh
 
     try:
@@ -362,10 +579,150 @@ def _read_trimesh(data: bytes, fmt: str, name: str) -> tuple[np.ndarray, np.ndar
         raise InputError(name, f"cannot read as {fmt.upper()}: {_short(exc)}") from None
     vertices = np.asarray(getattr(loaded, "vertices", np.empty((0, 3))), dtype=np.float64)
     faces = np.asarray(getattr(loaded, "faces", np.empty((0, 3))), dtype=np.int64)
-    return vertices.reshape(-1, 3), faces.reshape(-1, 3)
+    return _Mesh(vertices.reshape(-1, 3), faces.reshape(-1, 3))
 
 
-def _read_meshio(path: str, data: bytes, fmt: str, name: str) -> tuple[np.ndarray, np.ndarray]:
+def _gltf_header(data: bytes, fmt: str) -> dict | None:
+    """The JSON of a .gltf, or the JSON chunk of a .glb; None when it cannot be read (the
+    loader then says what is wrong)."""
+    try:
+        if fmt == "glb":
+            if data[:4] != b"glTF" or len(data) < 20:
+                return None
+            length, kind = struct.unpack_from("<I4s", data, 12)
+            if kind != b"JSON":
+                return None
+            return json.loads(data[20:20 + length].decode("utf-8"))
+        header = json.loads(data.decode("utf-8-sig"))
+        return header if isinstance(header, dict) else None
+    except (ValueError, UnicodeDecodeError, struct.error):
+        return None
+
+
+def _check_gltf_buffers(header: dict, path: str, name: str) -> None:
+    """External buffers must be found: beside the file, and never from standard input."""
+    from urllib.parse import unquote
+
+    buffers = header.get("buffers") or []
+    for i, buf in enumerate(buffers if isinstance(buffers, list) else []):
+        uri = buf.get("uri") if isinstance(buf, dict) else None
+        if not isinstance(uri, str) or uri.startswith("data:"):
+            continue
+        if path == "-":
+            raise InputError(name, f"the buffer file {uri!r} cannot be found from standard input: "
+                                   "give the .gltf's path, or convert it to GLB", where=f"buffer {i}")
+        target = os.path.join(os.path.dirname(path), unquote(uri))
+        if not os.path.isfile(target):
+            raise InputError(name, f"the buffer file {uri!r} is missing (looked for {target})", where=f"buffer {i}")
+
+
+def _read_scene(path: str, data: bytes, fmt: str, name: str) -> _Mesh:
+    """glTF, GLB (and Collada): the scene's meshes with their node transforms applied, one
+    part per named node; line and point primitives counted as skipped."""
+    import trimesh
+
+    header = None
+    if fmt in Y_UP_FORMATS:
+        header = _gltf_header(data, fmt)
+        if header is not None:
+            _check_gltf_buffers(header, path, name)
+    resolver = None if path == "-" else trimesh.resolvers.FilePathResolver(os.path.abspath(path))
+    try:
+        scene = trimesh.load_scene(io.BytesIO(data), file_type=fmt, resolver=resolver, process=False)
+    except Exception as exc:  # trimesh raises many types on malformed input
+        raise InputError(name, f"cannot read as {fmt.upper()}: {_short(exc)}") from None
+    if isinstance(scene, trimesh.Trimesh):
+        return _Mesh(np.asarray(scene.vertices, dtype=np.float64), np.asarray(scene.faces, dtype=np.int64))
+    part_of = _gltf_parts(header) if fmt in Y_UP_FORMATS else _frame_parts
+    parents = scene.graph.transforms.parents
+    geometry_order = {g: i for i, g in enumerate(scene.geometry)}
+    items = []
+    for node in scene.graph.nodes_geometry:
+        transform, geom_name = scene.graph[node]
+        part, order = part_of(node, parents)
+        items.append((order, geometry_order.get(geom_name, 0), str(node), part, transform, geom_name))
+    items.sort(key=lambda item: item[:3])
+    verts, faces, labels, skipped = [], [], [], {}
+    part_index: dict[str, int] = {}
+    offset = 0
+    for _, _, _, part, transform, geom_name in items:
+        geom = scene.geometry[geom_name]
+        if not isinstance(geom, trimesh.Trimesh):
+            kind = {"Path3D": "line primitives", "Path2D": "line primitives",
+                    "PointCloud": "point primitives"}.get(type(geom).__name__, f"{type(geom).__name__} primitives")
+            skipped[kind] = skipped.get(kind, 0) + 1
+            continue
+        v = np.asarray(geom.vertices, dtype=np.float64).reshape(-1, 3)
+        f = np.asarray(geom.faces, dtype=np.int64).reshape(-1, 3)
+        if len(f) == 0:
+            continue
+        T = np.asarray(transform, dtype=np.float64)
+        v = v @ T[:3, :3].T + T[:3, 3]
+        if np.linalg.det(T[:3, :3]) < 0:  # a mirroring node turns the winding (glTF 2.0, 3.7.4)
+            f = f[:, ::-1]
+        verts.append(v)
+        faces.append(f + offset)
+        offset += len(v)
+        labels.append(np.full(len(f), part_index.setdefault(part, len(part_index)) if part is not None else -1))
+    if not verts:
+        return _Mesh(np.empty((0, 3)), np.empty((0, 3), dtype=np.int64), skipped)
+    vertices, faces_all, labels_all = np.concatenate(verts), np.concatenate(faces), np.concatenate(labels)
+    face_part, part_names = None, ()
+    if part_index:
+        face_part, part_names = _compact_parts(labels_all, list(part_index))
+    return _Mesh(vertices, faces_all, skipped, face_part, part_names)
+
+
+def _gltf_parts(header: dict | None):
+    """part_of(frame, parents) -> (part name or None, sort key) for a trimesh scene read from a
+    glTF: the glTF node carrying the mesh (trimesh puts a mesh's extra primitives on child
+    frames of its node) named as in the file, in the file's node order. None when no node in
+    the file has a name."""
+    from trimesh.util import unique_name
+
+    nodes = header.get("nodes") if header else None
+    nodes = nodes if isinstance(nodes, list) else []
+    frames: dict[str, int] = {}
+    counts: dict = {}
+    for i, n in enumerate(nodes):  # trimesh's own naming of the node frames
+        n = n if isinstance(n, dict) else {}
+        frames[unique_name(n.get("name", str(i)), frames, counts=counts)] = i
+    named = any(isinstance(n, dict) and n.get("name") for n in nodes)
+
+    def part_of(frame, parents):
+        node, seen = frame, 0
+        while node not in frames and node in parents and seen < 64:
+            node, seen = parents[node], seen + 1
+        if node not in frames:
+            return (None, len(nodes))
+        i = frames[node]
+        if not named:
+            return (None, i)
+        n = nodes[i] if isinstance(nodes[i], dict) else {}
+        return (str(n.get("name") or f"node {i}"), i)
+
+    return part_of
+
+
+def _frame_parts(frame, parents):
+    """Collada (and any other scene): the frame's own name."""
+    return (str(frame), 0)
+
+
+_VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid", "polyhedron")
+
+
+def _cell_description(kind: str) -> str:
+    if kind.startswith("line"):
+        return "line cells"
+    if kind == "vertex":
+        return "vertex cells (points)"
+    if kind.startswith(_VOLUME_CELLS):
+        return f"{kind} cells (volume, not a surface)"
+    return f"{kind} cells"
+
+
+def _read_meshio(path: str, data: bytes, fmt: str, name: str) -> _Mesh:
     import tempfile
 
     import meshio
@@ -387,14 +744,23 @@ def _read_meshio(path: str, data: bytes, fmt: str, name: str) -> tuple[np.ndarra
     if points.ndim == 2 and points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
     tris = []
+    skipped: dict[str, int] = {}
     for block in mesh.cells:
         cells = np.asarray(block.data, dtype=np.int64)
-        if block.type == "triangle":
-            tris.append(cells)
-        elif block.type == "quad":
+        if cells.ndim != 2 or len(cells) == 0:
+            continue
+        kind = block.type
+        if kind in ("triangle", "triangle6", "triangle7"):  # higher-order: the corner nodes come first
+            tris.append(cells[:, :3])
+        elif kind in ("quad", "quad8", "quad9"):
             tris += [cells[:, [0, 1, 2]], cells[:, [0, 2, 3]]]
+        elif kind == "polygon" and cells.shape[1] >= 3:
+            tris += [cells[:, [0, j, j + 1]] for j in range(1, cells.shape[1] - 1)]
+        else:
+            what = _cell_description(kind)
+            skipped[what] = skipped.get(what, 0) + len(cells)
     faces = np.concatenate(tris) if tris else np.empty((0, 3), dtype=np.int64)
-    return points, faces
+    return _Mesh(points, faces, skipped)
 
 
 _MESHIO_NAMES = {"vtk": "vtk", "vtu": "vtu", "msh": "gmsh", "mesh": "medit", "xdmf": "xdmf", "xmf": "xdmf",
