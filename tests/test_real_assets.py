@@ -13,6 +13,8 @@ import os
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tankcd_cli.errors import InputError
 from tankcd_cli.io.terrain_readers import known_formats, read_simple_obj, read_terrain
@@ -175,6 +177,31 @@ def test_obj_with_one_object_still_names_it(tmp_path):
     raw = read_terrain(str(path))
     assert raw.part_names == ("Cube",)
     np.testing.assert_array_equal(raw.face_part, [0, 0])
+
+
+STATEMENT = st.one_of(
+    st.tuples(st.just("f"), st.integers(1, 9), st.integers(1, 9), st.integers(1, 9)).map(lambda t: "f %d %d %d" % t[1:]),
+    st.sampled_from(["o hull", "o turret", "o", "g wheels", "g hull", "l 1 2", "p 3", "# comment", "usemtl a", ""]),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(STATEMENT, max_size=30))
+def test_the_fast_and_full_obj_readers_agree_on_faces_parts_and_skips(statements):
+    from tankcd_cli.io.terrain_readers import _simple_obj, parse_obj
+
+    data = (GRID_V + "\n".join(statements) + "\n").encode()
+    fast = _simple_obj(data)
+    if fast is None:  # no faces at all, or a bare "o": the full reader's business
+        assert not any(t.startswith("f") for t in statements) or "o" in statements
+        return
+    full = parse_obj(data, "m.obj")
+    np.testing.assert_array_equal(fast.faces, full.faces)
+    assert fast.skipped == full.skipped and fast.part_names == full.part_names
+    if full.face_part is None:
+        assert fast.face_part is None
+    else:
+        np.testing.assert_array_equal(fast.face_part, full.face_part)
 
 
 # --- glTF: external buffers, y up, nodes as parts --------------------------------

@@ -401,8 +401,8 @@ def read_simple_obj(data: bytes) -> tuple[np.ndarray, np.ndarray] | None:
     """Vertices and triangles of a plain OBJ (``v x y z`` and triangular ``f a b c``, indices
     with or without ``/vt/vn``), or None when the file needs a full reader (polygons, short
     faces, negative indices, unparseable or unusual lines). Saves importing anything (and a
-    Python loop over the lines) for the common case. ``l`` and ``p`` elements are ignored here;
-    ``_simple_obj`` counts them.
+    Python loop over the lines) for the common case. ``l`` and ``p`` elements and ``o``/``g``
+    parts are left out here; ``_simple_obj`` counts and keeps them.
     """
     simple = _simple_obj(data)
     return None if simple is None else (simple.vertices, simple.faces)
@@ -446,19 +446,38 @@ def _simple_obj(data: bytes) -> _Mesh | None:
         skipped[OBJ_LINES] = n_lines
     if n_points:
         skipped[OBJ_POINTS] = n_points
-    return _Mesh(vertices, faces - 1, skipped)
+    face_part, part_names = _simple_obj_parts(lines, len(f_lines))
+    return _Mesh(vertices, faces - 1, skipped, face_part, part_names)
+
+
+def _simple_obj_parts(lines: list[str], n_faces: int) -> tuple[np.ndarray | None, tuple]:
+    """The parts of a plain OBJ (one triangle per ``f`` line), as ``parse_obj`` finds them:
+    the ``o`` objects, else the ``g`` groups; (None, ()) when there are neither."""
+    marks = [ln for ln in lines if ln.startswith(("o ", "g ", "f "))]
+    if len(marks) == n_faces:
+        return None, ()
+    kind = np.frombuffer("".join(ln[0] for ln in marks).encode("ascii"), dtype=np.uint8)
+    is_face = kind == ord("f")
+    for key in ("o", "g"):
+        is_key = kind == ord(key)
+        if not is_key.any():
+            continue
+        ids: dict[str, int] = {}
+        label_of_mark = np.array([ids.setdefault(ln[2:].strip() or DEFAULT_PART, len(ids))
+                                  for ln in marks if ln[0] == key], dtype=np.int64)
+        last = (np.cumsum(is_key) - 1)[is_face]  # per face, its latest key line (-1: none yet)
+        labels = np.where(last >= 0, label_of_mark[np.maximum(last, 0)], -1)
+        if (labels >= 0).any():
+            return _compact_parts(labels, list(ids))
+    return None, ()
 
 
 def _read_obj(data: bytes, name: str) -> _Mesh:
-    """An OBJ: the fast reader when it suffices and the file names no objects or groups,
-    the full one otherwise."""
+    """An OBJ: the fast reader when it suffices, the full one otherwise."""
     if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark would hide the first line's keyword
         data = data[3:]
-    if re.search(rb"^[ \t]*[og](?:[ \t]|\r?$)", data, re.MULTILINE) is None:
-        simple = _simple_obj(data)
-        if simple is not None:
-            return simple
-    return parse_obj(data, name)
+    simple = _simple_obj(data)
+    return simple if simple is not None else parse_obj(data, name)
 
 
 def _obj_index(token: str, n_vertices: int) -> int | None:
