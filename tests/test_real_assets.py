@@ -180,7 +180,7 @@ def test_obj_with_one_object_still_names_it(tmp_path):
 
 
 STATEMENT = st.one_of(
-    st.tuples(st.just("f"), st.integers(1, 9), st.integers(1, 9), st.integers(1, 9)).map(lambda t: "f %d %d %d" % t[1:]),
+    st.tuples(st.just("f"), st.integers(1, 9), st.integers(1, 9), st.integers(1, 9)).map(lambda t: f"f {t[1]} {t[2]} {t[3]}"),
     st.sampled_from(["o hull", "o turret", "o", "g wheels", "g hull", "l 1 2", "p 3", "# comment", "usemtl a", ""]),
 )
 

@@ -484,7 +484,7 @@ def _obj_index(token: str, n_vertices: int) -> int | None:
     """0-based vertex index of a face token (``7``, ``7/2``, ``7//3``, ``-1/...``), resolving
     negative indices against the vertices read so far; None when not a usable index."""
     head = token.split("/", 1)[0]
-    digits = head[1:] if head.startswith("-") else head
+    digits = head.removeprefix("-")
     if not (digits.isascii() and digits.isdigit()):
         return None
     i = int(head)
