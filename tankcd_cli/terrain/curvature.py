@@ -267,22 +267,42 @@ BOUNDARY_RINGS = 8  # the 40 nearest lie within 5 rings of a regular grid; 8 lea
 JET_DEGREE = 4  # a quartic: its second derivatives err at O(h^2) on irregular meshes, O(h^4) on symmetric stencils
 
 
+def _neighbour_pool(vertices: np.ndarray, which: np.ndarray, k: int, candidates: np.ndarray | None):
+    """Where the neighbours are looked for: pool (m,) vertex indices, their centred points (m, 3),
+    the selected vertices (q,) and their places in the pool, k and the candidates to rank."""
+    if candidates is None:
+        pool = np.arange(len(vertices))
+        points = vertices
+    else:
+        pool = np.flatnonzero(candidates | which)
+        points = vertices[pool]
+    k = min(k, len(pool) - 1)
+    extra = min(k + 1 + 16, len(pool))  # room to break ties between equidistant points by index
+    centre = points.mean(axis=0)  # small numbers even at UTM offsets
+    sel = np.flatnonzero(which)
+    return pool, points - centre, sel, np.searchsorted(pool, sel), k, extra
+
+
 def nearest_neighbours(vertices: np.ndarray, which: np.ndarray, k: int = JET_NEIGHBOURS,
-                       candidates: np.ndarray | None = None) -> np.ndarray:
+                       candidates: np.ndarray | None = None, fast: bool | None = None) -> np.ndarray:
     """Indices (len(which), k) of the k nearest other vertices of each selected vertex.
 
     Distance, not mesh rings: on a boundary the rings of a Delaunay mesh run
     along hull slivers far from the vertex, whereas the nearest points stay close.
+    The k + 1 + 16 nearest are ranked by distance to 1e-9 of the farthest of them,
+    equal ranks by vertex index, and the vertex itself is dropped.
+    fast : the compiled kd-tree (default; not for non-finite points), False: cKDTree (the oracle)
     """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    pool, points, sel, local, k, extra = _neighbour_pool(vertices, which, k, candidates)
+    if use_fast_path(len(vertices), fast) and len(sel) and np.isfinite(points).all():
+        from tankcd_cli.terrain import jet_kernels
+
+        return pool[jet_kernels.neighbours(points, local, k, extra)]
     from scipy.spatial import cKDTree
 
-    pool = np.arange(len(vertices)) if candidates is None else np.flatnonzero(candidates | which)
-    k = min(k, len(pool) - 1)
-    extra = min(k + 1 + 16, len(pool))  # room to break ties between equidistant points by index
-    centre = vertices[pool].mean(axis=0)  # small numbers even at UTM offsets
-    tree = cKDTree(vertices[pool] - centre)
-    sel = np.flatnonzero(which)
-    dist, local = tree.query(vertices[sel] - centre, extra, workers=-1)
+    tree = cKDTree(points)
+    dist, local = tree.query(points[local], extra, workers=-1)
     idx = pool[local.reshape(len(sel), extra)]
     dist = dist.reshape(len(sel), extra)
     # deterministic whatever the pool: nearest first, equal distances (to 1e-9) by vertex index
@@ -300,13 +320,16 @@ _MONOMIALS = {3: 9, 4: 14}  # monomials of a jet of that degree through the orig
 
 def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, chunk: int = 16384,
                   k: int = JET_NEIGHBOURS, degree: int = JET_DEGREE,
-                  candidates: np.ndarray | None = None) -> np.ndarray:
+                  candidates: np.ndarray | None = None, fast: bool | None = None) -> np.ndarray:
     """Mean curvature from a least-squares polynomial fit over the k nearest neighbours.
 
     vertices : (n, 3) float64, m
     normal : (n, 3) unit upward vertex normals (to orient the fitted normal)
     which : (n,) bool, the vertices to compute
     candidates : (n,) bool, where to look for neighbours (default: everywhere)
+    fast : the compiled kernel (default: yes; it finds the neighbours and fits them vertex by
+        vertex, in parallel, storing neither); False: ``nearest_neighbours`` and ``_jet_chunk``
+        in numpy, its oracle
     Returns (n,) with values at ``which`` (zeros elsewhere), 1/m.
     """
     n = len(vertices)
@@ -316,7 +339,15 @@ def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, c
         return H
     if n < 4:
         return H
-    nbr = nearest_neighbours(vertices, which, k, candidates)
+    if use_fast_path(n, fast):
+        vertices = np.asarray(vertices, dtype=np.float64)
+        pool, points, sel, local, k, extra = _neighbour_pool(vertices, which, k, candidates)
+        if np.isfinite(points).all():
+            from tankcd_cli.terrain import jet_kernels
+
+            H[sel] = jet_kernels.jet_curvature(vertices, normal, points, pool, local, k, extra, degree)
+            return H
+    nbr = nearest_neighbours(vertices, which, k, candidates, fast=False)
     for start in range(0, len(sel), chunk):
         rows = slice(start, start + chunk)
         H[sel[rows]] = _jet_chunk(vertices, normal, sel[rows], nbr[rows], degree)
