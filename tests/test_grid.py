@@ -359,4 +359,10 @@ def test_the_compiled_passes_give_the_numpy_passes_result(monkeypatch):
     monkeypatch.setattr(gc, "FAST_MIN_POSTS", 10**12)
     slow = classify_arrays(z, tile=20)
     for key in slow:
-        np.testing.assert_array_equal(fast[key], slow[key])
+        if slow[key].dtype.kind == "f":
+            # the passes are bit for bit; the edge posts' quartic fits agree to rounding (compiled
+            # normal equations against numpy's), as in test_jet_compiled
+            scale = np.nanmax(np.abs(slow[key]))
+            np.testing.assert_allclose(fast[key], slow[key], rtol=1e-9, atol=1e-12 * scale)
+        else:
+            np.testing.assert_array_equal(fast[key], slow[key])

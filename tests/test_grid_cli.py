@@ -212,9 +212,21 @@ def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
         job = subprocess.Popen([sys.executable, "-m", "tankcd_cli", "classify", str(src), "-o",
                                 str(tmp_path / "cluster.h5"), "--tile", "24", "--method", "jet", "--scheduler",
                                 address], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(4)  # workers started, tiles under way
-        assert job.poll() is None, job.communicate()  # the kill comes in the middle
-        os.kill(workers[0].pid, signal.SIGKILL)
+        from distributed import Client
+
+        with Client(address, timeout=60) as client:  # the kill comes when a worker holds tiles
+            client.wait_for_workers(2, timeout=60)
+            pids = client.run(os.getpid)  # {worker address: pid}
+            victim = None
+            for _ in range(3000):
+                busy = [w for w, keys in client.processing().items() if keys]
+                if busy:
+                    victim = next(p for p in workers if p.pid == pids[busy[0]])
+                    break
+                assert job.poll() is None, job.communicate()
+                time.sleep(0.01)
+            assert victim is not None and job.poll() is None, "no tile ever ran on a worker"
+            os.kill(victim.pid, signal.SIGKILL)
         _, stderr = job.communicate(timeout=300)
         assert job.returncode == 0, stderr
     finally:

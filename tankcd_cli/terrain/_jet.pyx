@@ -1031,9 +1031,11 @@ cdef int _run(const Tree* t, const double* P, const int64_t* query, const int64_
                         d2 = d2 + dz * dz
                         r2 = d2 if d2 > r2 else r2
                 cnt = _knn(t, qp, K, r2, bd, bi, cap, st_node, st_dist, &r2, cd, tmp)
+                scale = 1e-300  # assigned here so that prange makes it private (_choose sets it by pointer)
                 got = _choose(bd, bi, cnt, r2, K, k, query[qi], nb, bins, tmp, seed, &scale)
+                # in rank order: the fit's sums then run in the same order whatever the pool
+                _order_keys(P, qp, scale, nb, got, key)
                 if out != NULL:
-                    _order_keys(P, qp, scale, nb, got, key)
                     for j in range(got):
                         out[qi * k + j] = nb[j]
                 if H != NULL:

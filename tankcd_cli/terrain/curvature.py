@@ -170,7 +170,7 @@ def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan
         edge, cot, fnormal = face_corners(vertices, faces)
         normal = vertex_normals(vertices, faces, fnormal)
     if method == "jet":
-        H = jet_curvature(vertices, normal, ~open_mask)
+        H = jet_curvature(vertices, normal, ~open_mask, fast=fast)
     elif method == "cotan":
         if fast:
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -187,7 +187,7 @@ def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan
     if open_mask.any():
         # the one-sided fits look for neighbours only near the boundary, not in a tree over all
         H[open_mask] = jet_curvature(vertices, normal, open_mask, k=BOUNDARY_NEIGHBOURS,
-                                     degree=JET_DEGREE, candidates=open_verts.near)[open_mask]
+                                     degree=JET_DEGREE, candidates=open_verts.near, fast=fast)[open_mask]
     return H
 
 

@@ -256,13 +256,17 @@ def post_areas(z: np.ndarray, dx: float, dy: float) -> np.ndarray:
 
 
 def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: float, dy: float,
-                  offsets: np.ndarray, k: int = BOUNDARY_NEIGHBOURS, chunk: int = 4096) -> np.ndarray:
+                  offsets: np.ndarray, k: int = BOUNDARY_NEIGHBOURS, chunk: int = 4096,
+                  fast: bool = False) -> np.ndarray:
     """H at the posts ``which`` (bool, window shape) from a quartic over their k nearest valid
     posts among ``offsets``, nearest in 3-D and ties broken as the mesh layout breaks them
     (``curvature.nearest_neighbours``: distances to 1e-9 of the 57th, then vertex order).
     Coordinates come from whole-grid indices (row0, col0: the window's first post), so the
-    fit does not depend on the window."""
-    from tankcd_cli.terrain.curvature import _jet_chunk
+    fit does not depend on the window. ``fast``: the compiled fit (the mesh layout's), else numpy."""
+    if fast:
+        from tankcd_cli.terrain.jet_kernels import jet_fit as fit
+    else:
+        from tankcd_cli.terrain.curvature import _jet_chunk as fit
 
     H = np.zeros(z.shape)
     rr_all, cc_all = np.nonzero(which)
@@ -303,11 +307,12 @@ def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: fl
             verts = np.column_stack([(allc + col0) * dx, -(allr + row0) * dy, z[allr, allc]])
             nbr = len(sel) + np.arange(len(sel) * m).reshape(len(sel), m)
             up = np.tile([0.0, 0.0, 1.0], (len(verts), 1))
-            H[cr, ccol] = _jet_chunk(verts, up, np.arange(len(sel)), nbr, JET_DEGREE)
+            H[cr, ccol] = fit(verts, up, np.arange(len(sel)), nbr, JET_DEGREE)
     return H
 
 
-def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, dy: float) -> np.ndarray:
+def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, dy: float,
+                   fast: bool = False) -> np.ndarray:
     """H by a mesh estimator on the window's implicit triangulation (values at open posts unused)."""
     from tankcd_cli.io.terrain_readers import grid_faces
     from tankcd_cli.terrain.curvature import mean_curvature, OpenVertices
@@ -326,7 +331,7 @@ def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, 
         return H
     n = len(verts)
     none = np.zeros(n, dtype=bool)
-    h = mean_curvature(verts, faces, method, open_verts=OpenVertices(none, none, None), fast=False)
+    h = mean_curvature(verts, faces, method, open_verts=OpenVertices(none, none, None), fast=fast)
     out = np.zeros(south.shape)
     out[valid] = h
     return out[::-1]
@@ -344,7 +349,7 @@ def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, s
     if method == "grid":
         H = fd(z, dx, dy)
     else:
-        H = _mesh_interior(z, method, row0, col0, dx, dy)
+        H = _mesh_interior(z, method, row0, col0, dx, dy, fast)
     edge = open_posts(valid, method)
     H = np.where(valid & ~edge, H, 0.0)
     br, bc = band
@@ -354,7 +359,7 @@ def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, s
         edge[:, :bc] = False
         edge[:, edge.shape[1] - bc:] = False
     if edge.any():
-        H = np.where(edge, one_sided_fit(z, edge, row0, col0, dx, dy, st.fit), H)
+        H = np.where(edge, one_sided_fit(z, edge, row0, col0, dx, dy, st.fit, fast=fast), H)
     H = np.where(np.isfinite(H), H, 0.0)
     area = areas(z, dx, dy)
     a_track = disk(area, st.disk_track)

@@ -31,6 +31,8 @@ def _break(text: str, shape: str, fmt: str) -> bytes | None:
         if fmt == "scene":
             return text.replace('preset = "t72"', 'preset = "t72", "m1"').encode()
         sep = " " if fmt in ("asc", "obj") else ","
+        if fmt == "obj":  # a vertex line: a face of two indices is valid OBJ (skipped and counted)
+            k = max(i for i, line in enumerate(lines) if line.startswith("v "))
         cells = lines[k].rstrip("\n").split(sep)
         lines[k] = sep.join(cells[:-1]) + "\n"
         return "".join(lines).encode()
@@ -39,6 +41,8 @@ def _break(text: str, shape: str, fmt: str) -> bytes | None:
             return text.replace('preset = "t72"', f'preset = "t72"\ntrack_length = {shape}').encode()
         k = len(lines) // 2
         sep = " " if fmt in ("asc", "obj") else ","
+        if fmt == "obj":  # a vertex line: a face of two indices is valid OBJ (skipped and counted)
+            k = max(i for i, line in enumerate(lines) if line.startswith("v "))
         cells = lines[k].rstrip("\n").split(sep)
         cells[-2] = shape
         lines[k] = sep.join(cells) + "\n"
