@@ -99,18 +99,6 @@ class CollisionSettings:
         return {"k": self.k, "aabb_levels": self.aabb_levels, "split": self.split, "leaf_size": self.leaf_size}
 
 
-def reader_up(up: str | None) -> str | None:
-    """``up`` as ``read_terrain`` takes it. None means the format's convention and is passed
-    through to a ``read_terrain`` whose ``up`` defaults to None (it applies the convention);
-    an older ``read_terrain`` (``up`` defaulting to "z") gets its own default."""
-    if up is not None:
-        return up
-    from tankcd_cli.io.terrain_readers import read_terrain
-
-    defaults = read_terrain.__defaults__ or ("z",)
-    return defaults[0]
-
-
 @dataclass
 class Scene:
     path: str
@@ -124,8 +112,8 @@ class Scene:
 
     @property
     def terrain_up(self) -> str | None:
-        """The terrain's up axis as the terrain readers take it (see ``reader_up``)."""
-        return reader_up(self.terrain_up_axis)
+        """The terrain's up axis as the terrain readers take it (None: the format's convention)."""
+        return self.terrain_up_axis
 
     @property
     def vehicle_mesh_up(self) -> str | None:

@@ -128,7 +128,7 @@ def test_auto_follows_the_region_classes():
     r = np.hypot(X - 20, Y)
     Z = np.where(r < 5, -1.5 * (1 - (r / 5) ** 2) ** 2, 0.0) + 0.4 * np.exp(-((r - 5) / 1.5) ** 2)
     surface = S.surface_of(S.dem_terrain(Z, origin=(-40.0, -40.0)))
-    p = match(surface, T72, [-25.0, 20.0], [0.0, 0.0], [0.3, 1.0], "auto")
+    p = match(surface, T72, [-25.0, 20.0], [0.0, 0.0], [0.3, 1.0], "auto", escalate=False)  # the plain rule
     assert [MATCHERS[m] for m in p.matcher] == ["two_point", "six_point"]
 
 

@@ -74,6 +74,25 @@ def test_y_up_mesh_read_as_z_up_suggests_up_y(run, tmp_path):
     assert res.exit_code == 0 and "warning" not in res.stderr
 
 
+def test_gltf_is_y_up_by_default_and_up_z_says_so(run, tmp_path):
+    """glTF is y-up by its specification: classify, bvh and replay read it so without --up."""
+    import trimesh
+
+    v, f = _grid_mesh()
+    trimesh.Trimesh(np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]), f, process=False).export(str(tmp_path / "t.glb"))
+    res = run("classify", "t.glb", "-o", "a.h5")
+    assert res.exit_code == 0 and "warning" not in res.stderr, res.stderr
+    res = run("classify", "t.glb", "-o", "b.h5", "--up", "z")
+    assert res.exit_code == 0 and "--up y" in res.stderr
+    import h5py
+
+    with h5py.File(tmp_path / "a.h5") as h5:  # turned back to z up: the heights are the terrain's
+        np.testing.assert_allclose(np.sort(h5["mesh/vertices"][:, 2]), np.sort(v[:, 2]), atol=1e-6)
+    assert run("bvh", "t.glb", "-o", "t.bvh.h5").exit_code == 0
+    with h5py.File(tmp_path / "t.bvh.h5") as h5:
+        assert json.loads(h5.attrs["placement"]) == {"up": "y"}  # the axis applied, not "None"
+
+
 @pytest.fixture
 def utm_store(run, tmp_path):
     x = np.arange(60.0)

@@ -24,7 +24,8 @@ from tankcd_cli.names import KDOP_KS, SPLITS, TREE_DEFAULTS, UP_AXES
               help="Split rule: the surface-area heuristic, or the median of the longest axis.")
 @click.option("--leaf-size", type=click.IntRange(1, 64), default=TREE_DEFAULTS["leaf_size"], show_default=True,
               help="Triangles per leaf.")
-@click.option("--up", type=click.Choice(UP_AXES), default="z", help="Up axis of MODEL.")
+@click.option("--up", type=click.Choice(UP_AXES), default=None,
+              help="Up axis of MODEL (default: the format's convention, y for glTF and GLB, z for the rest).")
 @click.option("--force", is_flag=True, help="With --scene: rebuild even up-to-date trees.")
 @verbosity_options
 @click.pass_obj
@@ -58,7 +59,7 @@ def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, forc
     raw = read_terrain(model, up=up)
     step(f"building over {len(raw.faces):,} triangles")
     tree = build_tree(raw.vertices[raw.faces], k=int(k), leaf_size=leaf_size, aabb_levels=aabb_levels, split=split)
-    tree.attrs.update({"source": raw.source, "source_sha256": raw.sha256, "placement": f'{{"up": "{up}"}}'})
+    tree.attrs.update({"source": raw.source, "source_sha256": raw.sha256, "placement": f'{{"up": "{raw.up}"}}'})
     with atomic_path(output, ".h5") as tmp:
         write_tree(tmp, tree)
     d = tree.describe()

@@ -7,6 +7,7 @@ import os
 import click
 
 from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_options
+from tankcd_cli.names import UP_AXES
 
 METHOD_HELP = ("Mean-curvature estimator: grid (DEMs only, the default there: central differences over "
                "the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, the paper's equation 2; the "
@@ -19,8 +20,8 @@ METHOD_HELP = ("Mean-curvature estimator: grid (DEMs only, the default there: ce
 @output_option("Output store (default: TERRAIN's stem + .h5 beside it; - for stdout).")
 @click.option("--method", type=click.Choice(["grid", "cotan", "sphere", "jet"]), default=None,
               help=METHOD_HELP)
-@click.option("--up", type=click.Choice(["z", "y"]), default="z", show_default=True,
-              help="Up axis of the mesh; y-up meshes (most OBJ exports) are turned to z-up.")
+@click.option("--up", type=click.Choice(UP_AXES), default=None,
+              help="Up axis of the mesh; y-up meshes are turned to z-up (default: the format's convention, y for glTF and GLB, z for the rest).")
 @click.option("--format", "fmt", default=None, metavar="FMT",
               help="Input format when the suffix does not say (needed for stdin): obj, ply, stl, off, glb, asc, vtk, vtu, ...")
 @vehicle_option
@@ -76,7 +77,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
 
     dem = open_dem(terrain, fmt=fmt, band=band, crs=crs)
     if dem is not None:
-        if up != "z":
+        if up not in (None, "z"):
             raise click.UsageError("--up y makes no sense for a DEM (grids are z-up)")
         spec = None
         if scheduler:

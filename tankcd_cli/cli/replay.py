@@ -33,14 +33,16 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
 @click.option("--matcher", type=click.Choice(MATCHER_CHOICES),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
-@click.option("--escalate/--no-escalate", default=False, show_default=True,
+@click.option("--escalate/--no-escalate", default=None,
               help="Check every key-point pose against the reference's certificate and solve those that fail "
-                   "it by the reference: every pose within --tolerance of the reference (costs about 3-5x).")
+                   "it by the reference: every pose within --tolerance of the reference (default: on for "
+                   "--matcher auto, off for a matcher named; costs about 3-5x plain auto on rough ground).")
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
               help="The certificate's height tolerance at the footprint's corners, m (default: half the "
                    "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
 @vehicle_option
-@click.option("--up", type=click.Choice(UP_AXES), default="z", help="Up axis of a terrain mesh classified on the fly.")
+@click.option("--up", type=click.Choice(UP_AXES), default=None,
+              help="Up axis of a terrain mesh classified on the fly (default: the format's convention, y for glTF and GLB, z for the rest).")
 @click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
 @click.option("--fail-on-collision", is_flag=True,
               help="Exit 1 when any collision (obstacle, internal, terrain) occurs or a row is off the terrain.")
@@ -87,12 +89,10 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         raise click.UsageError("--vehicle does not apply with --scene: the scene's [vehicle] table decides the "
                                "vehicle (set its preset there)")
     if fleet_mode:
-        if escalate:
-            raise click.UsageError("--escalate applies to one replay for now, not to fleets")
         if png:
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
-        return _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
-                      fail_on_collision, allow_off_terrain, summary_path, split_lines)
+        return _fleet(report, trajectories, scene, terrain, matcher, escalate, tolerance, vehicle_name, up, out_dir,
+                      jobs, scheduler, fail_on_collision, allow_off_terrain, summary_path, split_lines)
     trajectory = trajectories[0]
     import itertools
 
@@ -188,8 +188,8 @@ def _exit_on_failures(result: dict, fail_on_collision: bool, allow_off_terrain: 
         click.get_current_context().exit(EXIT_COLLISION)
 
 
-def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_dir, jobs, scheduler,
-           fail_on_collision, allow_off_terrain, summary_path, split_lines):
+def _fleet(report, trajectories, scene, terrain, matcher, escalate, tolerance, vehicle_name, up, out_dir, jobs,
+           scheduler, fail_on_collision, allow_off_terrain, summary_path, split_lines):
     import json
     import os
 
@@ -212,7 +212,7 @@ def _fleet(report, trajectories, scene, terrain, matcher, vehicle_name, up, out_
     report.kernels()
     step = report.progress("replay")
     world = World(os.path.abspath(scene) if scene else None, os.path.abspath(terrain) if terrain else None,
-                  vehicle_name, up, matcher)
+                  vehicle_name, up, matcher, escalate=escalate, tolerance=tolerance)
     jobs = jobs or os.cpu_count() or 1
     if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
         world = classified_world(world, out_dir, step)

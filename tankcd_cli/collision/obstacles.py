@@ -29,9 +29,8 @@ class Obstacle:
 def read_mesh(path: str, up: str | None):
     """A mesh read as replay reads it (``read_terrain``); ``up`` None is the format's convention."""
     from tankcd_cli.io.terrain_readers import read_terrain
-    from tankcd_cli.scene import reader_up
 
-    return read_terrain(path, up=reader_up(up))
+    return read_terrain(path, up=up)
 
 
 def placement_matrix(scale, yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:

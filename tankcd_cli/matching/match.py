@@ -32,10 +32,10 @@ Matchers (``MATCHERS``):
                six_point; the paper gave general ground four points, which the
                corpus of ``tradeoff.corpus`` finds less accurate there).
 
-With ``escalate``, every key-point pose is then checked against the reference's
-certificate (``certified``) and those that fail it are solved by the reference
-(matcher ``six_point+reference`` and so on): every pose within the tolerance
-of the reference.
+With ``escalate`` (the default for ``auto``), every key-point pose is then
+checked against the reference's certificate (``certified``) and those that fail
+it are solved by the reference (matcher ``six_point+reference`` and so on):
+every pose within the tolerance of the reference.
 
 Key points are projected vertically from their untilted positions, as the
 paper does. Where a key point is off the terrain, the pose comes from the
@@ -126,7 +126,7 @@ def escalation_tolerance(vehicle: Vehicle, attitude_deg: float = ESCALATION_ATTI
 
 
 def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
-          tilt_iterations: int = 30, regions: bool = True, escalate: bool = False,
+          tilt_iterations: int = 30, regions: bool = True, escalate: bool | None = None,
           tolerance: float | None = None) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
@@ -135,7 +135,7 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     measure : also compute penetration, gap and coverage (costs an exact footprint pass)
     regions : report the worst region class under each footprint (always done for ``auto``)
     escalate : check the key-point poses against the reference's certificate and solve those
-        that fail it by the reference
+        that fail it by the reference (None, the default: for ``auto`` only, whose error it bounds)
     tolerance : the certificate's height tolerance, m (default ``escalation_tolerance``)
     """
     if matcher not in MATCHER_CHOICES:
@@ -162,7 +162,7 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
             fallback = idx[~ok]
             choice[fallback] = 3
             status[fallback] = PARTLY_OFF
-    if escalate:
+    if escalate or (escalate is None and matcher == "auto"):
         # the reference starts level for these too (a start nearer the answer can settle on
         # another fixed point where the ground offers several: not the reference's pose)
         kp = np.flatnonzero(choice < REFERENCE)

@@ -32,8 +32,10 @@ class World:
     scene: str | None
     terrain: str | None
     vehicle: str = "t72"
-    up: str = "z"
+    up: str | None = None  # None: the terrain format's convention
     matcher: str = "auto"
+    escalate: bool | None = None  # as ``match`` takes it (None: auto escalates)
+    tolerance: float | None = None  # the certificate's, m (None: derived from the vehicle)
     store: str | None = None  # the terrain as a classified store, when it had to be classified for the fleet
 
 
@@ -156,11 +158,11 @@ def _load_world_locked(world: World, progress):
             vehicle, terrain, up = vehicle_preset(world.vehicle), world.terrain, world.up
         surface, _ = load_terrain_surface(world.store or terrain, up=up, vehicle=vehicle, progress=progress)
         _LOADED.clear()  # one world per process: a new one replaces the old
-        _LOADED[world] = (surface, vehicle, scene, _setups(surface, vehicle, scene))
+        _LOADED[world] = (surface, vehicle, scene, _setups(surface, vehicle, scene, world.escalate, world.tolerance))
     return _LOADED[world]
 
 
-def _setups(surface, vehicle, scene) -> dict:
+def _setups(surface, vehicle, scene, escalate: bool | None = None, tolerance: float | None = None) -> dict:
     """The replay setups for trajectories without and with turret columns (obstacle trees loaded once)."""
     import dataclasses
 
@@ -168,6 +170,7 @@ def _setups(surface, vehicle, scene) -> dict:
     from tankcd_cli.scene import effects_of
 
     still = prepare(surface, vehicle, scene, turret_moves=False)
+    still.escalate, still.tolerance = escalate, tolerance
     moving = dataclasses.replace(still, effects=effects_of(scene, vehicle, True),
                                  seconds={k: 0.0 for k in still.seconds})
     return {False: still, True: moving}

@@ -46,11 +46,11 @@ class ReplaySetup:
     vehicle_parts: np.ndarray | None = None
     part_names: tuple = ()
     seconds: dict = field(default_factory=lambda: {"matching": 0.0, "terrain": 0.0, "obstacles": 0.0, "internal": 0.0})
-    escalate: bool = False  # key-point poses that fail the reference's certificate go to the reference
+    escalate: bool | None = None  # key-point poses that fail the reference's certificate go to it (None: auto's)
     tolerance: float | None = None  # the certificate's tolerance, m (None: derived from the vehicle)
 
 
-def load_terrain_surface(path: str, up: str = "z", fmt: str | None = None, vehicle: Vehicle | None = None,
+def load_terrain_surface(path: str, up: str | None = None, fmt: str | None = None, vehicle: Vehicle | None = None,
                          progress: Callable[[str], None] | None = None, cache: bool = False):
     """The surface of a store, or of any terrain input classified on the fly (and, with
     ``cache``, saved as a store beside it). Returns (surface, in-memory mesh store or None).

@@ -91,7 +91,7 @@ def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | 
                         raster.origin, raster.cell, buckets, grid, attrs)
 
 
-def load_terrain(path: str, up: str = "z", fmt: str | None = None) -> RawTerrain:
+def load_terrain(path: str, up: str | None = None, fmt: str | None = None) -> RawTerrain:
     """Any terrain input: a mesh, a DEM, or a store written by classify (its cleaned mesh)."""
     from tankcd_cli.io.terrain_readers import read_terrain
     from tankcd_cli.terrain.store import is_store, read_store
