@@ -31,6 +31,9 @@ OK, PARTLY_OFF, OFF = 0, 1, 2
 PRESET_NAMES = ("t72", "t55", "m1")
 UP_AXES = ("z", "y")
 CURVATURE_METHODS = ("cotan", "sphere", "jet")  # on meshes; DEMs also take "grid"
+# classify --method auto, by measurement (README "Curvature"): the grid operator on a DEM's posts,
+# the jet on an irregular mesh (cotan does not converge there), cotan on a DEM's regular triangles
+AUTO_METHODS = {"dem": "grid", "mesh": "jet", "dem_as_mesh": "cotan"}
 KDOP_KS = (6, 14, 18, 26)
 SPLITS = ("median", "sah")
 TREE_DEFAULTS = {"k": 18, "aabb_levels": 2, "split": "sah", "leaf_size": 4}

@@ -7,18 +7,18 @@ import os
 import click
 
 from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_options
-from tankcd_cli.names import UP_AXES
+from tankcd_cli.names import AUTO_METHODS, CURVATURE_METHODS, UP_AXES
 
-METHOD_HELP = ("Mean-curvature estimator: grid (DEMs only, the default there: central differences over "
-               "the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, the paper's equation 2; the "
-               "default for meshes), sphere (the paper's four-point sphere fit), jet (quartic fit over the "
-               "nearest 20 vertices; accurate on irregular meshes, slower).")
+METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet on a mesh), grid (DEMs only: "
+               "central differences over the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, "
+               "the paper's equation 2; does not converge on irregular meshes), sphere (the paper's four-point "
+               "sphere fit), jet (quartic fit over the nearest 20 vertices; accurate on irregular meshes).")
 
 
 @click.command(short_help="Classify a terrain into an HDF5 store.")
 @click.argument("terrain", type=click.Path(allow_dash=True))
 @output_option("Output store (default: TERRAIN's stem + .h5 beside it; - for stdout).")
-@click.option("--method", type=click.Choice(["grid", "cotan", "sphere", "jet"]), default=None,
+@click.option("--method", type=click.Choice(("auto", "grid") + CURVATURE_METHODS), default="auto",
               help=METHOD_HELP)
 @click.option("--up", type=click.Choice(UP_AXES), default=None,
               help="Up axis of the mesh; y-up meshes are turned to z-up (default: the format's convention, y for glTF and GLB, z for the rest).")
@@ -84,7 +84,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
             if terrain == "-":
                 raise click.UsageError("--scheduler needs a DEM path the workers can read, not standard input")
             spec = (os.path.abspath(terrain), fmt, band, crs)
-        _classify_dem(report, dem, output, method or "grid", vehicle_preset(vehicle_name), user_thresholds, tile,
+        _classify_dem(report, dem, output, AUTO_METHODS["dem"] if method == "auto" else method, vehicle_preset(vehicle_name), user_thresholds, tile,
                       jobs, png, scheduler, spec)
         return
     if scheduler:
@@ -93,7 +93,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
         raise click.UsageError("--crs and --band apply to DEM rasters; meshes keep their coordinates")
     if method == "grid":
         raise click.UsageError("--method grid needs a DEM; meshes take cotan, sphere or jet")
-    method = method or "cotan"
+    method = AUTO_METHODS["mesh"] if method == "auto" else method
     raw = load_terrain(terrain, up=up, fmt=fmt)
     store = classify_terrain(raw, method=method, vehicle=vehicle_preset(vehicle_name),
                              thresholds=user_thresholds, progress=step)

@@ -9,6 +9,7 @@ import numpy as np
 
 from tankcd_cli import __version__
 from tankcd_cli.io.terrain_readers import RawTerrain
+from tankcd_cli.names import AUTO_METHODS
 from tankcd_cli.terrain.curvature import mean_curvature, open_vertices
 from tankcd_cli.terrain.locate import build_buckets
 from tankcd_cli.terrain.mesh import CleanMesh, clean_mesh
@@ -19,11 +20,17 @@ from tankcd_cli.tolerances import DEFAULT, Tolerances
 from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
 
-def classify_terrain(raw: RawTerrain, method: str = "cotan", vehicle: Vehicle | None = None,
+def classify_terrain(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | None = None,
                      thresholds: Thresholds | None = None, tol: Tolerances = DEFAULT,
                      progress: Callable[[str], None] | None = None) -> TerrainStore:
-    """Clean a terrain, compute mean curvature and region classes, and build the query indexes."""
+    """Clean a terrain, compute mean curvature and region classes, and build the query indexes.
+
+    method : one of ``CURVATURE_METHODS``, or "auto" (``AUTO_METHODS``: jet on a mesh, cotan on a
+        DEM's regular triangles)
+    """
     say = progress or (lambda stage: None)
+    if method == "auto":
+        method = AUTO_METHODS["mesh" if raw.grid is None else "dem_as_mesh"]
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
 
