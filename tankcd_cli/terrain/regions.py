@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tankcd_cli.terrain.mesh import twice_face_areas
 from tankcd_cli.vehicle import Vehicle
 
 from tankcd_cli.names import CLASS_NAMES, FLAT, GENERAL, NO_CLASS, UNEVEN  # noqa: F401 (shared names)
@@ -97,8 +98,7 @@ class Raster:
 
 def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """A third of the area of each incident face, summed per vertex, m^2 (n,)."""
-    p = vertices[faces]
-    double = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    double = twice_face_areas(vertices, faces)
     return np.bincount(faces.ravel(), weights=np.repeat(double / 6.0, 3), minlength=len(vertices))
 
 
