@@ -31,8 +31,13 @@ class TriangleBuckets:
 
 def build_buckets(vertices: np.ndarray, faces: np.ndarray, cell: float | None = None) -> TriangleBuckets:
     """Bucket every triangle by its x, y bounding box (vectorized over all triangles)."""
-    tri = vertices[faces][:, :, :2]
-    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    lo = np.empty((len(faces), 2))
+    hi = np.empty((len(faces), 2))
+    for k in range(2):  # coordinate by coordinate: no (m, 3, 2) gather, no reduction over a short axis
+        x = np.ascontiguousarray(vertices[:, k])
+        a, b, c = x[faces[:, 0]], x[faces[:, 1]], x[faces[:, 2]]
+        lo[:, k] = np.minimum(np.minimum(a, b), c)
+        hi[:, k] = np.maximum(np.maximum(a, b), c)
     world_lo, world_hi = lo.min(axis=0), hi.max(axis=0)
     span = np.maximum(world_hi - world_lo, 1e-9)
     if cell is None:
