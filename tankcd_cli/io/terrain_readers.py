@@ -473,11 +473,51 @@ def _simple_obj_parts(lines: list[str], n_faces: int) -> tuple[np.ndarray | None
 
 
 def _read_obj(data: bytes, name: str) -> _Mesh:
-    """An OBJ: the fast reader when it suffices, the full one otherwise."""
+    """An OBJ: the compiled reader, else the Python fast reader, when they suffice; the full one otherwise."""
     if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark would hide the first line's keyword
         data = data[3:]
-    simple = _simple_obj(data)
+    simple = _compiled_obj(data)
+    if simple is None:
+        simple = _simple_obj(data)
     return simple if simple is not None else parse_obj(data, name)
+
+
+def _compiled_obj(data: bytes) -> _Mesh | None:
+    """What ``_simple_obj`` gives, read by the compiled scanner (``obj_kernels``), or None when
+    it declines the file (then ``_simple_obj`` and ``parse_obj`` decide, as without it; a face
+    index past the last vertex is declined too, and refused as before by ``_check_arrays``)."""
+    from tankcd_cli.io.obj_kernels import _POW10, scan_obj
+
+    scanned = scan_obj(data, _POW10)
+    if scanned is None:
+        return None
+    vertices, faces, n_lines, n_points, mark_kind, mark_faces, mark_start, mark_end = scanned
+    skipped = {}
+    if n_lines:
+        skipped[OBJ_LINES] = n_lines
+    if n_points:
+        skipped[OBJ_POINTS] = n_points
+    face_part, part_names = _marked_obj_parts(data, mark_kind, mark_faces, mark_start, mark_end, len(faces))
+    return _Mesh(vertices, faces, skipped, face_part, part_names)
+
+
+def _marked_obj_parts(data: bytes, kind: np.ndarray, faces_before: np.ndarray, start: np.ndarray,
+                      end: np.ndarray, n_faces: int) -> tuple[np.ndarray | None, tuple]:
+    """``_simple_obj_parts`` from the ``o``/``g`` marks alone (their kind, the number of faces
+    before each, the byte range of each name): the ``o`` objects, else the ``g`` groups."""
+    for key in (ord("o"), ord("g")):
+        sel = np.flatnonzero(kind == key)
+        if not len(sel):
+            continue
+        ids: dict[str, int] = {}
+        label_of_mark = np.array([ids.setdefault(data[a:b].decode("utf-8").strip() or DEFAULT_PART, len(ids))
+                                  for a, b in zip(start[sel].tolist(), end[sel].tolist())], dtype=np.int64)
+        # per face, its latest mark of this kind (-1: none yet): the marks come in file order
+        last = np.searchsorted(faces_before[sel], np.arange(n_faces), side="right") - 1
+        labels = np.where(last >= 0, label_of_mark[np.maximum(last, 0)], -1)
+        if (labels >= 0).any():
+            return _compact_parts(labels, list(ids))
+    return None, ()
 
 
 def _obj_index(token: str, n_vertices: int) -> int | None:
