@@ -1,6 +1,6 @@
 """Compiled kernels of the ``jet`` mean curvature (``curvature.jet_curvature``).
 
-Each has a numpy twin in ``curvature.py`` (the oracle); ``tests/test_jet_compiled.py`` makes
+Each has a numpy twin in ``curvature.py`` (the oracle); ``tests/terrain/test_jet.py`` makes
 them agree. Compiled ahead of time (Cython, ``_jet.pyx``); the loops over vertices run in
 parallel (OpenMP) and release the GIL.
 

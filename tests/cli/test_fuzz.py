@@ -4,7 +4,7 @@ Whatever the bytes, a command ends with exit 0 (the mutation left a valid file),
 collision with --fail-on-collision: not used here) or 3 with one line naming the file;
 never an internal error (exit 4) and never a traceback. Bounded in CI; run longer by hand:
 
-    TANKCD_FUZZ_EXAMPLES=3000 python -m pytest tests/hard_cases/test_fuzz.py -q
+    TANKCD_FUZZ_EXAMPLES=3000 python -m pytest tests/cli/test_fuzz.py -q
 
 Every crash found becomes a regression test in test_malformed.py or below.
 """

@@ -11,7 +11,7 @@ import pytest
 
 from tankcd_cli.io.poses_csv import COLUMNS
 
-SAMPLE = Path(__file__).resolve().parent.parent / "sample_data"
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ import pytest
 from tankcd_cli.errors import InputError
 from tankcd_cli.replay.fleet import expand_trajectories, plan_tasks
 
-SAMPLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sample_data")
+SAMPLE = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "sample_data")
 
 
 def _trajectory(path, rows, seed):

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SAMPLE = Path(__file__).resolve().parent.parent / "sample_data"
-GOLDEN = Path(__file__).resolve().parent / "golden"
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
+GOLDEN = Path(__file__).resolve().parents[1] / "golden"
 
 
 @pytest.fixture(scope="module")

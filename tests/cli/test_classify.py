@@ -14,7 +14,7 @@ import pytest
 from tankcd_cli.terrain.store import read_store, write_store
 from tests.conftest import write_asc
 
-SAMPLE = Path(__file__).resolve().parent.parent / "sample_data"
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
 
 
 @pytest.fixture(scope="module")
