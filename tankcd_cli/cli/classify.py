@@ -21,7 +21,8 @@ METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet 
 @click.option("--method", type=click.Choice(("auto", "grid") + CURVATURE_METHODS), default="auto",
               help=METHOD_HELP)
 @click.option("--up", type=click.Choice(UP_AXES), default=None,
-              help="Up axis of the mesh; y-up meshes are turned to z-up (default: the format's convention, y for glTF and GLB, z for the rest).")
+              help="Up axis of the mesh; y-up meshes are turned to z-up (default: the format's convention, "
+                   "y for glTF and GLB, z for the rest).")
 @click.option("--format", "fmt", default=None, metavar="FMT",
               help="Input format when the suffix does not say (needed for stdin): obj, ply, stl, off, glb, asc, vtk, vtu, ...")
 @vehicle_option
@@ -84,8 +85,9 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
             if terrain == "-":
                 raise click.UsageError("--scheduler needs a DEM path the workers can read, not standard input")
             spec = (os.path.abspath(terrain), fmt, band, crs)
-        _classify_dem(report, dem, output, AUTO_METHODS["dem"] if method == "auto" else method, vehicle_preset(vehicle_name), user_thresholds, tile,
-                      jobs, png, scheduler, spec)
+        method = AUTO_METHODS["dem"] if method == "auto" else method
+        _classify_dem(report, dem, output, method, vehicle_preset(vehicle_name), user_thresholds, tile, jobs, png,
+                      scheduler, spec)
         return
     if scheduler:
         raise click.UsageError("--scheduler applies to DEMs; a mesh is classified in this process")

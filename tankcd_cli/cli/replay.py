@@ -42,7 +42,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
                    "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
 @vehicle_option
 @click.option("--up", type=click.Choice(UP_AXES), default=None,
-              help="Up axis of a terrain mesh classified on the fly (default: the format's convention, y for glTF and GLB, z for the rest).")
+              help="Up axis of a terrain mesh classified on the fly (default: the format's convention, y for "
+                   "glTF and GLB, z for the rest).")
 @click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
 @click.option("--fail-on-collision", is_flag=True,
               help="Exit 1 when any collision (obstacle, internal, terrain) occurs or a row is off the terrain.")
