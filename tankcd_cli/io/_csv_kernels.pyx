@@ -4,82 +4,24 @@ import numpy as np
 
 cimport numpy as cnp
 
+from tankcd_cli.io._decimal cimport decimal_at, is_blank
+
 cnp.import_array()
-
-
-cdef inline bint _is_blank(unsigned char ch) noexcept nogil:
-    return ch == 32 or ch == 9  # ' ', '\t'
-
-
-cdef inline bint _is_digit(unsigned char ch) noexcept nogil:
-    return 48 <= ch <= 57
 
 
 cdef bint _parse(const unsigned char* buf, Py_ssize_t n, Py_ssize_t rows, Py_ssize_t width,
                  const double* pow10, double* out) noexcept nogil:
     """The table into ``out`` (rows * width, row-major); False at the first cell off the fast path."""
     cdef Py_ssize_t pos = 0, r, c
-    cdef unsigned long long mant  # unsigned: wraps (no C overflow) past 19 digits, which fail anyway
-    cdef long long e, scale
-    cdef int digits
-    cdef bint negative, seen, eneg, eseen
-    cdef double value
     for r in range(rows):
         for c in range(width):
-            while pos < n and _is_blank(buf[pos]):
+            while pos < n and is_blank(buf[pos]):
                 pos += 1
-            negative = False
-            if pos < n and (buf[pos] == 45 or buf[pos] == 43):  # '-', '+'
-                negative = buf[pos] == 45
-                pos += 1
-            mant = 0
-            digits = 0  # significant digits kept in mant
-            scale = 0  # decimal exponent of mant's last digit
-            seen = False
-            while pos < n and _is_digit(buf[pos]):
-                seen = True
-                mant = mant * 10 + (buf[pos] - 48)
-                digits += mant != 0  # leading zeros are not significant
-                pos += 1
-            if pos < n and buf[pos] == 46:  # '.'
-                pos += 1
-                while pos < n and _is_digit(buf[pos]):
-                    seen = True
-                    mant = mant * 10 + (buf[pos] - 48)
-                    digits += mant != 0
-                    scale -= 1
-                    pos += 1
-            if not seen or digits > 15:
+            pos = decimal_at(buf, pos, n, pow10, &out[r * width + c])
+            if pos < 0:
                 return False
-            if pos < n and (buf[pos] == 101 or buf[pos] == 69):  # 'e', 'E'
+            while pos < n and is_blank(buf[pos]):
                 pos += 1
-                eneg = False
-                if pos < n and (buf[pos] == 45 or buf[pos] == 43):
-                    eneg = buf[pos] == 45
-                    pos += 1
-                e = 0
-                eseen = False
-                while pos < n and _is_digit(buf[pos]):
-                    eseen = True
-                    e = e * 10 + (buf[pos] - 48)
-                    if e > 400:
-                        return False
-                    pos += 1
-                if not eseen:
-                    return False
-                scale += -e if eneg else e
-            while pos < n and _is_blank(buf[pos]):
-                pos += 1
-            if scale < -22 or scale > 22:
-                if mant != 0:
-                    return False
-                scale = 0
-            value = <double><long long>mant  # at most 15 digits: exact
-            if scale >= 0:
-                value = value * pow10[scale]
-            else:
-                value = value / pow10[-scale]
-            out[r * width + c] = -value if negative else value
             # the separator: a comma between cells, a line end after the last
             if c < width - 1:
                 if pos >= n or buf[pos] != 44:
