@@ -46,8 +46,7 @@ def clean_mesh(vertices: np.ndarray, faces: np.ndarray, tol: Tolerances = DEFAUL
         counts["merged_vertices"] = int(np.count_nonzero(rep != np.arange(n)))
     f = rep[faces]
 
-    u, v = _face_edges(vertices, f)  # b - a, c - a by coordinate
-    w = _face_edges(vertices, f[:, [1, 2, 0]])[0]  # c - b
+    u, v, w = _face_edges(vertices, f, third=True)  # b - a, c - a, c - b by coordinate
     longest2 = np.maximum(np.maximum(_sq3(u), _sq3(v)), _sq3(w))
     area2 = np.sqrt(_sq3(_cross3(u, v)))  # twice the area
     repeated_index = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
@@ -80,12 +79,15 @@ def twice_face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.sqrt(_sq3(face_normal_components(vertices, faces)))
 
 
-def _face_edges(vertices: np.ndarray, faces: np.ndarray):
-    """b - a and c - a of each face, each as three (m,) coordinate arrays."""
-    x, y, z = (np.ascontiguousarray(vertices[:, k]) for k in range(3))
-    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    xa, ya, za = x[a], y[a], z[a]
-    return (x[b] - xa, y[b] - ya, z[b] - za), (x[c] - xa, y[c] - ya, z[c] - za)
+def _face_edges(vertices: np.ndarray, faces: np.ndarray, third: bool = False):
+    """b - a and c - a of each face (and c - b with ``third``), each as three (m,) coordinate arrays."""
+    corners = []
+    for k in range(3):  # coordinate by coordinate: no (m, 3, 3) gather
+        x = np.ascontiguousarray(vertices[:, k])
+        corners.append((x[faces[:, 0]], x[faces[:, 1]], x[faces[:, 2]]))
+    u = tuple(b - a for a, b, _ in corners)
+    v = tuple(c - a for a, _, c in corners)
+    return (u, v, tuple(c - b for _, b, c in corners)) if third else (u, v)
 
 
 def _cross3(u, v):
