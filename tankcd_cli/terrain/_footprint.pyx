@@ -9,7 +9,7 @@ candidate faces of a mesh cell range, and the small polygons of the clipping.
 import numpy as np
 
 from cython.parallel cimport parallel, prange
-from libc.math cimport cos, fabs, isfinite, isnan, sin, INFINITY
+from libc.math cimport cos, fabs, isfinite, isnan, sin, INFINITY, NAN
 from libc.stdint cimport int64_t, INT64_MIN
 from libc.stdlib cimport free, malloc, qsort
 
@@ -69,8 +69,9 @@ cdef struct Job:
     const double* cy
     const double* yaw
     const double* quads  # (N, 2, 4, 2)
-    const double* planes_in  # (N, 3), read in mode 1
-    double* out  # (N, 3)
+    const double* planes_in  # (N, 3), read in modes 1 and 2
+    double* out  # (N, stride)
+    Py_ssize_t stride
     double* covered
     int64_t* status
     Mesh mesh
@@ -626,16 +627,16 @@ cdef void _block(const Job* jb, Scratch* sc, Py_ssize_t lo, Py_ssize_t hi) noexc
         quad = jb.quads + 16 * i
         patch_area = _quad_area(quad) + _quad_area(quad + 8)
         jb.covered[i] = area / patch_area if patch_area > 0 else 0.0
-        if jb.mode == 0:
+        if jb.mode != 1:
             st = support_plane_c(sc.bu, sc.bv, sc.bz, used, jb.eps, pl)
             if st < 0:
                 sc.err = _ERR_ZERO_DIVISION
                 return
-            jb.out[3 * i] = pl[0]
-            jb.out[3 * i + 1] = pl[1]
-            jb.out[3 * i + 2] = pl[2]
+            jb.out[jb.stride * i] = pl[0]
+            jb.out[jb.stride * i + 1] = pl[1]
+            jb.out[jb.stride * i + 2] = pl[2]
             jb.status[i] = st
-        else:
+        if jb.mode != 0:
             worst = -INFINITY
             pa = jb.planes_in[3 * i]
             pb = jb.planes_in[3 * i + 1]
@@ -644,8 +645,11 @@ cdef void _block(const Job* jb, Scratch* sc, Py_ssize_t lo, Py_ssize_t hi) noexc
                 h = sc.bz[k] - (pa + pb * sc.bu[k] + pc * sc.bv[k])
                 if h > worst:
                     worst = h
-            jb.out[3 * i] = worst
-            jb.status[i] = 0 if used > 0 else 1
+            if jb.mode == 1:
+                jb.out[jb.stride * i] = worst
+                jb.status[i] = 0 if used > 0 else 1
+            else:  # the support plane's status stands; no ground under the patches: NaN
+                jb.out[jb.stride * i + 3] = worst if used > 0 else NAN
 
 
 _NO_MESH = (np.zeros((1, 3)), np.zeros((1, 3), np.int64), np.zeros((1, 3)), np.zeros(2), np.ones(2), 0, 0,
@@ -655,7 +659,8 @@ _NO_POSTS = (np.empty((0, 0)), np.zeros(2), np.ones(2), 0, 0)
 
 def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arithmetic=True):
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
-    centre; mode 1, the highest ground above ``planes_in`` (signed, m).
+    centre; mode 1, the highest ground above ``planes_in`` (signed, m); mode 2, both from the
+    one pass (a, b, c, highest), with the support plane's status.
 
     mesh : the faces and their locator (``terrain.footprint.MeshGround``), or None for a DEM held
         as posts alone (then cells that are not wholly full are clipped from triangles made of
@@ -666,7 +671,8 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
 
     cx, cy : (N,) local footprint centres; yaw : (N,) rad
     quads : (N, 2, 4, 2) the two patches' corners (u, v), counter-clockwise
-    Returns (N, 3) planes or (N,) heights, the covered share of the patches (N,), status (N,).
+    Returns (N, 3) planes, or (N, 3) with the heights in column 0 (mode 1), or (N, 4) (mode 2);
+    the covered share of the patches (N,); status (N,).
     """
     grid = mesh is None
     V, F, plane, origin, size, ny, nx, start, cell_face, listed_once = _NO_MESH if grid else mesh
@@ -694,7 +700,7 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
         raise ValueError("quads must be (N, 2, 4, 2)")
     if mode != 0 and (planes_in_v.shape[0] < npose or planes_in_v.shape[1] < 3):
         raise ValueError("planes_in must be (N, 3)")
-    out_arr = np.full((npose, 3), np.nan)
+    out_arr = np.full((npose, 4 if mode == 2 else 3), np.nan)
     covered_arr = np.zeros(npose)
     status_arr = np.zeros(npose, np.int64)
     if npose == 0:
@@ -702,7 +708,10 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
     cdef double[:, ::1] out_v = out_arr
     cdef double[::1] covered_v = covered_arr
     cdef int64_t[::1] status_v = status_arr
-    job.mode = 0 if mode == 0 else 1
+    if mode not in (0, 1, 2):
+        raise ValueError(f"mode must be 0, 1 or 2, not {mode!r}")
+    job.mode = mode
+    job.stride = out_v.shape[1]
     job.eps = eps
     job.dem = post_z_v.shape[0] >= 2 and post_z_v.shape[1] >= 2 and bool(arithmetic)
     job.grid = bool(grid)

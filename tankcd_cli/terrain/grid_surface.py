@@ -221,7 +221,7 @@ class GridSurface(PatchQueries):
 
         lx, ly = self.to_local(x, y)
         n = len(lx)
-        out = np.full((n, 3), np.nan)
+        out = np.full((n, 4 if mode == 2 else 3), np.nan)
         covered = np.zeros(n)
         status = np.zeros(n, dtype=np.int64)
         if n == 0:

@@ -32,3 +32,13 @@ class PatchQueries:
         out, covered, status = self.footprint(1, x, y, yaw, np.ascontiguousarray(quads), np.ascontiguousarray(planes),
                                               EPS_XY, arithmetic=exact_cells)
         return out[:, 0], covered, status
+
+    def support_and_highest(self, x, y, yaw, quads, planes):
+        """Both queries from one pass over the same ground: the lowest supporting plane (N, 3),
+        how far the ground rises above each given plane (N,; NaN where no ground is under the
+        patches), the covered share (N,) and the support plane's status (N,)."""
+        from tankcd_cli.tolerances import EPS_XY
+
+        out, covered, status = self.footprint(2, x, y, yaw, np.ascontiguousarray(quads), np.ascontiguousarray(planes),
+                                              EPS_XY)
+        return out[:, :3], out[:, 3], covered, status
