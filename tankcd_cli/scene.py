@@ -202,7 +202,9 @@ def load_scene(path: str) -> Scene:
                 raise InputError(path, f"must be true or false, got {value!r}", where="[vehicle] fuel_drums")
         elif isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise InputError(path, f"must be a number, got {value!r}", where=f"[vehicle] {key}")
-        overrides[key] = float(value) if key != "fuel_drums" else value
+        # counts stay whole (a whole float is taken as one: 6.0 road wheels are 6)
+        overrides[key] = value if key == "fuel_drums" else (
+            int(value) if key == "road_wheels" and float(value).is_integer() else float(value))
     try:
         vehicle = vehicle_preset(preset, **overrides)
     except ValueError as exc:

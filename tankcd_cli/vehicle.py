@@ -21,15 +21,18 @@ Sources ("(estimate)" where no source states a value directly):
   drum axes (1.20 m) are estimates chosen so that, turned to the rear, the
   barrel clears the drums level and meets them at full depression, as the
   paper describes. The drums sit side by side 1.0 m apart (a 0.12 m gap
-  between their ends, narrower than the barrel).
+  between their ends, narrower than the barrel). Six road wheels a side
+  (recognition guides).
 - T-55: width 3.27 m; DCS World chassis data (contact stations 3.96 m apart,
   gauge 2.60 m); 100 mm D-10T, tube about 5.35 m; elevation -5 to +18 deg
   (estimates); hull length 6.20 m, height 2.32 m, ground clearance 0.425 m
-  and 580 mm tracks as commonly quoted (estimates); two 200 L rear drums.
+  and 580 mm tracks as commonly quoted (estimates); two 200 L rear drums; five
+  road wheels a side (commonly quoted).
 - M1 Abrams: hull length 7.92 m, width 3.66 m, height 2.38-2.44 m; 120 mm
   M256 L/44, tube 5.28 m; DCS World chassis data (contact stations 4.76 m
   apart, gauge 2.86 m); elevation -10 to +20 deg (estimate); ground clearance
-  0.48 m and 635 mm tracks as commonly quoted (estimates); no external drums.
+  0.48 m and 635 mm tracks as commonly quoted (estimates); no external drums;
+  seven road wheels a side (commonly quoted).
 """
 
 from __future__ import annotations
@@ -61,6 +64,7 @@ class Vehicle:
     fuel_drums : whether the two rear drums are fitted
     drum_radius, drum_length : each drum (axis across the hull, along y)
     drum_x, drum_y, drum_z : centre of the left drum (the right one mirrors y)
+    road_wheels : road wheels on each side (the stations ``wheel_stations`` samples), 2 to 20
     """
 
     name: str
@@ -85,6 +89,7 @@ class Vehicle:
     drum_x: float
     drum_y: float
     drum_z: float
+    road_wheels: int = 6
 
     def __post_init__(self):
         positive = ("track_length", "track_gauge", "track_width", "hull_length", "hull_width", "hull_height",
@@ -93,6 +98,10 @@ class Vehicle:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name == "name":
+                continue
+            if f.name == "road_wheels":
+                if isinstance(value, bool) or not isinstance(value, int) or not 2 <= value <= 20:
+                    raise ValueError(f"vehicle road_wheels must be a whole number from 2 to 20, got {value!r}")
                 continue
             if f.name == "fuel_drums":
                 if not isinstance(value, bool):
@@ -130,7 +139,8 @@ def _t55() -> Vehicle:
                    hull_length=6.20, hull_width=3.27, hull_height=2.32, deck_height=1.40, ground_clearance=0.425,
                    turret_x=-0.20, trunnion_forward=0.40, trunnion_height=1.80, gun_length=5.35, gun_radius=0.10,
                    gun_min_deg=-5.0, gun_max_deg=18.0, fuel_drums=True, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.25)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.25,
+                   road_wheels=5)
 
 
 def _m1() -> Vehicle:
@@ -139,7 +149,7 @@ def _m1() -> Vehicle:
                    hull_length=7.92, hull_width=3.66, hull_height=2.44, deck_height=1.40, ground_clearance=0.48,
                    turret_x=-0.40, trunnion_forward=0.55, trunnion_height=1.90, gun_length=5.28, gun_radius=0.11,
                    gun_min_deg=-10.0, gun_max_deg=20.0, fuel_drums=False, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20, road_wheels=7)
 
 
 PRESETS: dict[str, Vehicle] = dict(zip(PRESET_NAMES, (_t72(), _t55(), _m1())))
@@ -177,3 +187,17 @@ def key_points(vehicle: Vehicle, count: int):
     if count == 6:
         return np.array([[h, g], [0.0, g], [-h, g], [h, -g], [0.0, -g], [-h, -g]])
     raise ValueError("key points come in 2, 4 or 6")
+
+
+def wheel_stations(vehicle: Vehicle):
+    """Ground samples (4 road_wheels, 2) in the vehicle frame's ground plane, m: every road-wheel
+    station of each track (evenly spaced over the contact length, the first and last at its
+    ends), each at both edges of the track, where a track on uneven ground bears.
+    Order: left track then right, front to rear, outer edge before inner.
+    """
+    import numpy as np
+
+    h, g, w = vehicle.track_length / 2, vehicle.track_gauge / 2, vehicle.track_width / 2
+    u = np.linspace(h, -h, vehicle.road_wheels)
+    rows = [(s * (g + w), s * (g - w)) for s in (1.0, -1.0)]  # each track's outer and inner edge
+    return np.array([[ui, edge] for outer_inner in rows for ui in u for edge in outer_inner])

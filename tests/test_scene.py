@@ -317,3 +317,14 @@ def test_part_ids_and_names_from_a_reader_that_gives_them_reach_the_events(run, 
     assert [(e["step"], e["a"]) for e in events] == [(0, "turret"), (1, "hull"), (2, "vehicle")]
     facts = json.loads(run("info", "scene.toml", "--json").stdout)
     assert facts["vehicle"]["mesh"]["parts"] == {"hull": 12, "turret": 12, "vehicle": 12}
+
+
+@pytest.mark.parametrize("value,ok", [("7", True), ("7.0", True), ("1", False), ("6.5", False), ("true", False)])
+def test_road_wheels_are_a_whole_number(run, tmp_path, value, ok):
+    (tmp_path / "scene.toml").write_text(f"[vehicle]\nroad_wheels = {value}\n")
+    result = run("info", str(tmp_path / "scene.toml"))
+    if ok:
+        assert result.exit_code == 0, result.stderr
+    else:
+        assert result.exit_code == 3 and "road_wheels" in result.stderr, result.stderr
+        assert len(result.stderr.strip().splitlines()) == 1
