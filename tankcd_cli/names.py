@@ -10,18 +10,19 @@ NO_CLASS = 255  # no terrain (NODATA), or no class known under a footprint
 NO_CLASS_NAME = "unknown"
 
 # matchers (codes in Poses.matcher; see matching.match)
-KEY_POINT_MATCHERS = ("two_point", "four_point", "six_point")
+KEY_POINT_MATCHERS = ("two_point", "four_point", "six_point", "wheel_stations")  # cheapest first
 MATCHERS = KEY_POINT_MATCHERS + ("reference",)
-REFERENCE = 3
+REFERENCE = 4
 MATCHER_CHOICES = MATCHERS + ("auto",)
 # what placed a pose: a matcher, or a key-point matcher whose pose failed the reference's
 # certificate and was solved again by the reference (ESCALATED + the key-point matcher's code)
-ESCALATED = 4
+ESCALATED = 5
 PLACED_BY = MATCHERS + tuple(f"{m}+reference" for m in KEY_POINT_MATCHERS)
 NO_MATCHER = "none"  # the matcher column of a row without a pose
 # the key-point matcher ``auto`` gives each region class: the most accurate against the reference on
-# the generated corpus of terrain families (tradeoff.corpus; a test holds the two together)
-AUTO_RULE = {"flat": "two_point", "general": "six_point", "uneven": "six_point"}
+# the generated corpus of terrain families, ties to the one fewest poses fail the certificate with
+# (tradeoff.corpus; a test holds the two together)
+AUTO_RULE = {"flat": "wheel_stations", "general": "wheel_stations", "uneven": "wheel_stations"}
 
 # pose status (codes in Poses.status, names in the poses' status column)
 STATUS = ("ok", "partly_off", "off")

@@ -22,20 +22,26 @@ Matchers (``MATCHERS``):
                supporting points are those whose plane has no point above it and
                the footprint centre over their triangle: the facet of the
                points' upper convex hull above the centre.
+``wheel_stations`` the same support rule over the ground at every road-wheel station of
+               each track (``vehicle.road_wheels`` a side), sampled at both edges of the
+               track (4 x road_wheels samples): a track on a crest or a ditch's lip bears
+               where the ground is, which six points on the centre lines miss.
 ``reference``  the ground truth (docs/formats.md, Conventions): the lowest plane over the footprint
                centre that no ground point of either track's contact patch rises
                above, from the exact ground under the patches (every terrain
                triangle clipped to them), the patches re-projected for the
                hull's tilt and solved again until the tilt settles.
 ``auto``       the matcher the worst region class under the footprint calls for
-               (``AUTO_RULE``, from measurement: flat two_point, general and uneven
-               six_point; the paper gave general ground four points, which the
-               corpus of ``tradeoff.corpus`` finds less accurate there).
+               (``AUTO_RULE``, from measurement: the corpus of ``tradeoff.corpus``
+               finds wheel_stations the most accurate on general and uneven ground,
+               and, with every matcher's median error 0 on flat ground, the one the
+               fewest poses fail the certificate with there too; the paper's rule,
+               two, four and six points, is less accurate in every class).
 
 With ``escalate`` (the default for ``auto``), every key-point pose is then
-checked against the reference's certificate (``certified``) and those that fail
-it are solved by the reference (matcher ``six_point+reference`` and so on):
-every pose within the tolerance of the reference.
+checked against the reference's certificate (``certify``) and those that fail
+it are solved by the reference (matcher ``wheel_stations+reference`` and so
+on): every pose within the tolerance of the reference.
 
 Key points are projected vertically from their untilted positions, as the
 paper does. Where a key point is off the terrain, the pose comes from the
@@ -46,12 +52,13 @@ reference over the part of the footprint that is on the terrain (status
 Measures of how far each pose is from physical (``measure=True``):
 ``penetration`` the highest ground point of the contact patches above the
 hull's plane (0 if none); ``gap`` the largest height of the plane above the
-ground at the six wheel stations (front, middle, rear of each track).
+ground at the six key points (front, middle, rear of each track's centre line).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -77,7 +84,7 @@ from tankcd_cli.names import (  # noqa: F401 (shared names)
     STATUS,
 )
 from tankcd_cli.tolerances import EPS_XY, ESCALATION_ATTITUDE_DEG
-from tankcd_cli.vehicle import Vehicle, key_points
+from tankcd_cli.vehicle import Vehicle, key_points, wheel_stations
 
 
 @dataclass
@@ -155,22 +162,37 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
 
     plane = np.full((n, 3), np.nan)
     status = np.full(n, OK, dtype=np.int64)
-    for code, solver in ((0, _two_point), (1, _four_point), (2, _six_point)):
+    for code, solver in enumerate((_two_point, _four_point, _six_point, _wheel_stations)):
         idx = np.flatnonzero(choice == code)
         if len(idx):
             plane[idx], ok = solver(surface, vehicle, x[idx], y[idx], yaw[idx])
             fallback = idx[~ok]
-            choice[fallback] = 3
+            choice[fallback] = REFERENCE
             status[fallback] = PARTLY_OFF
+    penetration = np.full(n, np.nan)
+    covered = np.full(n, np.nan)
+    measured = np.zeros(n, dtype=bool)  # penetration and coverage already known from the certificate's pass
+    cert = None
     if escalate or (escalate is None and matcher == "auto"):
         # the reference starts level for these too (a start nearer the answer can settle on
         # another fixed point where the ground offers several: not the reference's pose)
         kp = np.flatnonzero(choice < REFERENCE)
         tol = escalation_tolerance(vehicle) if tolerance is None else float(tolerance)
-        choice[kp[~certified(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol)]] += ESCALATED
+        cert = certify(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol)
+        choice[kp[~cert.passed]] += ESCALATED
+        level = np.full(n, -1, dtype=np.int64)  # where each pose's reference first round is in cert.level
+        level[kp] = np.arange(len(kp))
+        if measure:
+            passed = kp[cert.passed]
+            penetration[passed], covered[passed] = cert.penetration[cert.passed], cert.covered[cert.passed]
+            measured[passed] = True
     idx = np.flatnonzero(choice >= REFERENCE)
     if len(idx):
-        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations)
+        first = None  # escalated poses reuse the certificate's untilted round: the reference's own first
+        if cert is not None:
+            first = _first_round(surface, vehicle, x[idx], y[idx], yaw[idx], cert.level, level[idx])
+        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations,
+                                                       first=first)
         status[idx] = np.maximum(status[idx], np.where(covered_ref < 1 - 1e-9, PARTLY_OFF, OK))
         status[idx[st != 0]] = OFF
     plane[status == OFF] = np.nan
@@ -178,43 +200,91 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     roll, pitch = attitude_from_slopes(plane[:, 1], plane[:, 2])
     position = np.column_stack([x, y, plane[:, 0]])
     quat = quaternion_from_euler(roll, pitch, yaw)
-    penetration = np.full(n, np.nan)
     gap = np.full(n, np.nan)
-    covered = np.full(n, np.nan)
     if measure:
-        good = np.flatnonzero(status != OFF)
+        good = np.flatnonzero((status != OFF) & ~measured)
         if len(good):
             penetration[good], covered[good] = footprint_penetration(surface, vehicle, x[good], y[good], yaw[good],
                                                                      plane[good], roll[good], pitch[good])
+        good = np.flatnonzero(status != OFF)
+        if len(good):
             gap[good] = wheel_gap(surface, vehicle, x[good], y[good], yaw[good], plane[good])
     return Poses(position, roll, pitch, yaw, quat, plane, region, choice, status, penetration, gap, covered)
 
 
-def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> np.ndarray:
-    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m (N,) bool.
+class Certificate(NamedTuple):
+    """The certificate's verdict on N planes, and what its passes measured on the way (N,) each."""
+
+    passed: np.ndarray  # bool
+    penetration: np.ndarray  # m: the highest ground under the patches above the plane (>= 0; NaN: not checked)
+    covered: np.ndarray  # the share of the contact patches over terrain (NaN: not checked)
+    level: tuple  # the reference's first round for these poses: (planes (N, 3), covered (N,), status (N,))
+
+
+def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> Certificate:
+    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m.
 
     The reference pose is the lowest plane that no ground under the tracks' contact patches
-    rises above, with the patches projected for that plane's own tilt. So the lowest such plane
-    under the patches projected for the given plane's tilt (one exact footprint pass) is
-    computed, and the given plane passes when the two differ by at most ``tolerance`` at
-    every corner of the footprint: then no ground rises more than that above it (it does not
-    cut the ground), and it rests on ground that surrounds the centre (it does not float or
-    tip), so it is within the tolerance of the reference by construction. A plane the pass
-    cannot check (not finite, no support found) fails.
+    rises above, with the patches projected for that plane's own tilt, found by starting from
+    the untilted patches. A plane passes when both of these hold within ``tolerance`` at every
+    corner of the footprint (the largest difference of the two planes' heights there):
+
+    - it is the lowest plane under the patches projected for its own tilt: then no ground
+      rises more than that above it (it does not cut the ground), and it rests on ground that
+      surrounds the centre (it does not float or tip): a pose the rigid hull can rest in;
+    - it is the lowest plane under the untilted patches too (the reference's first round), so
+      the reference's iteration starts where it is and stays: where the ground offers the hull
+      two poses (balanced across a crest, it rests tipped either way), the plane is the one
+      the reference takes, not the other.
+
+    Each is one exact footprint pass; the second is only made for the planes that pass the
+    first, and it also gives their penetration and covered share as ``footprint_penetration``
+    measures them (the same patches, the same ground), so a pose that passes needs no third.
+    A plane the passes cannot check (not finite, no support found) fails.
     """
-    ok = np.zeros(len(x), dtype=bool)
-    finite = np.flatnonzero(np.isfinite(planes).all(axis=1))
-    if len(finite) == 0:
-        return ok
-    p = planes[finite]
-    roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
-    lowest, _, status = surface.support_plane_under(x[finite], y[finite], yaw[finite], patch_quads(vehicle, roll, pitch))
-    d = p - lowest
-    h, w = vehicle.track_length / 2, vehicle.footprint_width / 2
+    n = len(x)
+    ok = np.zeros(n, dtype=bool)
+    penetration = np.full(n, np.nan)
+    covered = np.full(n, np.nan)
+    level = surface.support_plane_under(x, y, yaw, patch_quads(vehicle, np.zeros(n), np.zeros(n)))
     with np.errstate(invalid="ignore"):
-        worst = np.abs(d[:, 0]) + h * np.abs(d[:, 1]) + w * np.abs(d[:, 2])  # the largest |difference| at a corner
-        ok[finite] = (status == 0) & (worst <= tolerance)
-    return ok
+        near = np.flatnonzero((level[2] == 0) & (corner_gap(vehicle, planes, level[0]) <= tolerance))
+    if len(near) == 0:
+        return Certificate(ok, penetration, covered, level)
+    p = planes[near]
+    roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
+    lowest, high, covered[near], status = surface.support_and_highest(
+        x[near], y[near], yaw[near], patch_quads(vehicle, roll, pitch), p)
+    penetration[near] = np.maximum(high, 0.0)
+    with np.errstate(invalid="ignore"):
+        ok[near] = (status == 0) & (corner_gap(vehicle, p, lowest) <= tolerance)
+    return Certificate(ok, penetration, covered, level)
+
+
+def _first_round(surface, vehicle, x, y, yaw, known: tuple, at: np.ndarray) -> tuple:
+    """The reference's first round for N poses: row ``at[i]`` of ``known`` where ``at[i] >= 0``,
+    else solved here (poses the certificate did not see)."""
+    have = at >= 0
+    planes, covered, status = np.full((len(x), 3), np.nan), np.zeros(len(x)), np.ones(len(x), dtype=np.int64)
+    planes[have], covered[have], status[have] = (part[at[have]] for part in known)
+    miss = np.flatnonzero(~have)
+    if len(miss):
+        planes[miss], covered[miss], status[miss] = surface.support_plane_under(
+            x[miss], y[miss], yaw[miss], patch_quads(vehicle, np.zeros(len(miss)), np.zeros(len(miss))))
+    return planes, covered, status
+
+
+def corner_gap(vehicle: Vehicle, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The largest difference (m) of two planes' (N, 3) heights at the footprint's corners (NaN
+    where either is not finite)."""
+    d = p - q
+    return np.abs(d[:, 0]) + vehicle.track_length / 2 * np.abs(d[:, 1]) + vehicle.footprint_width / 2 * np.abs(d[:, 2])
+
+
+def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> np.ndarray:
+    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m (N,) bool
+    (``certify``'s verdict alone)."""
+    return certify(surface, vehicle, x, y, yaw, planes, tolerance).passed
 
 
 # --- key points -----------------------------------------------------------------
@@ -253,9 +323,18 @@ def _four_point(surface, vehicle, x, y, yaw):
 
 
 def _six_point(surface, vehicle, x, y, yaw):
+    return _supported(surface, x, y, yaw, key_points(vehicle, 6))
+
+
+def _wheel_stations(surface, vehicle, x, y, yaw):
+    return _supported(surface, x, y, yaw, wheel_stations(vehicle))
+
+
+def _supported(surface, x, y, yaw, pts):
+    """The support plane of ground samples at ``pts`` (k, 2) in the heading frame: the facet of
+    their upper convex hull above the footprint centre."""
     from tankcd_cli.geometry.support_plane import support_planes_fixed
 
-    pts = key_points(vehicle, 6)
     z, _, ok = _heights(surface, x, y, yaw, pts)
     planes = np.full((len(x), 3), np.nan)
     if ok.any():
@@ -282,8 +361,12 @@ def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.nda
     return np.stack([xi * cp + eta * sp * sr, eta * cr], axis=-1)
 
 
-def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):
+def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10,
+                     first: tuple | None = None):
     """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,).
+
+    ``first``: the first round's (planes, covered, status), the untilted patches' support, when a
+    caller has it already (``certify`` does).
 
     The contact patches seen from above depend on the hull's tilt, which the
     plane decides: a fixed point. Solve, re-project the patches for the new
@@ -307,8 +390,11 @@ def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, til
     status = np.ones(n, dtype=np.int64)
     active = np.arange(n)
     for round_ in range(max(1, tilt_iterations)):
-        quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
-        pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads)
+        if round_ == 0 and first is not None:
+            pl, cov, st = first
+        else:
+            quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
+            pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads)
         good = st == 0
         if round_ == 0:
             planes[active], covered[active], status[active] = pl, cov, st
@@ -361,7 +447,7 @@ def footprint_penetration(surface, vehicle, x, y, yaw, planes, roll, pitch):
 
 
 def wheel_gap(surface, vehicle, x, y, yaw, planes):
-    """Largest height of the plane above the ground at the six wheel stations (NaN if none is on terrain)."""
+    """Largest height of the plane above the ground at the six key points (NaN if none is on terrain)."""
     pts = key_points(vehicle, 6)
     z, _, _ = _heights(surface, x, y, yaw, pts)
     above = planes[:, [0]] + planes[:, [1]] * pts[:, 0] + planes[:, [2]] * pts[:, 1] - z

@@ -203,7 +203,7 @@ def markdown(res: Results) -> str:
         "curvature": "Error against the closed-form H (interior: more than 3 m from the border); class_changed_share "
                      "is the share of vertices whose region class differs from the class the exact H gives.",
         "matching": "Against the reference on the same poses, per region class; penetration and gap are each "
-                    "variant's own (ground above its plane under the tracks, wheel stations above the ground). "
+                    "variant's own (ground above its plane under the tracks, its plane above the ground at the six key points). "
                     "Jitter: attitude change from one step to the next along a straight drive (no truth needed: "
                     "a large maximum is a jump). Time per pose without penetration and gap (replay adds about the "
                     "same footprint pass to every variant).",

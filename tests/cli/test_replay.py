@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+from tankcd_cli.names import KEY_POINT_MATCHERS
 import pytest
 
 from tankcd_cli.io.poses_csv import COLUMNS
@@ -42,7 +44,7 @@ def test_replay_writes_one_pose_per_row(run, store):
     for r in rows:
         assert r["status"] == "ok" and r["region"] in ("flat", "general", "uneven")
         # auto's key-point matcher, or the reference where the certificate sent the pose to it
-        assert r["matcher"].removesuffix("+reference") in ("two_point", "four_point", "six_point")
+        assert r["matcher"].removesuffix("+reference") in KEY_POINT_MATCHERS
         q = np.array([float(r[k]) for k in ("qw", "qx", "qy", "qz")])
         assert q[0] >= 0 and abs(np.linalg.norm(q) - 1) < 1e-7
         assert np.isfinite([float(r[k]) for k in ("z", "roll_deg", "pitch_deg", "penetration", "gap")]).all()

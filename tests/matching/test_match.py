@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force
-from tankcd_cli.matching.match import MATCHERS, OFF, OK, PARTLY_OFF, match, patch_quads
+from tankcd_cli.matching.match import AUTO_RULE, CLASS_NAMES, MATCHERS, OFF, OK, PARTLY_OFF, match, patch_quads
 from tankcd_cli.geometry.pose import euler_from_quaternion, quaternion_from_euler, rotation_matrix, wrap_angle
 from tankcd_cli.terrain import synthetic as S
 from tankcd_cli.vehicle import vehicle_preset
@@ -122,14 +122,18 @@ def test_partly_and_entirely_off_the_terrain():
     assert np.isfinite(p.position[:2]).all()
 
 
-def test_auto_follows_the_region_classes():
+@pytest.mark.parametrize("rule", [dict(AUTO_RULE), {"flat": "two_point", "general": "four_point", "uneven": "six_point"}])
+def test_auto_follows_the_region_classes(rule, monkeypatch):
+    """Each pose gets the matcher the rule gives its class: the shipped rule and the paper's."""
+    monkeypatch.setattr("tankcd_cli.matching.match.AUTO_RULE", rule)
     x = np.arange(-40, 41, 1.0)
     X, Y = np.meshgrid(x, x)
     r = np.hypot(X - 20, Y)
     Z = np.where(r < 5, -1.5 * (1 - (r / 5) ** 2) ** 2, 0.0) + 0.4 * np.exp(-((r - 5) / 1.5) ** 2)
     surface = S.surface_of(S.dem_terrain(Z, origin=(-40.0, -40.0)))
     p = match(surface, T72, [-25.0, 20.0], [0.0, 0.0], [0.3, 1.0], "auto", escalate=False)  # the plain rule
-    assert [MATCHERS[m] for m in p.matcher] == ["two_point", "six_point"]
+    assert [CLASS_NAMES[c] for c in p.region] == ["flat", "uneven"]
+    assert [MATCHERS[m] for m in p.matcher] == [rule["flat"], rule["uneven"]]
 
 
 # --- the reference: exact, never penetrating, the lowest such plane ---------------------
@@ -273,7 +277,8 @@ def test_vertical_step_under_one_track():
 
 
 def test_errors_ordered_as_the_paper_claims():
-    """On uneven ground the six-point match is closer to the reference than four, and four than two."""
+    """On uneven ground the six-point match is closer to the reference than four, and four than two;
+    and sampling every road-wheel station at both track edges closer still."""
     raw = S.dem_terrain(np.cumsum(np.random.default_rng(8).normal(0, 0.08, (120, 120)), axis=1)
                         + 0.8 * np.sin(np.arange(120) / 3.0)[:, None], spacing=0.5)
     surface = S.surface_of(raw)
@@ -282,13 +287,13 @@ def test_errors_ordered_as_the_paper_claims():
     x, y, yaw = rng.uniform(5, 55, n), rng.uniform(5, 55, n), rng.uniform(-np.pi, np.pi, n)
     ref = match(surface, T72, x, y, yaw, "reference")
     errs = {}
-    for m in MATCHERS[:3]:
+    for m in MATCHERS[:4]:
         p = match(surface, T72, x, y, yaw, m)
         errs[m] = (np.median(np.abs(p.position[:, 2] - ref.position[:, 2])),
                    np.median(np.arccos(np.clip(np.einsum("ij,ij->i", p.rotation[:, :, 2], ref.rotation[:, :, 2]), -1, 1))),
                    np.median(p.penetration))
     for k in range(3):
-        assert errs["two_point"][k] > errs["four_point"][k] > errs["six_point"][k], errs
+        assert errs["two_point"][k] > errs["four_point"][k] > errs["six_point"][k] > errs["wheel_stations"][k], errs
 
 
 def test_patch_quads_are_the_tilted_rectangles_seen_from_above():
