@@ -290,29 +290,27 @@ def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, toleranc
 # --- key points -----------------------------------------------------------------
 
 def _heights(surface, x, y, yaw, points):
-    """Ground heights and gradients (N, k) under key points (k, 2) given in the heading frame,
-    and whether all of a pose's points are on the terrain (N,)."""
-    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-    px = x[:, None] + c * points[:, 0] - s * points[:, 1]
-    py = y[:, None] + s * points[:, 0] + c * points[:, 1]
-    z, gx, gy = surface.height_slope(px, py)
-    return z, (gx, gy), np.isfinite(z).all(axis=1)
+    """Ground heights (N, k) under key points (k, 2) given in the heading frame, and whether all
+    of a pose's points are on the terrain (N,)."""
+    z = surface.heights_at(x, y, yaw, points)
+    return z, np.isfinite(z).all(axis=1)
 
 
 def _two_point(surface, vehicle, x, y, yaw):
-    pts = np.vstack([key_points(vehicle, 2), [[0.0, 0.0]]])  # front, rear, and the centre for the normal
-    z, (gx, gy), ok = _heights(surface, x, y, yaw, pts)
+    z, ok = _heights(surface, x, y, yaw, key_points(vehicle, 2))  # front, rear
+    zc, gx, gy = surface.height_slope(x, y)  # the centre, for the normal
+    ok &= np.isfinite(zc)
     half = vehicle.track_length / 2
     b = (z[:, 0] - z[:, 1]) / (2 * half)
     a = 0.5 * (z[:, 0] + z[:, 1])
     # the terrain's slope to the left under the centre (its normal, turned into the heading frame)
-    c = -np.sin(yaw) * gx[:, 2] + np.cos(yaw) * gy[:, 2]
+    c = -np.sin(yaw) * gx + np.cos(yaw) * gy
     return np.column_stack([a, b, c]), ok
 
 
 def _four_point(surface, vehicle, x, y, yaw):
     pts = key_points(vehicle, 4)  # a (front left), b (front right), c (rear right), d (rear left)
-    z, _, ok = _heights(surface, x, y, yaw, pts)
+    z, ok = _heights(surface, x, y, yaw, pts)
     h, g = vehicle.track_length / 2, vehicle.track_gauge / 2
     za, zb, zc, zd = z.T
     mean = z.mean(axis=1)
@@ -335,7 +333,7 @@ def _supported(surface, x, y, yaw, pts):
     their upper convex hull above the footprint centre."""
     from tankcd_cli.geometry.support_plane import support_planes_fixed
 
-    z, _, ok = _heights(surface, x, y, yaw, pts)
+    z, ok = _heights(surface, x, y, yaw, pts)
     planes = np.full((len(x), 3), np.nan)
     if ok.any():
         planes[ok], st = support_planes_fixed(pts[:, 0].copy(), pts[:, 1].copy(), np.ascontiguousarray(z[ok]), EPS_XY)
@@ -449,7 +447,7 @@ def footprint_penetration(surface, vehicle, x, y, yaw, planes, roll, pitch):
 def wheel_gap(surface, vehicle, x, y, yaw, planes):
     """Largest height of the plane above the ground at the six key points (NaN if none is on terrain)."""
     pts = key_points(vehicle, 6)
-    z, _, _ = _heights(surface, x, y, yaw, pts)
+    z, _ = _heights(surface, x, y, yaw, pts)
     above = planes[:, [0]] + planes[:, [1]] * pts[:, 0] + planes[:, [2]] * pts[:, 1] - z
     with np.errstate(invalid="ignore"):
         gap = np.nanmax(np.where(np.isnan(above), -np.inf, above), axis=1)

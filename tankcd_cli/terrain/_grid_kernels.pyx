@@ -244,6 +244,50 @@ def grid_heights_slopes(px, py, post_z, post_origin, post_size, Py_ssize_t r_off
     return z_arr, gx_arr, gy_arr
 
 
+def grid_heights_at_offsets(px, py, yaw, su, sv, post_z, post_origin, post_size, Py_ssize_t r_off,
+                            Py_ssize_t c_off, Py_ssize_t grid_rows, Py_ssize_t grid_cols):
+    """Heights (N, m) at sample offsets (su, sv) (m,) in each pose's heading frame (local centres
+    px, py, headings yaw (N,)): ``grid_heights_slopes`` at those points without forming them in
+    memory or computing the slopes' arrays; NaN off the terrain."""
+    cdef const double[::1] x = _f64(px)
+    cdef const double[::1] y = _f64(py)
+    cdef const double[::1] w = _f64(yaw)
+    cdef const double[::1] u = _f64(su)
+    cdef const double[::1] v = _f64(sv)
+    cdef const double[:, ::1] pz = _f64(post_z)
+    cdef const double[::1] po = _pair(post_origin, "post_origin")
+    cdef const double[::1] ps = _pair(post_size, "post_size")
+    cdef Py_ssize_t n = x.shape[0]
+    cdef Py_ssize_t m = u.shape[0]
+    if y.shape[0] < n or w.shape[0] < n:
+        raise ValueError("py and yaw must be as long as px")
+    if v.shape[0] < m:
+        raise ValueError("sv is shorter than su")
+    out_arr = np.empty((n, m))
+    if n == 0 or m == 0:
+        return out_arr
+    cdef double[:, ::1] out = out_arr
+    cdef const double* pzp = _ptr2(pz)
+    cdef Py_ssize_t rows = pz.shape[0]
+    cdef Py_ssize_t cols = pz.shape[1]
+    cdef double ox = po[0]
+    cdef double oy = po[1]
+    cdef double dx = ps[0]
+    cdef double dy = ps[1]
+    cdef Py_ssize_t i, k
+    cdef double co, si, gx, gy
+    for i in prange(n, nogil=True, schedule="static"):
+        co = cos(w[i])
+        si = sin(w[i])
+        gx = 0.0  # assigned here so that each thread has its own (the kernel writes them through pointers)
+        gy = 0.0
+        for k in range(m):
+            # the same arithmetic as forming the points first: (x + cos u) - sin v
+            _grid_height_one(x[i] + co * u[k] - si * v[k], y[i] + si * u[k] + co * v[k], pzp, rows, cols, ox, oy,
+                             dx, dy, r_off, c_off, grid_rows, grid_cols, &out[i, k], &gx, &gy)
+    return out_arr
+
+
 def grid_worst_class(px, py, yaw, su, sv, classes, post_origin, post_size, Py_ssize_t r_off, Py_ssize_t c_off,
                      int top=254):
     """Highest class code among the posts nearest to sample offsets (su, sv) of each footprint

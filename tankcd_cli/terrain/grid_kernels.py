@@ -20,6 +20,7 @@ from tankcd_cli.terrain._grid_kernels import (  # noqa: F401
     full_cell,
     grid_height_one,
     grid_highest_above_plane_bound,
+    grid_heights_at_offsets,
     grid_heights_slopes,
     grid_worst_class,
 )

@@ -160,6 +160,26 @@ class GridSurface(PatchQueries):
                                                            r_off, c_off, self.rows, self.cols)
         return z.reshape(shape), gx.reshape(shape), gy.reshape(shape)
 
+    def heights_at(self, x, y, yaw, points) -> np.ndarray:
+        """Ground heights (N, k) m at points (k, 2) in each pose's heading frame; NaN off the
+        terrain (``height_slope`` at those points, by one kernel that does not form them)."""
+        from tankcd_cli.terrain.grid_kernels import grid_heights_at_offsets
+
+        lx, ly = self.to_local(x, y)
+        lx, ly = np.ravel(lx), np.ravel(ly)
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.full((len(lx), len(points)), np.nan)
+        if len(lx) == 0 or len(points) == 0:
+            return out
+        yaw = np.broadcast_to(np.asarray(yaw, dtype=float), lx.shape)
+        su, sv = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+        margin = self._margin(_reach(points))
+        for idx, blocks in self._groups(lx, ly, margin):
+            win, r_off, c_off = self._window(blocks, margin, False)
+            out[idx] = grid_heights_at_offsets(lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), su, sv, win,
+                                               self.post_origin, self.spacing, r_off, c_off, self.rows, self.cols)
+        return out
+
     def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m, unit upward normal (N, 3) and on-terrain mask (N,) at world points."""
         z, gx, gy = self.height_slope(x, y)

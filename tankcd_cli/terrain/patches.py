@@ -13,6 +13,15 @@ class PatchQueries:
     a + b u + c v in that frame; x, y are world footprint centres, yaw rad.
     """
 
+    def heights_at(self, x, y, yaw, points) -> np.ndarray:
+        """Ground heights (N, k) m at points (k, 2) given in each pose's heading frame (u forward,
+        v left, from the footprint centre); NaN off the terrain."""
+        yaw = np.asarray(yaw, dtype=float)
+        c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        px = np.asarray(x, dtype=float)[:, None] + c * points[:, 0] - s * points[:, 1]
+        py = np.asarray(y, dtype=float)[:, None] + s * points[:, 0] + c * points[:, 1]
+        return self.height_slope(px, py)[0]
+
     def support_plane_under(self, x, y, yaw, quads, exact_cells: bool = True):
         """The lowest plane over each footprint centre that no ground under the patches rises
         above: planes (N, 3), the share of the patches over terrain (N,), status (N,) (0 found)."""

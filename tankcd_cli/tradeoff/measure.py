@@ -183,11 +183,10 @@ TRIPOD = "tripod"  # the common simulator ground clamp: three vertical probes, a
 
 def tripod_planes(surface, vehicle, x, y, yaw) -> tuple[np.ndarray, np.ndarray]:
     """Planes (N, 3) through the ground under the front track ends and the rear centre, and on-terrain (N,)."""
-    from tankcd_cli.matching.match import _heights
-
     h, g = vehicle.track_length / 2, vehicle.track_gauge / 2
     pts = np.array([[h, g], [h, -g], [-h, 0.0]])
-    z, _, on = _heights(surface, x, y, yaw, pts)
+    z = surface.heights_at(x, y, yaw, pts)
+    on = np.isfinite(z).all(axis=1)
     M = np.column_stack([np.ones(3), pts])  # a + b u + c v = z at each probe
     return z @ np.linalg.inv(M).T, on
 
