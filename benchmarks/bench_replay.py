@@ -44,16 +44,41 @@ def trajectory(path, rows, seed=3):
         np.savetxt(fh, np.column_stack([t, x, y, np.degrees(heading), turret, gun]), fmt="%.3f", delimiter=",")
 
 
-def run(args, repeats=3):
-    times, summary = [], None
-    for _ in range(repeats):
+def once(args):
+    """One fresh process: seconds, peak resident memory (MB) and its --summary."""
+    with tempfile.TemporaryFile("w+") as err:
         s = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "tankcd_cli", *args, "--summary"], capture_output=True, text=True)
-        times.append(time.perf_counter() - s)
-        if proc.returncode not in (0, 1):
-            raise SystemExit(proc.stderr)
-        summary = json.loads(proc.stderr.strip().splitlines()[-1])
-    return float(np.median(times)), min(times), max(times), summary
+        proc = subprocess.Popen([sys.executable, "-m", "tankcd_cli", *args, "--summary"], stdout=subprocess.DEVNULL,
+                                stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - s
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        err.seek(0)
+        text = err.read()
+    if proc.returncode not in (0, 1):
+        raise SystemExit(text)
+    return seconds, usage.ru_maxrss / 1024, json.loads(text.strip().splitlines()[-1])
+
+
+def run(args, repeats=3):
+    times, peaks, summary = [], [], None
+    for _ in range(repeats):
+        seconds, peak, summary = once(args)
+        times.append(seconds)
+        peaks.append(peak)
+    return float(np.median(times)), min(times), max(times), summary, max(peaks)
+
+
+def paired(a_args, b_args, repeats=7):
+    """Runs of a and b alternated (the honest ratio on a shared machine): medians and the median ratio a / b."""
+    ta, tb, pa, pb, sa, sb = [], [], [], [], None, None
+    for _ in range(repeats):
+        t, p, sa = once(a_args)
+        ta.append(t), pa.append(p)
+        t, p, sb = once(b_args)
+        tb.append(t), pb.append(p)
+    return (float(np.median(ta)), max(pa), sa), (float(np.median(tb)), max(pb), sb), \
+        float(np.median(np.array(ta) / np.array(tb)))
 
 
 def main():
@@ -84,14 +109,28 @@ def main():
         lines = ["# Benchmark: replay end to end", "",
                  f"{a.rows:,} rows on the sample battlefield, a fresh process each run (start-up, reading, "
                  "matching, effects, writing poses); medians of 3 (min-max).", "",
-                 "| case | seconds | rows/s | matching | terrain contact | obstacles | internal | collisions |",
-                 "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+                 "| case | seconds | rows/s | peak memory | matching | terrain contact | obstacles | internal | collisions |",
+                 "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         for name, args in cases:
-            med, lo, hi, s = run(args)
+            med, lo, hi, s, peak = run(args)
             sec = s["seconds_by_effect"]
-            lines.append(f"| {name} | {med:.2f} ({lo:.2f}-{hi:.2f}) | {a.rows / med:,.0f} | {sec['matching']:.2f} s | "
-                         f"{sec['terrain']:.2f} s | {sec['obstacles']:.2f} s | {sec['internal']:.2f} s | "
-                         f"{sum(s['collisions'].values()):,} |")
+            lines.append(f"| {name} | {med:.2f} ({lo:.2f}-{hi:.2f}) | {a.rows / med:,.0f} | {peak:,.0f} MB | "
+                         f"{sec['matching']:.2f} s | {sec['terrain']:.2f} s | {sec['obstacles']:.2f} s | "
+                         f"{sec['internal']:.2f} s | {sum(s['collisions'].values()):,} |")
+        only = ["replay", traj, "--scene", os.path.join(tmp, "terrain_only.toml"), "--poses", out]
+        (te, pe, se), (tp, pp, sp), ratio = paired(only, only + ["--no-escalate"])
+        share = 1 - sum(c for m, c in se["matchers"].items() if "+" not in m) / a.rows
+        lines += ["", "## What auto's escalation costs", "",
+                  "The terrain-only scene, `auto` (escalating: every key-point pose checked against the "
+                  "reference's certificate, those that fail solved by the reference) against `auto "
+                  "--no-escalate`, runs alternated, medians of 7.", "",
+                  "| auto | seconds | rows/s | peak memory | matching | escalated rows |", "| --- | --- | --- | --- | --- | --- |",
+                  f"| escalating (default) | {te:.3f} | {a.rows / te:,.0f} | {pe:,.0f} MB | "
+                  f"{se['seconds_by_effect']['matching']:.3f} s | {share:.1%} |",
+                  f"| --no-escalate | {tp:.3f} | {a.rows / tp:,.0f} | {pp:,.0f} MB | "
+                  f"{sp['seconds_by_effect']['matching']:.3f} s | 0 |", "",
+                  f"Escalating costs {ratio:.2f}x the plain rule's whole process (the median of the paired ratios); "
+                  f"its matching stage alone {se['seconds_by_effect']['matching'] / sp['seconds_by_effect']['matching']:.2f}x."]
     save_report("\n".join(lines + [""]), a.out)
 
 
