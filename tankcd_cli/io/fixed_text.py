@@ -20,9 +20,10 @@ def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, lab
     """CSV text of the rows (see ``format_table``), or None when a value is too large for fixed point."""
     numbers = np.ascontiguousarray(numbers, dtype=np.float64)
     decimals = np.asarray(decimals, dtype=np.int64)
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):
         scaled = np.abs(numbers) * (10.0 ** decimals)
-    if np.any(scaled[np.isfinite(scaled)] >= 2.0 ** 53):
+    # a finite value whose scaled magnitude overflows to inf is too large as well
+    if np.any(np.isfinite(numbers) & ~(scaled < 2.0 ** 53)):
         return None
     encoded = [s.encode("ascii") for s in labels]
     width = max([len(e) for e in encoded] + [1])

@@ -79,11 +79,16 @@ def _warn_if_beside(surface, counts: dict, source: str | None) -> None:
     if rows == 0 or 2 * off <= rows:
         return
     lo, hi = surface.bounds()
-    x0, y0, x1, y1 = counts["extent"]
+    x0, y0, x1, y1 = (_coordinate(v) for v in counts["extent"])
     warn(source or "trajectory",
-         f"{off:,} of {rows:,} rows are off the terrain: the trajectory spans x {x0:.1f} to {x1:.1f}, "
-         f"y {y0:.1f} to {y1:.1f}; the terrain x {lo[0]:.1f} to {hi[0]:.1f}, y {lo[1]:.1f} to {hi[1]:.1f} "
+         f"{off:,} of {rows:,} rows are off the terrain: the trajectory spans x {x0} to {x1}, "
+         f"y {y0} to {y1}; the terrain x {lo[0]:.1f} to {hi[0]:.1f}, y {lo[1]:.1f} to {hi[1]:.1f} "
          "(are both in the same coordinates?)")
+
+
+def _coordinate(v: float) -> str:
+    """A coordinate for a message: to a decimetre, or in powers of ten when it is no map coordinate."""
+    return f"{v:.1f}" if abs(v) < 1e12 else f"{v:.3g}"
 
 
 @dataclass

@@ -70,3 +70,13 @@ def test_empty_tables_and_too_large_values():
     with pytest.raises(ZeroDivisionError):  # 10 ** -1 is 0 in integer arithmetic
         format_table(np.ones((1, 1)), np.array([-1]), np.zeros((1, 1), np.int64), np.zeros((1, 1), np.uint8),
                      np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(10, np.uint8))
+
+
+@pytest.mark.parametrize("big", [1e308, -1e305, 2.0 ** 60])
+def test_values_whose_scaled_form_overflows_are_too_large_without_a_warning(big):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert table_text(np.array([[1.0, big]]), np.array([4, 4]), np.zeros((1, 1), np.int64), ["a"],
+                          np.array([0, 0]), np.array([0, 1])) is None
