@@ -2,3 +2,5 @@
 
 cdef int support_plane_c(const double* u, const double* v, const double* z, Py_ssize_t count, double eps,
                          double* out) noexcept nogil
+cdef int support_plane_from_c(const double* u, const double* v, const double* z, Py_ssize_t count, double eps,
+                              double b0, double c0, double* out) noexcept nogil

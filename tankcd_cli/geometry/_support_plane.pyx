@@ -37,9 +37,11 @@ ctypedef fused _Variant:
     _Unchecked
 
 
-cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t count, double eps, double* out,
-               _Variant* variant) noexcept nogil:
-    """The walk of ``support_plane_c`` (see the variants above)."""
+cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t count, double eps, double b0,
+               double c0, double* out, bint* tied, _Variant* variant) noexcept nogil:
+    """The walk of ``support_plane_from_c`` (see the variants above). Sets ``tied`` where the
+    answer may not be the only lowest plane: the origin over a point or an edge of the points'
+    upper hull (or within 1e-9 of one, in barycentric weight)."""
     cdef Py_ssize_t p, k, q, w, it
     cdef double zp, up, vp, r, b, c, du, dv, best_t, best_d, d, t
     cdef double eu, ev, el, mu, mv, side, s_pos, s_neg, slack, s, best_s
@@ -50,22 +52,28 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
         out[1] = NAN
         out[2] = NAN
         return 1
+    # start from the plane of slopes (b0, c0) through the point highest above it: a supporting
+    # plane (with b0 = c0 = 0, the level plane through the highest point, bit for bit)
     p = 0
+    best_t = z[0] - b0 * u[0] - c0 * v[0]
     for k in range(1, count):
-        if z[k] > z[p]:
+        t = z[k] - b0 * u[k] - c0 * v[k]
+        if t > best_t:
             p = k
+            best_t = t
     zp = z[p]
     up = u[p]
     vp = v[p]
     r = sqrt(up * up + vp * vp)
-    b = 0.0
-    c = 0.0
+    b = b0
+    c = c0
     if r <= eps:
-        out[0] = zp  # the highest point is over the origin: a level plane through it
-        out[1] = 0.0
-        out[2] = 0.0
+        out[0] = zp  # the highest point is over the origin: the start plane through it
+        out[1] = b0
+        out[2] = c0
+        tied[0] = True
         return 0
-    # rotate the level plane about p, lowering the origin side, until a second point touches
+    # rotate the start plane about p, lowering the origin side, until a second point touches
     if r == 0.0:
         return -1
     du = up / r
@@ -78,7 +86,7 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
         if d < -eps:
             if _Variant is _Checked and d == 0.0:
                 return -1
-            t = (z[k] - zp) / d  # >= 0
+            t = (z[k] - (zp + b0 * (u[k] - up) + c0 * (v[k] - vp))) / d  # >= 0
             if t < best_t - 1e-15 or (t <= best_t + 1e-15 and d < best_d):
                 best_t = t
                 best_d = d
@@ -88,8 +96,8 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
         out[1] = NAN
         out[2] = NAN
         return 2
-    b = best_t * du
-    c = best_t * dv
+    b = b0 + best_t * du
+    c = c0 + best_t * dv
     for it in range(_MAX_PIVOTS):
         # rotate about the line p-q
         eu = u[q] - up
@@ -124,6 +132,7 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
             out[0] = zp - b * up - c * vp
             out[1] = b
             out[2] = c
+            tied[0] = True
             return 0
         if side < 0:
             mu = -mu
@@ -171,6 +180,7 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
             out[0] = zp - b * up - c * vp
             out[1] = b
             out[2] = c
+            tied[0] = lp < 1e-9 or lq < 1e-9 or lw < 1e-9
             return 0
         # keep the edge that faces the origin: drop the vertex with the most negative weight
         if lp <= lq:
@@ -197,17 +207,36 @@ cdef int support_plane_c(const double* u, const double* v, const double* z, Py_s
     callers raise ZeroDivisionError as the numba kernels did (``out`` is then not written).
     ``eps`` is the length below which xy distances count as zero.
     """
+    cdef bint tied = False
     if eps >= 0.0:
-        return _walk(u, v, z, count, eps, out, <_Unchecked*>NULL)  # d beyond +-eps is never zero
-    return _walk(u, v, z, count, eps, out, <_Checked*>NULL)
+        return _walk(u, v, z, count, eps, 0.0, 0.0, out, &tied, <_Unchecked*>NULL)  # d beyond +-eps is never zero
+    return _walk(u, v, z, count, eps, 0.0, 0.0, out, &tied, <_Checked*>NULL)
 
 
-def support_plane(u, v, z, count, double eps):
+cdef int support_plane_from_c(const double* u, const double* v, const double* z, Py_ssize_t count, double eps,
+                              double b0, double c0, double* out) noexcept nogil:
+    """``support_plane_c``, the walk starting from the plane of slopes (b0, c0) instead of the
+    level one: fewer pivots when the start is near the answer, and the same plane (to rounding).
+    Where several planes are lowest (the origin over an edge or a point of the points' upper
+    hull) the start could choose among them, so there the walk is made again from level."""
+    cdef bint tied = False
+    cdef int st
+    if eps >= 0.0:
+        st = _walk(u, v, z, count, eps, b0, c0, out, &tied, <_Unchecked*>NULL)  # d beyond +-eps is never zero
+    else:
+        st = _walk(u, v, z, count, eps, b0, c0, out, &tied, <_Checked*>NULL)
+    if st != 0 or tied:
+        return support_plane_c(u, v, z, count, eps, out)
+    return st
+
+
+def support_plane(u, v, z, count, double eps, start=None):
     """Lowest supporting plane over the origin of the first ``count`` points.
 
     Returns (a, b, c, status): status 0 optimal, 1 no points, 2 not converged
     (the origin outside the points' hull, or cycling): callers fall back.
-    ``eps`` is the length below which xy distances count as zero.
+    ``eps`` is the length below which xy distances count as zero. ``start``: slopes (b, c)
+    to start the walk from (``support_plane_from_c``), instead of level.
     """
     cdef const double[::1] uu = np.ascontiguousarray(u, dtype=np.float64)
     cdef const double[::1] vv = np.ascontiguousarray(v, dtype=np.float64)
@@ -217,8 +246,15 @@ def support_plane(u, v, z, count, double eps):
         raise ValueError(f"count {n} outside the points given ({uu.shape[0]}, {vv.shape[0]}, {zz.shape[0]})")
     cdef double out[3]
     cdef int st
+    cdef double b0 = 0.0
+    cdef double c0 = 0.0
+    if start is not None:
+        b0, c0 = float(start[0]), float(start[1])
     with nogil:
-        st = support_plane_c(&uu[0], &vv[0], &zz[0], n, eps, out)
+        if start is None:
+            st = support_plane_c(&uu[0], &vv[0], &zz[0], n, eps, out)
+        else:
+            st = support_plane_from_c(&uu[0], &vv[0], &zz[0], n, eps, b0, c0, out)
     if st < 0:
         raise ZeroDivisionError("division by zero")
     return out[0], out[1], out[2], st

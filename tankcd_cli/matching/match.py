@@ -172,7 +172,6 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
     measured = np.zeros(n, dtype=bool)  # penetration and coverage already known from the certificate's pass
-    cert = None
     if escalate or (escalate is None and matcher == "auto"):
         # the reference starts level for these too (a start nearer the answer can settle on
         # another fixed point where the ground offers several: not the reference's pose)
@@ -180,19 +179,13 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
         tol = escalation_tolerance(vehicle) if tolerance is None else float(tolerance)
         cert = certify(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol)
         choice[kp[~cert.passed]] += ESCALATED
-        level = np.full(n, -1, dtype=np.int64)  # where each pose's reference first round is in cert.level
-        level[kp] = np.arange(len(kp))
         if measure:
             passed = kp[cert.passed]
             penetration[passed], covered[passed] = cert.penetration[cert.passed], cert.covered[cert.passed]
             measured[passed] = True
     idx = np.flatnonzero(choice >= REFERENCE)
     if len(idx):
-        first = None  # escalated poses reuse the certificate's untilted round: the reference's own first
-        if cert is not None:
-            first = _first_round(surface, vehicle, x[idx], y[idx], yaw[idx], cert.level, level[idx])
-        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations,
-                                                       first=first)
+        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations)
         status[idx] = np.maximum(status[idx], np.where(covered_ref < 1 - 1e-9, PARTLY_OFF, OK))
         status[idx[st != 0]] = OFF
     plane[status == OFF] = np.nan
@@ -218,7 +211,6 @@ class Certificate(NamedTuple):
     passed: np.ndarray  # bool
     penetration: np.ndarray  # m: the highest ground under the patches above the plane (>= 0; NaN: not checked)
     covered: np.ndarray  # the share of the contact patches over terrain (NaN: not checked)
-    level: tuple  # the reference's first round for these poses: (planes (N, 3), covered (N,), status (N,))
 
 
 def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> Certificate:
@@ -246,11 +238,11 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     ok = np.zeros(n, dtype=bool)
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
-    level = surface.support_plane_under(x, y, yaw, patch_quads(vehicle, np.zeros(n), np.zeros(n)))
+    level = surface.support_plane_under(x, y, yaw, patch_quads(vehicle, np.zeros(n), np.zeros(n)), start=planes)
     with np.errstate(invalid="ignore"):
         near = np.flatnonzero((level[2] == 0) & (corner_gap(vehicle, planes, level[0]) <= tolerance))
     if len(near) == 0:
-        return Certificate(ok, penetration, covered, level)
+        return Certificate(ok, penetration, covered)
     p = planes[near]
     roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
     lowest, high, covered[near], status = surface.support_and_highest(
@@ -258,20 +250,7 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     penetration[near] = np.maximum(high, 0.0)
     with np.errstate(invalid="ignore"):
         ok[near] = (status == 0) & (corner_gap(vehicle, p, lowest) <= tolerance)
-    return Certificate(ok, penetration, covered, level)
-
-
-def _first_round(surface, vehicle, x, y, yaw, known: tuple, at: np.ndarray) -> tuple:
-    """The reference's first round for N poses: row ``at[i]`` of ``known`` where ``at[i] >= 0``,
-    else solved here (poses the certificate did not see)."""
-    have = at >= 0
-    planes, covered, status = np.full((len(x), 3), np.nan), np.zeros(len(x)), np.ones(len(x), dtype=np.int64)
-    planes[have], covered[have], status[have] = (part[at[have]] for part in known)
-    miss = np.flatnonzero(~have)
-    if len(miss):
-        planes[miss], covered[miss], status[miss] = surface.support_plane_under(
-            x[miss], y[miss], yaw[miss], patch_quads(vehicle, np.zeros(len(miss)), np.zeros(len(miss))))
-    return planes, covered, status
+    return Certificate(ok, penetration, covered)
 
 
 def corner_gap(vehicle: Vehicle, p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -359,12 +338,8 @@ def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.nda
     return np.stack([xi * cp + eta * sp * sr, eta * cr], axis=-1)
 
 
-def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10,
-                     first: tuple | None = None):
+def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):
     """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,).
-
-    ``first``: the first round's (planes, covered, status), the untilted patches' support, when a
-    caller has it already (``certify`` does).
 
     The contact patches seen from above depend on the hull's tilt, which the
     plane decides: a fixed point. Solve, re-project the patches for the new
@@ -388,11 +363,10 @@ def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, til
     status = np.ones(n, dtype=np.int64)
     active = np.arange(n)
     for round_ in range(max(1, tilt_iterations)):
-        if round_ == 0 and first is not None:
-            pl, cov, st = first
-        else:
-            quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
-            pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads)
+        quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
+        # after the first round, the search starts from the last plane (the answer moves little)
+        pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads,
+                                                  start=planes[active] if round_ else None)
         good = st == 0
         if round_ == 0:
             planes[active], covered[active], status[active] = pl, cov, st

@@ -13,7 +13,7 @@ from libc.math cimport cos, fabs, isfinite, isnan, sin, INFINITY, NAN
 from libc.stdint cimport int64_t, INT64_MIN
 from libc.stdlib cimport free, malloc, qsort
 
-from tankcd_cli.geometry._support_plane cimport support_plane_c
+from tankcd_cli.geometry._support_plane cimport support_plane_from_c
 
 MAX_POLY = 16
 
@@ -72,6 +72,7 @@ cdef struct Job:
     const double* planes_in  # (N, 3), read in modes 1 and 2
     double* out  # (N, stride)
     Py_ssize_t stride
+    bint warm  # the support walk starts from planes_in's tilt
     double* covered
     int64_t* status
     Mesh mesh
@@ -628,7 +629,11 @@ cdef void _block(const Job* jb, Scratch* sc, Py_ssize_t lo, Py_ssize_t hi) noexc
         patch_area = _quad_area(quad) + _quad_area(quad + 8)
         jb.covered[i] = area / patch_area if patch_area > 0 else 0.0
         if jb.mode != 1:
-            st = support_plane_c(sc.bu, sc.bv, sc.bz, used, jb.eps, pl)
+            if jb.warm:  # from the given plane's tilt
+                st = support_plane_from_c(sc.bu, sc.bv, sc.bz, used, jb.eps, jb.planes_in[3 * i + 1],
+                                          jb.planes_in[3 * i + 2], pl)
+            else:
+                st = support_plane_from_c(sc.bu, sc.bv, sc.bz, used, jb.eps, 0.0, 0.0, pl)
             if st < 0:
                 sc.err = _ERR_ZERO_DIVISION
                 return
@@ -657,7 +662,7 @@ _NO_MESH = (np.zeros((1, 3)), np.zeros((1, 3), np.int64), np.zeros((1, 3)), np.z
 _NO_POSTS = (np.empty((0, 0)), np.zeros(2), np.ones(2), 0, 0)
 
 
-def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arithmetic=True):
+def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arithmetic=True, warm=False):
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
     centre; mode 1, the highest ground above ``planes_in`` (signed, m); mode 2, both from the
     one pass (a, b, c, highest), with the support plane's status.
@@ -668,6 +673,8 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
     posts : a DEM's posts, or a window of them (``terrain.footprint.PostGround``), or None
     arithmetic : read full DEM cells from the posts (False clips every cell: the oracle the
         arithmetic is tested against)
+    warm : modes 0 and 2 start the support walk from ``planes_in``'s tilt (fewer pivots when it
+        is near the answer; see ``support_plane_from_c``)
 
     cx, cy : (N,) local footprint centres; yaw : (N,) rad
     quads : (N, 2, 4, 2) the two patches' corners (u, v), counter-clockwise
@@ -698,7 +705,7 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
         raise ValueError("cy, yaw and quads need a row for every pose")
     if quads_v.shape[1] != 2 or quads_v.shape[2] != 4 or quads_v.shape[3] != 2:
         raise ValueError("quads must be (N, 2, 4, 2)")
-    if mode != 0 and (planes_in_v.shape[0] < npose or planes_in_v.shape[1] < 3):
+    if (mode != 0 or warm) and (planes_in_v.shape[0] < npose or planes_in_v.shape[1] < 3):
         raise ValueError("planes_in must be (N, 3)")
     out_arr = np.full((npose, 4 if mode == 2 else 3), np.nan)
     covered_arr = np.zeros(npose)
@@ -712,6 +719,7 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
         raise ValueError(f"mode must be 0, 1 or 2, not {mode!r}")
     job.mode = mode
     job.stride = out_v.shape[1]
+    job.warm = bool(warm)
     job.eps = eps
     job.dem = post_z_v.shape[0] >= 2 and post_z_v.shape[1] >= 2 and bool(arithmetic)
     job.grid = bool(grid)

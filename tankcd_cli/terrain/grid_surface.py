@@ -235,7 +235,7 @@ class GridSurface(PatchQueries):
         return out
 
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
-                  arithmetic: bool = True):
+                  arithmetic: bool = True, warm: bool = False):
         """The exact footprint pass (see ``terrain.footprint.footprint_batch``) on the posts."""
         from tankcd_cli.terrain.footprint import PostGround, footprint_batch
 
@@ -252,7 +252,7 @@ class GridSurface(PatchQueries):
             out[idx], covered[idx], status[idx] = footprint_batch(
                 mode, lx[idx], ly[idx], np.ascontiguousarray(yaw[idx]), np.ascontiguousarray(quads[idx]),
                 np.ascontiguousarray(planes_in[idx]), eps, None,
-                PostGround(win, self.post_origin, self.spacing, r_off, c_off), arithmetic)
+                PostGround(win, self.post_origin, self.spacing, r_off, c_off), arithmetic, warm)
         return out, covered, status
 
 

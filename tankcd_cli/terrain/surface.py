@@ -124,7 +124,7 @@ class TerrainSurface(PatchQueries):
         return np.full(len(np.atleast_1d(x)), np.inf)
 
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
-                  arithmetic: bool = True):
+                  arithmetic: bool = True, warm: bool = False):
         """The exact footprint pass (see ``terrain.footprint.footprint_batch``); ``arithmetic``
         lets full DEM cells be read from the posts (False: clip every triangle, the oracle)."""
         from tankcd_cli.terrain.footprint import footprint_batch
@@ -132,7 +132,7 @@ class TerrainSurface(PatchQueries):
         lx, ly = self.to_local(x, y)
         posts = self.post_ground() if arithmetic and self.post_z.size else None
         return footprint_batch(mode, lx, ly, np.ascontiguousarray(yaw, dtype=float), quads, planes_in, eps,
-                               self.mesh_ground(), posts)
+                               self.mesh_ground(), posts, warm=warm)
 
     def mesh_ground(self):
         """The faces and their locator, as the footprint pass reads them."""

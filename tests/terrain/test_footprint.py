@@ -3,6 +3,8 @@ edges of their inputs, and what per-thread scratch must not change."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
 from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force, support_planes_fixed
@@ -133,8 +135,9 @@ def test_non_finite_and_huge_poses_find_no_ground():
 
 @pytest.mark.parametrize("layout", ["dem mesh", "tin", "grid"])
 def test_both_queries_from_one_pass_are_the_two_passes(layout):
-    """Mode 2 (the certificate's pass): the support plane of mode 0 and the height of mode 1, bit
-    for bit, on every surface kind; no ground under the patches: NaN height and status 1."""
+    """Mode 2 (the certificate's pass): the support plane of mode 0 (started from the given planes,
+    as mode 2 starts) and the height of mode 1, bit for bit, on every surface kind, and the plane
+    of a level start to rounding; no ground under the patches: NaN height and status 1."""
     from scipy.spatial import Delaunay
 
     from tankcd_cli.terrain.grid_surface import GridSurface
@@ -155,12 +158,34 @@ def test_both_queries_from_one_pass_are_the_two_passes(layout):
     yaw = rng.uniform(-np.pi, np.pi, n)
     quads = np.ascontiguousarray(patch_quads(T72, rng.normal(0, 0.1, n), rng.normal(0, 0.1, n)))
     planes = np.column_stack([rng.normal(100, 1, n), rng.normal(0, 0.1, n), rng.normal(0, 0.1, n)])
-    lowest, covered0, status0 = surface.support_plane_under(x, y, yaw, quads)
+    lowest, covered0, status0 = surface.support_plane_under(x, y, yaw, quads, start=planes)
+    level_start, _, _ = surface.support_plane_under(x, y, yaw, quads)
     high, covered1, _ = surface.highest_over_patches(x, y, yaw, quads, planes)
     both, high2, covered2, status2 = surface.support_and_highest(x, y, yaw, quads, planes)
     np.testing.assert_array_equal(both, lowest)
+    np.testing.assert_allclose(both, level_start, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(status2, status0)
     np.testing.assert_array_equal(covered2, covered0)
     np.testing.assert_array_equal(covered2, covered1)
     np.testing.assert_array_equal(high2[:-1], high[:-1])
     assert np.isnan(high2[-1]) and status2[-1] == 1 and (status2[:-1] == 0).all()
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(3, 40), st.floats(-2, 2), st.floats(-2, 2), st.booleans())
+def test_a_walk_from_any_start_finds_the_level_walks_plane(seed, k, b0, c0, lattice):
+    """``support_plane(start=...)``: the same lowest plane as the walk from level, to rounding,
+    from any start; on a lattice of points (the origin often over an edge or a point of the
+    upper hull, where several planes are lowest) it gives the level walk's choice."""
+    rng = np.random.default_rng(seed)
+    if lattice:
+        u, v = (rng.integers(-2, 3, k).astype(float) for _ in range(2))
+        z = rng.integers(0, 3, k).astype(float) * 0.5
+    else:
+        u, v, z = rng.uniform(-3, 3, k), rng.uniform(-1.5, 1.5, k), rng.normal(0, 0.3, k)
+    cold = support_plane(u, v, z, k, EPS_XY)
+    warm = support_plane(u, v, z, k, EPS_XY, start=(b0, c0))
+    assert warm[3] == cold[3]
+    if cold[3] == 0:
+        np.testing.assert_allclose(warm[:3], cold[:3], rtol=0, atol=1e-9)
+        assert support_plane_brute_force(u, v, z) == pytest.approx(cold[0], abs=1e-9)
