@@ -196,6 +196,9 @@ def console(argv=None):
         code = 0
     except SystemExit as exc:
         code = exc.code
+    atomic = sys.modules.get("tankcd_cli.io.atomic")
+    if atomic is not None:  # a signal may have cut a writer short of its own clean-up
+        atomic.remove_pending()
     code = 0 if code is None else code
     if not isinstance(code, int):
         raise SystemExit(code)

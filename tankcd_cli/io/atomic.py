@@ -9,6 +9,19 @@ from typing import Iterator
 
 from tankcd_cli.errors import InputError
 
+# temporary outputs not yet renamed onto their targets or removed. A signal can land where a
+# writer's ``finally`` never runs (inside contextlib's exit, before it resumes the writer), and
+# the command exits without collecting garbage: the exit removes what is left here.
+_PENDING: set = set()
+
+
+def remove_pending() -> None:
+    """Remove every temporary output still pending (at a command's exit: nothing is writing)."""
+    for path in list(_PENDING):
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+        _PENDING.discard(path)
+
 
 @contextlib.contextmanager
 def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
@@ -28,8 +41,11 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
         directory = os.path.dirname(os.path.realpath(target))
     if not to_stdout and not os.path.isdir(directory):
         raise InputError(target, "output directory does not exist")
-    tmp = _create_beside(target, directory, suffix)
+    tmp = None
     try:
+        with _signals_held():  # a signal between creating the file and noting it would leave it behind
+            tmp = _create_beside(target, directory, suffix)
+            _PENDING.add(tmp)
         yield tmp
         if to_stdout:
             import shutil
@@ -44,8 +60,26 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
             raise
         raise InputError(target, f"cannot write output: {exc.strerror or exc}") from None
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+            _PENDING.discard(tmp)
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Hold SIGINT and SIGTERM back (they are delivered on leaving) where the platform can."""
+    import signal
+
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def _create_beside(target: str, directory: str, suffix: str) -> str:
