@@ -89,7 +89,7 @@ class Vehicle:
     drum_x: float
     drum_y: float
     drum_z: float
-    road_wheels: int = 6
+    road_wheels: int = 6  # a default, so that a Vehicle built without it (older code, tests) is a T-72's
 
     def __post_init__(self):
         positive = ("track_length", "track_gauge", "track_width", "hull_length", "hull_width", "hull_height",
@@ -130,7 +130,7 @@ def _t72() -> Vehicle:
                    hull_length=6.86, hull_width=3.46, hull_height=2.19, deck_height=1.35, ground_clearance=0.49,
                    turret_x=-0.35, trunnion_forward=0.45, trunnion_height=1.75, gun_length=6.0, gun_radius=0.11,
                    gun_min_deg=-6.0, gun_max_deg=14.0, fuel_drums=True, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.20, road_wheels=6)
 
 
 def _t55() -> Vehicle:
@@ -139,8 +139,7 @@ def _t55() -> Vehicle:
                    hull_length=6.20, hull_width=3.27, hull_height=2.32, deck_height=1.40, ground_clearance=0.425,
                    turret_x=-0.20, trunnion_forward=0.40, trunnion_height=1.80, gun_length=5.35, gun_radius=0.10,
                    gun_min_deg=-5.0, gun_max_deg=18.0, fuel_drums=True, drum_radius=0.30, drum_length=0.88,
-                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.25,
-                   road_wheels=5)
+                   drum_x=-(half_hull + 0.30), drum_y=0.50, drum_z=1.25, road_wheels=5)
 
 
 def _m1() -> Vehicle:

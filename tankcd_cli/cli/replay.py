@@ -36,7 +36,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--escalate/--no-escalate", default=None,
               help="Check every key-point pose against the reference's certificate and solve those that fail "
                    "it by the reference: every pose within --tolerance of the reference (default: on for "
-                   "--matcher auto, off for a matcher named; costs about 3-5x plain auto on rough ground).")
+                   "--matcher auto, off for a matcher named; about 1.5x plain auto's whole replay, 2x its "
+                   "matching).")
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
               help="The certificate's height tolerance at the footprint's corners, m (default: half the "
                    "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")

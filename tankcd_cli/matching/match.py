@@ -229,10 +229,11 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
       two poses (balanced across a crest, it rests tipped either way), the plane is the one
       the reference takes, not the other.
 
-    Each is one exact footprint pass; the second is only made for the planes that pass the
-    first, and it also gives their penetration and covered share as ``footprint_penetration``
-    measures them (the same patches, the same ground), so a pose that passes needs no third.
-    A plane the passes cannot check (not finite, no support found) fails.
+    Each is one exact footprint pass, both searching from the given plane's slopes. The
+    untilted pass comes first; the pass at the plane's own tilt is made only for the planes
+    that pass it, and it also gives their penetration and covered share as
+    ``footprint_penetration`` measures them (the same patches, the same ground), so a pose that
+    passes needs no third. A plane the passes cannot check (not finite, no support found) fails.
     """
     n = len(x)
     ok = np.zeros(n, dtype=bool)

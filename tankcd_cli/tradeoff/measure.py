@@ -216,7 +216,7 @@ def _up(roll, pitch, yaw):
     return rotation_matrix(roll, pitch, yaw)[:, :, 2]
 
 
-MATCH_VARIANTS = ("two_point", "four_point", "six_point", "auto", TRIPOD, "reference")
+MATCH_VARIANTS = ("two_point", "four_point", "six_point", "wheel_stations", "auto", TRIPOD, "reference")  # auto: plain
 
 
 def _match_all(surface, vehicle, x, y, yaw) -> dict:

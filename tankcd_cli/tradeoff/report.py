@@ -146,7 +146,7 @@ def headline_table(res: Results) -> str:
     h = res.headline
     if not h:
         return ""
-    lines = [f"Headline: `auto` (two, four or six key points by region class), plain (`--no-escalate`) and "
+    lines = [f"Headline: `auto` (the key-point matcher its rule gives each region class), plain (`--no-escalate`) and "
              f"escalated (replay's default), against always `reference`, "
              f"replaying {h['trajectory']} ({h['poses']:,} poses, penetration and gap measured as replay does).", "",
              "| | auto, plain | auto, escalated | reference |", "| --- | --- | --- | --- |",
@@ -170,8 +170,8 @@ def headline_table(res: Results) -> str:
              f"{h['escalated_penetration_p95_m'] * 1000:.3g} mm | {h['penetration_p95_reference_m'] * 1000:.3g} mm |",
              "",
              f"Escalation re-solved {100 * h['escalated_share']:.1f} % of the poses by the reference (those whose "
-             f"key-point plane differs from the lowest supporting plane at its tilt by more than "
-             f"{h['escalation_tolerance_m'] * 1000:.1f} mm at a footprint corner), at "
+             "key-point plane differs from the lowest supporting plane at its tilt, or under the untilted "
+             f"patches, by more than {h['escalation_tolerance_m'] * 1000:.1f} mm at a footprint corner), at "
              f"{h['escalated_seconds'] / h['auto_seconds']:.1f}x the time of plain auto.", "",
              f"**plain auto is {h['speedup']:.1f}x faster ({100 * h['time_saved_share']:.0f} % of the time saved) for a median "
              f"attitude error of {h['attitude_error_median_deg']:.2f} deg and a median height error of "
@@ -197,7 +197,8 @@ def markdown(res: Results) -> str:
 
         out += ["## Which matcher each region class gets", "",
                 "The rule `auto` ships (`AUTO_RULE`) is this table's: per class, the key-point matcher with the "
-                "lowest median attitude error against the reference (within 1 %, the cheaper). Regenerate it alone "
+                "lowest median attitude error against the reference (within 1 %, the one fewest poses fail the "
+                "certificate with). Regenerate it alone "
                 "with `python -m tankcd_cli.tradeoff.corpus`.", "", corpus_table(res.corpus)]
     notes = {
         "curvature": "Error against the closed-form H (interior: more than 3 m from the border); class_changed_share "
