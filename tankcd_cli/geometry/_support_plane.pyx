@@ -37,6 +37,40 @@ ctypedef fused _Variant:
     _Unchecked
 
 
+cdef Py_ssize_t _touch_towards_origin(const double* u, const double* v, const double* z, Py_ssize_t count,
+                                      double eps, Py_ssize_t p, double* b, double* c,
+                                      _Variant* variant) noexcept nogil:
+    """Turn the supporting plane (slopes b, c) about point p alone, lowering the side of the
+    origin, until a second point touches it: returns that point (b, c updated), -1 when none
+    does (the origin is beyond the points), -3 when p is over the origin, -2 on a zero divisor."""
+    cdef double up = u[p]
+    cdef double vp = v[p]
+    cdef double zp = z[p]
+    cdef double r = sqrt(up * up + vp * vp)
+    cdef double du, dv, d, t, best_t = INFINITY, best_d = 0.0
+    cdef Py_ssize_t k, q = -1
+    if r <= eps:
+        return -3
+    if r == 0.0:
+        return -2
+    du = up / r
+    dv = vp / r
+    for k in range(count):
+        d = (u[k] - up) * du + (v[k] - vp) * dv
+        if d < -eps:
+            if _Variant is _Checked and d == 0.0:
+                return -2
+            t = (z[k] - (zp + b[0] * (u[k] - up) + c[0] * (v[k] - vp))) / d  # >= 0
+            if t < best_t - 1e-15 or (t <= best_t + 1e-15 and d < best_d):
+                best_t = t
+                best_d = d
+                q = k
+    if q >= 0:
+        b[0] = b[0] + best_t * du
+        c[0] = c[0] + best_t * dv
+    return q
+
+
 cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t count, double eps, double b0,
                double c0, double* out, bint* tied, _Variant* variant) noexcept nogil:
     """The walk of ``support_plane_from_c`` (see the variants above). Sets ``tied`` where the
@@ -44,7 +78,7 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
     upper hull (or within 1e-9 of one, in barycentric weight)."""
     cdef Py_ssize_t p, k, q, w, it
     cdef double zp, up, vp, r, b, c, du, dv, best_t, best_d, d, t
-    cdef double eu, ev, el, mu, mv, side, s_pos, s_neg, slack, s, best_s
+    cdef double eu, ev, el, mu, mv, side, along, s_pos, s_neg, slack, s, best_s
     cdef double ax, ay, bx, by, cx, cy, det, ox, oy, lq, lw, lp
     cdef double tol = -1e-12
     if count == 0:
@@ -74,30 +108,14 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
         tied[0] = True
         return 0
     # rotate the start plane about p, lowering the origin side, until a second point touches
-    if r == 0.0:
+    q = _touch_towards_origin(u, v, z, count, eps, p, &b, &c, variant)
+    if q == -2:
         return -1
-    du = up / r
-    dv = vp / r
-    best_t = INFINITY
-    best_d = 0.0
-    q = -1
-    for k in range(count):
-        d = (u[k] - up) * du + (v[k] - vp) * dv
-        if d < -eps:
-            if _Variant is _Checked and d == 0.0:
-                return -1
-            t = (z[k] - (zp + b0 * (u[k] - up) + c0 * (v[k] - vp))) / d  # >= 0
-            if t < best_t - 1e-15 or (t <= best_t + 1e-15 and d < best_d):
-                best_t = t
-                best_d = d
-                q = k
     if q < 0:
         out[0] = NAN
         out[1] = NAN
         out[2] = NAN
         return 2
-    b = b0 + best_t * du
-    c = c0 + best_t * dv
     for it in range(_MAX_PIVOTS):
         # rotate about the line p-q
         eu = u[q] - up
@@ -108,6 +126,31 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
         mu = -ev / el
         mv = eu / el
         side = -(mu * up + mv * vp)  # signed distance of the origin from the line along m
+        along = -(up * eu + vp * ev) / (el * el)  # where the origin is along p -> q (0 at p, 1 at q)
+        if fabs(side) <= eps and not (-1e-12 <= along <= 1.0 + 1e-12):
+            # the origin is on the line but beyond the segment: p-q is no edge around it, and
+            # turning about the line cannot lower it. Turn about the end nearer it alone, as
+            # the first step does (the far end lifts off).
+            if along > 1.0:
+                p = q
+                zp = z[p]
+                up = u[p]
+                vp = v[p]
+            q = _touch_towards_origin(u, v, z, count, eps, p, &b, &c, variant)
+            if q == -2:
+                return -1
+            if q == -3:
+                out[0] = zp - b * up - c * vp  # the end is over the origin: resting on it
+                out[1] = b
+                out[2] = c
+                tied[0] = True
+                return 0
+            if q < 0:
+                out[0] = NAN
+                out[1] = NAN
+                out[2] = NAN
+                return 2
+            continue
         if fabs(side) <= eps:
             # the origin is on the line: every plane through p and q between the two
             # neighbouring facets is optimal; take the middle one

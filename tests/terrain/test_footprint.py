@@ -189,3 +189,16 @@ def test_a_walk_from_any_start_finds_the_level_walks_plane(seed, k, b0, c0, latt
     if cold[3] == 0:
         np.testing.assert_allclose(warm[:3], cold[:3], rtol=0, atol=1e-9)
         assert support_plane_brute_force(u, v, z) == pytest.approx(cold[0], abs=1e-9)
+
+
+def test_the_walk_turns_past_a_line_through_the_origin_beyond_its_points():
+    """Found by the test above: the level walk's first two points, (0, 2) and (0, 1), lie on a
+    line through the origin but both on one side of it. Turning about that line cannot lower
+    the origin; the walk must turn about (0, 1) alone (it stopped at 1.0, not the lowest 0.833)."""
+    u = np.array([0.0, 1, -2, -2, 0, 2, 0, -1, 1])
+    v = np.array([-2.0, -2, -1, -2, 2, 2, 1, 2, 1])
+    z = np.array([0.0, 0.5, 0, 0.5, 1, 0.5, 1, 1, 0.5])
+    a, b, c, status = support_plane(u, v, z, 9, EPS_XY)
+    assert status == 0
+    assert a == pytest.approx(5 / 6, abs=1e-12) == support_plane_brute_force(u, v, z)
+    assert (a + b * u + c * v >= z - 1e-12).all()
