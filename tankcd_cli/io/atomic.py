@@ -15,6 +15,10 @@ from tankcd_cli.errors import InputError
 _PENDING: set = set()
 
 
+# open ``committed_together`` blocks, innermost last: each collects its outputs' (temporary, target)
+_GROUPS: list = []
+
+
 def remove_pending() -> None:
     """Remove every temporary output still pending (at a command's exit: nothing is writing)."""
     for path in list(_PENDING):
@@ -53,6 +57,9 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
             with open(tmp, "rb") as src:
                 shutil.copyfileobj(src, sys.stdout.buffer)
             sys.stdout.buffer.flush()
+        elif _GROUPS:  # the block renames it with the others
+            _GROUPS[-1].append((tmp, target))
+            tmp = None
         else:
             os.replace(tmp, target)
     except OSError as exc:
@@ -64,6 +71,32 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(tmp)
             _PENDING.discard(tmp)
+
+
+@contextlib.contextmanager
+def committed_together() -> Iterator[None]:
+    """The outputs completed inside this block (``atomic_path``, ``output_text``) are renamed onto
+    their targets together when it completes, with SIGINT and SIGTERM held back across the
+    renames: a signal leaves all of them or none, and a failure of the block removes them all."""
+    group: list = []
+    _GROUPS.append(group)
+    try:
+        yield
+        with _signals_held():
+            for k, (tmp, target) in enumerate(group):
+                try:
+                    os.replace(tmp, target)
+                except OSError as exc:
+                    raise InputError(target, f"cannot write output: {exc.strerror or exc}") from None
+                _PENDING.discard(tmp)
+                group[k] = (None, target)
+    finally:
+        _GROUPS.remove(group)
+        for tmp, _ in group:
+            if tmp is not None:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(tmp)
+                _PENDING.discard(tmp)
 
 
 @contextlib.contextmanager

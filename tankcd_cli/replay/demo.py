@@ -14,7 +14,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     Returns a summary (files written, rows, collisions by kind).
     """
     from tankcd_cli.collision.obstacles import load_obstacles
-    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.atomic import atomic_path, committed_together
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
     from tankcd_cli.io.trajectory import read_trajectory
@@ -52,7 +52,8 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     say("replaying the patrol")
     counts = {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0}
     path, marks = [], []
-    with atomic_path(p("poses.csv"), ".csv") as tmp_poses, atomic_path(p("events.jsonl"), ".jsonl") as tmp_events:
+    with committed_together(), atomic_path(p("poses.csv"), ".csv") as tmp_poses, \
+            atomic_path(p("events.jsonl"), ".jsonl") as tmp_events:
         with open(tmp_poses, "w", newline="") as poses_out, open(tmp_events, "w") as events_out:
             poses_out.write(header())
             for chunk, poses, events in replay_chunks(setup, chunks):

@@ -280,7 +280,7 @@ def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | N
 def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
     """Join the parts of split trajectories, in order, into their whole outputs (atomically), after
     checking that time does not go back across a cut; one result per trajectory."""
-    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.atomic import atomic_path, committed_together
 
     by_poses = {r["poses"]: r for r in results}
     part_outputs = {t.poses for t in tasks if t.part is not None}
@@ -308,7 +308,8 @@ def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
                   "task_seconds": round(sum(r["task_seconds"] for r in rs), 3), "pid": sorted({r["pid"] for r in rs if r["pid"] is not None})}
         try:
             if error is None:
-                with atomic_path(target, ".csv") as tmp_poses, atomic_path(first.whole_events, ".jsonl") as tmp_events:
+                with committed_together(), atomic_path(target, ".csv") as tmp_poses, \
+                        atomic_path(first.whole_events, ".jsonl") as tmp_events:
                     for k, t in enumerate(parts):
                         _append(tmp_poses, t.poses, skip_header=k > 0)
                         _append(tmp_events, t.events, skip_header=False)

@@ -129,10 +129,12 @@ def write_outputs(setup: ReplaySetup, chunks: Iterable, matcher: str, poses_path
                   counts: dict, source: str | None = None, on_chunk: Callable[[int], None] | None = None,
                   observe: Callable | None = None) -> dict:
     """``write_replay`` into the poses output (``-`` for stdout) and the events output (None: only
-    counted), each written atomically (``io.atomic.output_text``); returns ``counts`` updated."""
-    from tankcd_cli.io.atomic import output_text
+    counted), each written atomically (``io.atomic.output_text``) and both renamed in place together
+    (``committed_together``: never one without the other); returns ``counts`` updated."""
+    from tankcd_cli.io.atomic import committed_together, output_text
 
-    with output_text(poses_path, ".csv", newline="") as out, output_text(events_path, ".jsonl") as ev:
+    with committed_together(), output_text(poses_path, ".csv", newline="") as out, \
+            output_text(events_path, ".jsonl") as ev:
         write_replay(setup, chunks, matcher, out, ev, counts, on_chunk=on_chunk, source=source, observe=observe)
     return counts
 
