@@ -42,10 +42,11 @@ def patrol():
 
 
 def errors(p, ref, OK):
+    """Attitude p95 and max (deg), height error p95 and max (mm), penetration max (mm)."""
     ok = (p.status == OK) & (ref.status == OK)
     att = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", p.rotation[ok, :, 2], ref.rotation[ok, :, 2]), -1, 1)))
     dz = np.abs(p.position[ok, 2] - ref.position[ok, 2]) * 1000
-    return np.percentile(att, 95), att.max(), np.percentile(dz, 95), dz.max()
+    return np.percentile(att, 95), att.max(), np.percentile(dz, 95), dz.max(), np.nanmax(p.penetration[ok]) * 1000
 
 
 def main():
@@ -65,7 +66,7 @@ def main():
              "at the footprint's corners. Errors against `reference` on the same poses (attitude: the angle "
              "between the hull's up axes). Times: the matching stage in one process (penetration and gap "
              f"measured), plain and escalated alternated, medians of {a.repeats}.", "",
-             "| trajectory | poses | plain: attitude p95 / max, deg; height p95 / max, mm | escalated | "
+             "| trajectory | poses | plain: attitude p95 / max, deg; height p95 / max, mm; penetration max, mm | escalated | "
              "escalated share | plain / escalated / reference time | escalated / plain |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
     for name, (x, y, yaw) in (("sample patrol", patrol()), ("random walk", random_walk(65_536))):
@@ -81,11 +82,11 @@ def main():
                 else:
                     match(surface, vehicle, x, y, yaw, "auto", **kw)
                 out.append(time.perf_counter() - s)
-        ep, em, hp, hm = errors(plain, ref, OK)
-        xp, xm, xhp, xhm = errors(esc, ref, OK)
+        ep, em, hp, hm, pm = errors(plain, ref, OK)
+        xp, xm, xhp, xhm, xpm = errors(esc, ref, OK)
         ratio = float(np.median(np.array(te) / np.array(tp)))
-        lines.append(f"| {name} | {len(x):,} | {ep:.2f} / {em:.2f}; {hp:.1f} / {hm:.1f} | {xp:.2f} / {xm:.2f}; "
-                     f"{xhp:.1f} / {xhm:.1f} | {np.mean(esc.matcher >= ESCALATED):.1%} | "
+        lines.append(f"| {name} | {len(x):,} | {ep:.2f} / {em:.2f}; {hp:.1f} / {hm:.1f}; {pm:.1f} | {xp:.2f} / {xm:.2f}; "
+                     f"{xhp:.1f} / {xhm:.1f}; {xpm:.1f} | {np.mean(esc.matcher >= ESCALATED):.1%} | "
                      f"{np.median(tp) * 1e3:.1f} / {np.median(te) * 1e3:.1f} / {np.median(tr) * 1e3:.1f} ms | "
                      f"{ratio:.2f}x |")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
