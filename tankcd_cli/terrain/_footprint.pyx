@@ -13,7 +13,7 @@ from libc.math cimport cos, fabs, isfinite, isnan, sin, INFINITY, NAN
 from libc.stdint cimport int64_t, INT64_MIN
 from libc.stdlib cimport free, malloc, qsort
 
-from tankcd_cli.geometry._support_plane cimport support_plane_from_c
+from tankcd_cli.geometry._support_plane cimport support_plane_c, support_plane_from_c
 
 MAX_POLY = 16
 
@@ -633,7 +633,7 @@ cdef void _block(const Job* jb, Scratch* sc, Py_ssize_t lo, Py_ssize_t hi) noexc
                 st = support_plane_from_c(sc.bu, sc.bv, sc.bz, used, jb.eps, jb.planes_in[3 * i + 1],
                                           jb.planes_in[3 * i + 2], pl)
             else:
-                st = support_plane_from_c(sc.bu, sc.bv, sc.bz, used, jb.eps, 0.0, 0.0, pl)
+                st = support_plane_c(sc.bu, sc.bv, sc.bz, used, jb.eps, pl)
             if st < 0:
                 sc.err = _ERR_ZERO_DIVISION
                 return
