@@ -17,7 +17,7 @@ from tankcd_cli.cli.options import verbosity_options
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="tankcd-tradeoff", show_default=True,
               help="Directory for tradeoff.md, tradeoff.csv and tradeoff.png.")
 @click.option("--quick", is_flag=True, help="Small inputs and 3 repeats (under a minute, for CI); the full run "
-                                            "takes about 10 minutes.")
+                                            "takes under a minute here.")
 @verbosity_options
 @click.pass_obj
 def tradeoff(report, scene, trajectory, out_dir, quick):
