@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from tankcd_cli.tolerances import EPS_XY
 from tankcd_cli.vehicle import Vehicle
 
 

@@ -160,7 +160,6 @@ def measure_corpus(vehicle=None, progress=None) -> dict:
         ESCALATED,
         KEY_POINT_MATCHERS,
         OK,
-        REFERENCE,
         certified,
         escalation_tolerance,
         match,
