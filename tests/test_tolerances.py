@@ -13,10 +13,9 @@ def test_compiled_copies_equal_the_documented_values():
 
 
 def test_users_take_the_one_value():
-    from tankcd_cli.collision import terrain_contact
     from tankcd_cli.matching import match
     from tankcd_cli.replay import pipeline
 
-    assert match.EPS_XY is T.EPS_XY and terrain_contact.EPS_XY is T.EPS_XY
+    assert match.EPS_XY is T.EPS_XY
     assert pipeline.HULL_CONTACT_TOLERANCE is T.HULL_CONTACT
     assert match.ESCALATION_ATTITUDE_DEG is T.ESCALATION_ATTITUDE_DEG
