@@ -20,20 +20,10 @@ import time
 import numpy as np
 
 from _report import save_report
+from bench_replay import random_walk
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLE = os.path.join(os.path.dirname(HERE), "sample_data")
-
-
-def random_walk(rows: int, seed: int = 3):
-    """The random walk of bench_replay.trajectory: x, y, yaw (rad)."""
-    rng = np.random.default_rng(seed)
-    heading = np.cumsum(rng.normal(0, 0.02, rows))
-    x = 500120 + np.cumsum(0.5 * np.cos(heading))
-    y = 4500080 + np.cumsum(0.5 * np.sin(heading))
-    x = 500005 + np.abs((x - 500005) % 460 - 230)
-    y = 4500005 + np.abs((y - 4500005) % 300 - 150)
-    return x, y, heading
 
 
 def patrol():

@@ -28,7 +28,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLE = os.path.join(os.path.dirname(HERE), "sample_data")
 
 
-def trajectory(path, rows, seed=3):
+def random_walk(rows, seed=3):
+    """A wandering drive over the sample battlefield: x, y (m) and heading (rad), (rows,) each."""
     rng = np.random.default_rng(seed)
     heading = np.cumsum(rng.normal(0, 0.02, rows))
     x = 500120 + np.cumsum(0.5 * np.cos(heading))
@@ -36,6 +37,11 @@ def trajectory(path, rows, seed=3):
     # keep it on the terrain: fold the walk back into the battlefield
     x = 500005 + np.abs((x - 500005) % 460 - 230)
     y = 4500005 + np.abs((y - 4500005) % 300 - 150)
+    return x, y, heading
+
+
+def trajectory(path, rows, seed=3):
+    x, y, heading = random_walk(rows, seed)
     t = np.arange(rows) * 0.1
     turret = (t * 12.0) % 360 - 180
     gun = -6 + 8 * (0.5 + 0.5 * np.sin(t / 7))
