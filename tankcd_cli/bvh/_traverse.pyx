@@ -2,10 +2,10 @@
 
 See :mod:`tankcd_cli.bvh.traverse` for the method. Poses run in OpenMP threads, handed out
 dynamically in chunks of ``POSE_CHUNK`` (a clear pose ends at the roots, a grazing one goes
-deep); within a pose the walk is sequential. The arithmetic and its order are those of the
-former numba kernels: results are bit-identical.
+deep); within a pose the walk is sequential.
 """
 
+cimport numpy as cnp
 from cython.parallel cimport parallel, prange
 from libc.math cimport fabs, INFINITY
 from libc.stdint cimport int64_t
@@ -13,8 +13,11 @@ from libc.stdlib cimport free, malloc
 
 import numpy as np
 
+cnp.import_array()
+
 from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64
 
+from tankcd_cli.bvh._trees cimport Trees, fill_trees, tree_reach
 from tankcd_cli.geometry._triangles cimport _pymax, tri_tri_c
 
 FIRST, ALL = 0, 1
@@ -22,38 +25,8 @@ cdef int64_t _FIRST = 0
 POSE_CHUNK = 8  # poses handed to a thread at a time by collide_batch
 
 
-ctypedef struct _Trees:
-    # tree A (moving): triangles in its own frame, its nodes' parallelepipeds (n, T, 3)
-    const double* a_tri
-    const int64_t* a_idx
-    const int64_t* a_left
-    const int64_t* a_right
-    const int64_t* a_start
-    const int64_t* a_count
-    const int64_t* a_depth
-    int64_t a_levels
-    const double* a_centre
-    const double* a_half
-    const double* a_size
-    # tree B (static): triangles in the world, node k-DOPs (n, nb)
-    const double* b_tri
-    const int64_t* b_idx
-    const double* b_lo
-    const double* b_hi
-    Py_ssize_t nb
-    const int64_t* b_left
-    const int64_t* b_right
-    const int64_t* b_start
-    const int64_t* b_count
-    const int64_t* b_depth
-    int64_t b_levels
-    const double* b_size
-    Py_ssize_t K  # slab directions
-    Py_ssize_t T  # slab triples
-
-
 cdef int64_t _walk(const double* R, const double* tv, const double* f, const double* g, const double* shift,
-                   const _Trees* tr, int64_t mode, int64_t* pairs, double* points, Py_ssize_t cap,
+                   const Trees* tr, int64_t mode, int64_t* pairs, double* points, Py_ssize_t cap,
                    int64_t* stack, double tol, int64_t* node_tests_out, int64_t* tri_tests_out) noexcept nogil:
     """One pose: contacts found; pairs (cap, 2) and points (cap, 3) receive the first ``cap``."""
     cdef Py_ssize_t K = tr.K
@@ -146,7 +119,7 @@ cdef int64_t _walk(const double* R, const double* tv, const double* f, const dou
 
 
 cdef void _pose(Py_ssize_t p, const double* R, const double* tv, const double* D, const double* W,
-                const _Trees* tr, int64_t mode, double reach, Py_ssize_t cap, double* f, double* g,
+                const Trees* tr, int64_t mode, double reach, Py_ssize_t cap, double* f, double* g,
                 double* shift, int64_t* stack, int64_t* found, int64_t* pairs, double* points,
                 int64_t* node_tests, int64_t* tri_tests) noexcept nogil:
     """Pose p of collide_batch, with the thread's work arrays f (K, 3), g (T, K, 3), shift (K,), stack."""
@@ -183,37 +156,10 @@ def collide_batch(R, tv, D, W, a, b, mode, max_contacts):
     indices and their contact points (N, c, 3), and the node-pair and
     triangle-pair tests made (N,).
     """
-    a_tri, a_idx, a_left, a_right, a_start, a_count, a_depth, a_levels, a_centre, a_half = (
-        a.triangles, a.source_index, a.left, a.right, a.start, a.count, a.depth, a.aabb_levels, a.centre, a.half)
-    b_tri, b_idx, b_lo, b_hi, b_left, b_right, b_start, b_count, b_depth, b_levels = (
-        b.triangles, b.source_index, b.lo, b.hi, b.left, b.right, b.start, b.count, b.depth, b.aabb_levels)
-    # a node's size (the sum of its AABB's sides) decides which node of a pair to open
-    a_size = (np.asarray(a.hi)[:, :3] - np.asarray(a.lo)[:, :3]).sum(axis=1)
-    b_size = (np.asarray(b_hi)[:, :3] - np.asarray(b_lo)[:, :3]).sum(axis=1)
     cdef const double[:, :, ::1] R_ = _f64(R)
     cdef const double[:, ::1] tv_ = _f64(tv)
     cdef const double[:, ::1] D_ = _f64(D)
     cdef const double[:, :, ::1] W_ = _f64(W)
-    cdef const double[:, :, ::1] a_tri_ = _f64(a_tri)
-    cdef const int64_t[::1] a_idx_ = _i64(a_idx)
-    cdef const int64_t[::1] a_left_ = _i64(a_left)
-    cdef const int64_t[::1] a_right_ = _i64(a_right)
-    cdef const int64_t[::1] a_start_ = _i64(a_start)
-    cdef const int64_t[::1] a_count_ = _i64(a_count)
-    cdef const int64_t[::1] a_depth_ = _i64(a_depth)
-    cdef const double[:, :, ::1] a_centre_ = _f64(a_centre)
-    cdef const double[:, :, ::1] a_half_ = _f64(a_half)
-    cdef const double[::1] a_size_ = _f64(a_size)
-    cdef const double[:, :, ::1] b_tri_ = _f64(b_tri)
-    cdef const int64_t[::1] b_idx_ = _i64(b_idx)
-    cdef const double[:, ::1] b_lo_ = _f64(b_lo)
-    cdef const double[:, ::1] b_hi_ = _f64(b_hi)
-    cdef const int64_t[::1] b_left_ = _i64(b_left)
-    cdef const int64_t[::1] b_right_ = _i64(b_right)
-    cdef const int64_t[::1] b_start_ = _i64(b_start)
-    cdef const int64_t[::1] b_count_ = _i64(b_count)
-    cdef const int64_t[::1] b_depth_ = _i64(b_depth)
-    cdef const double[::1] b_size_ = _f64(b_size)
     cdef Py_ssize_t n = R_.shape[0]
     cdef Py_ssize_t K = D_.shape[0]
     cdef Py_ssize_t T = W_.shape[0]
@@ -229,42 +175,13 @@ def collide_batch(R, tv, D, W, a, b, mode, max_contacts):
     cdef int64_t[::1] tri_tests = tri_arr
     cdef int64_t[:, :, ::1] pairs = pairs_arr
     cdef double[:, :, ::1] points = points_arr
-    cdef Py_ssize_t depth = int(np.max(a_depth_) + np.max(b_depth_) + 4)
+    cdef Trees tr
+    keep = fill_trees(&tr, a, b, K, T)
+    cdef Py_ssize_t depth = int(np.max(keep[6]) + np.max(keep[18]) + 4)
     cdef Py_ssize_t i, p
-    cdef double reach = 0.0  # the largest coordinate of either tree's bounds
-    for i in range(3):
-        reach = _pymax(_pymax(_pymax(reach, fabs(a_centre_[0, 0, i]) + fabs(a_half_[0, 0, i])), fabs(b_lo_[0, i])),
-                       fabs(b_hi_[0, i]))
+    cdef double reach = tree_reach(&tr)
     if n == 0:
         return found_arr, pairs_arr, points_arr, node_arr, tri_arr
-    cdef _Trees tr
-    tr.a_tri = &a_tri_[0, 0, 0] if a_tri_.shape[0] else NULL
-    tr.a_idx = &a_idx_[0] if a_idx_.shape[0] else NULL
-    tr.a_left = &a_left_[0]
-    tr.a_right = &a_right_[0]
-    tr.a_start = &a_start_[0]
-    tr.a_count = &a_count_[0]
-    tr.a_depth = &a_depth_[0]
-    tr.a_levels = a_levels
-    tr.a_centre = &a_centre_[0, 0, 0]
-    tr.a_half = &a_half_[0, 0, 0]
-    tr.a_size = &a_size_[0]
-    tr.b_tri = &b_tri_[0, 0, 0] if b_tri_.shape[0] else NULL
-    tr.b_idx = &b_idx_[0] if b_idx_.shape[0] else NULL
-    tr.b_lo = &b_lo_[0, 0]
-    tr.b_hi = &b_hi_[0, 0]
-    tr.nb = b_lo_.shape[1]
-    tr.b_left = &b_left_[0]
-    tr.b_right = &b_right_[0]
-    tr.b_start = &b_start_[0]
-    tr.b_count = &b_count_[0]
-    tr.b_depth = &b_depth_[0]
-    tr.b_levels = b_levels
-    tr.b_size = &b_size_[0]
-    tr.K = K
-    tr.T = T
-    if a_centre_.shape[1] != T or a_half_.shape[1] != T or b_hi_.shape[1] != tr.nb or tr.nb < K:
-        raise ValueError("tree volumes do not match the slab directions")
     cdef const double* Rp = &R_[0, 0, 0]
     cdef const double* tp = &tv_[0, 0]
     cdef const double* Dp = &D_[0, 0] if K else NULL

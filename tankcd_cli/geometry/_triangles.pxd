@@ -5,7 +5,7 @@
 # numba kernels: results are bit-identical. Triangles are 9 contiguous doubles, vertex-major
 # ((3, 3) C order); points are 3 doubles.
 
-from libc.math cimport fabs, sqrt
+from libc.math cimport fabs, sqrt, INFINITY
 
 
 cdef inline double _rel_eps() noexcept nogil:
@@ -229,3 +229,159 @@ cdef inline bint tri_tri_c(const double* P, const double* Q, double* out, double
     for m in range(3):
         out[m] = pa[m] + t * (pb[m] - pa[m])
     return True
+
+
+# --- distances ---------------------------------------------------------------------------------
+
+cdef inline double _dot3(const double* a, const double* b) noexcept nogil:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+cdef inline double _clamp01(double v) noexcept nogil:
+    return 0.0 if v < 0.0 else (1.0 if v > 1.0 else v)
+
+
+cdef inline double seg_seg_dist2(const double* p1, const double* q1, const double* p2, const double* q2,
+                                 double* c1, double* c2) noexcept nogil:
+    """Squared distance between closed segments p1q1 and p2q2; c1, c2 receive the closest points
+    (Ericson, Real-Time Collision Detection, 5.1.9: degenerate and parallel segments included)."""
+    cdef double d1[3]
+    cdef double d2[3]
+    cdef double r[3]
+    cdef int m
+    for m in range(3):
+        d1[m] = q1[m] - p1[m]
+        d2[m] = q2[m] - p2[m]
+        r[m] = p1[m] - p2[m]
+    cdef double a = _dot3(d1, d1)
+    cdef double e = _dot3(d2, d2)
+    cdef double f = _dot3(d2, r)
+    cdef double s, t, b, c, denom
+    if a <= 1e-300 and e <= 1e-300:
+        s = 0.0
+        t = 0.0
+    elif a <= 1e-300:
+        s = 0.0
+        t = _clamp01(f / e)
+    else:
+        c = _dot3(d1, r)
+        if e <= 1e-300:
+            t = 0.0
+            s = _clamp01(-c / a)
+        else:
+            b = _dot3(d1, d2)
+            denom = a * e - b * b
+            s = _clamp01((b * f - c * e) / denom) if denom > 0.0 else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                t = 0.0
+                s = _clamp01(-c / a)
+            elif t > 1.0:
+                t = 1.0
+                s = _clamp01((b - c) / a)
+    cdef double d = 0.0
+    cdef double w
+    for m in range(3):
+        c1[m] = p1[m] + d1[m] * s
+        c2[m] = p2[m] + d2[m] * t
+        w = c1[m] - c2[m]
+        d += w * w
+    return d
+
+
+cdef inline double point_face_dist2(const double* p, const double* T, double* c) noexcept nogil:
+    """Squared distance from p to triangle T's plane where p's projection falls inside T (c the
+    projection), else +inf: the face case of the point-triangle distance (the edges are the
+    segment distances' business)."""
+    cdef double ab[3]
+    cdef double ac[3]
+    cdef double n[3]
+    cdef double ap[3]
+    cdef int m
+    for m in range(3):
+        ab[m] = T[3 + m] - T[m]
+        ac[m] = T[6 + m] - T[m]
+        ap[m] = p[m] - T[m]
+    n[0] = ab[1] * ac[2] - ab[2] * ac[1]
+    n[1] = ab[2] * ac[0] - ab[0] * ac[2]
+    n[2] = ab[0] * ac[1] - ab[1] * ac[0]
+    cdef double nn = _dot3(n, n)
+    if nn <= 0.0:
+        return INFINITY
+    cdef double h = _dot3(ap, n) / nn
+    cdef double q[3]
+    for m in range(3):
+        q[m] = p[m] - h * n[m]
+    # inside: q on the inner side of all three edges (signs of (edge x (q - start)) . n)
+    cdef double e[3]
+    cdef double v[3]
+    cdef double x[3]
+    cdef int k
+    for k in range(3):
+        for m in range(3):
+            e[m] = T[3 * ((k + 1) % 3) + m] - T[3 * k + m]
+            v[m] = q[m] - T[3 * k + m]
+        x[0] = e[1] * v[2] - e[2] * v[1]
+        x[1] = e[2] * v[0] - e[0] * v[2]
+        x[2] = e[0] * v[1] - e[1] * v[0]
+        if _dot3(x, n) < 0.0:
+            return INFINITY
+    for m in range(3):
+        c[m] = q[m]
+    return h * h * nn
+
+
+cdef inline double tri_tri_distance_c(const double* P, const double* Q, double* cp, double* cq,
+                                      double* scratch) noexcept nogil:
+    """The distance between closed triangles P and Q (9 doubles each); cp, cq receive a closest pair
+    (a common point when they meet: distance 0). A degenerate triangle (no area) has no interior
+    and, as in ``tri_tri_c``, meets nothing: +inf.
+
+    Two disjoint triangles are closest at an edge-edge pair or at a vertex and the other's face:
+    the minimum over the 9 segment pairs and the 6 vertex-face projections is the distance.
+    ``scratch`` is 18 doubles of working space."""
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef int m, i, j
+    for m in range(3):
+        e1[m] = P[3 + m] - P[m]
+        e2[m] = P[6 + m] - P[m]
+    if (e1[1] * e2[2] - e1[2] * e2[1]) == 0.0 and (e1[2] * e2[0] - e1[0] * e2[2]) == 0.0 \
+            and (e1[0] * e2[1] - e1[1] * e2[0]) == 0.0:
+        return INFINITY
+    for m in range(3):
+        e1[m] = Q[3 + m] - Q[m]
+        e2[m] = Q[6 + m] - Q[m]
+    if (e1[1] * e2[2] - e1[2] * e2[1]) == 0.0 and (e1[2] * e2[0] - e1[0] * e2[2]) == 0.0 \
+            and (e1[0] * e2[1] - e1[1] * e2[0]) == 0.0:
+        return INFINITY
+    if tri_tri_c(P, Q, cp, scratch):
+        for m in range(3):
+            cq[m] = cp[m]
+        return 0.0
+    cdef double best = INFINITY
+    cdef double d
+    cdef double a[3]
+    cdef double b[3]
+    for i in range(3):
+        for j in range(3):
+            d = seg_seg_dist2(P + 3 * i, P + 3 * ((i + 1) % 3), Q + 3 * j, Q + 3 * ((j + 1) % 3), a, b)
+            if d < best:
+                best = d
+                for m in range(3):
+                    cp[m] = a[m]
+                    cq[m] = b[m]
+    for i in range(3):
+        d = point_face_dist2(P + 3 * i, Q, b)
+        if d < best:
+            best = d
+            for m in range(3):
+                cp[m] = P[3 * i + m]
+                cq[m] = b[m]
+        d = point_face_dist2(Q + 3 * i, P, a)
+        if d < best:
+            best = d
+            for m in range(3):
+                cp[m] = a[m]
+                cq[m] = Q[3 * i + m]
+    return sqrt(best)

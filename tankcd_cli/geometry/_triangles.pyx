@@ -8,7 +8,7 @@ cimport numpy as cnp
 
 import numpy as np
 
-from tankcd_cli.geometry._triangles cimport tri_tri_c
+from tankcd_cli.geometry._triangles cimport tri_tri_c, tri_tri_distance_c
 
 cnp.import_array()
 
@@ -69,3 +69,18 @@ def tri_tri(P, Q, out, scratch=None):
     if hit and out_ptr == out_buf:
         out[:3] = [out_buf[0], out_buf[1], out_buf[2]]
     return hit
+
+
+def tri_distance(P, Q):
+    """The distance between closed triangles P and Q (3, 3) and a closest pair of points (3,), (3,)
+    on them (``tri_tri_distance_c``; +inf and NaN points when either is degenerate)."""
+    cdef cnp.ndarray p = _triangle(P)
+    cdef cnp.ndarray q = _triangle(Q)
+    cdef double cp[3]
+    cdef double cq[3]
+    cdef double scratch[18]
+    cdef double d = tri_tri_distance_c(<const double*>cnp.PyArray_DATA(p), <const double*>cnp.PyArray_DATA(q),
+                                       cp, cq, scratch)
+    if d == float("inf"):
+        return d, np.full(3, np.nan), np.full(3, np.nan)
+    return d, np.array([cp[0], cp[1], cp[2]]), np.array([cq[0], cq[1], cq[2]])

@@ -16,13 +16,19 @@ the compiled tree traversal to cimport); ``tri_tri`` is its Python face.
 ``tri_tri_brute`` is an independent oracle for the tests: two triangles meet
 iff an edge of one meets the other (Moller-Trumbore, closed), or, when
 coplanar, an edge crosses an edge or a vertex lies inside.
+
+``tri_distance`` is the distance between two closed triangles (0 when they meet): the least
+of the nine edge-edge distances and the six vertex-face projections, which is where two
+disjoint triangles are closest (``tri_tri_distance_c``, for the compiled sweeps).
+``tri_distance_brute`` is its oracle: the convex problem over both triangles' barycentric
+coordinates solved numerically.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from tankcd_cli.geometry._triangles import REL_EPS, tri_tri  # noqa: F401
+from tankcd_cli.geometry._triangles import REL_EPS, tri_distance, tri_tri  # noqa: F401
 
 
 def tri_tri_brute(P: np.ndarray, Q: np.ndarray) -> bool:
@@ -82,3 +88,34 @@ def _coplanar_brute(p, q, eps):
                (abs(d3) <= eps and on_segment(a, b, c)) or (abs(d4) <= eps and on_segment(a, b, d)):
                 return True
     return any(inside(v, q) for v in p) or any(inside(v, p) for v in q)
+
+
+def tri_distance_brute(P: np.ndarray, Q: np.ndarray) -> float:
+    """Independent oracle (one pair): min |P(a) - Q(b)| over barycentric a, b, by SLSQP from several
+    starts (scipy), then the best of those and of the nine vertex pairs."""
+    from scipy.optimize import minimize
+
+    P = np.asarray(P, dtype=float)
+    Q = np.asarray(Q, dtype=float)
+    origin = P[0]
+    P, Q = P - origin, Q - origin  # differences keep the oracle as precise as the test itself
+
+    def point(T, w):
+        return T[0] + w[0] * (T[1] - T[0]) + w[1] * (T[2] - T[0])
+
+    def f(z):
+        d = point(P, z[:2]) - point(Q, z[2:])
+        return d @ d
+
+    cons = [{"type": "ineq", "fun": lambda z, i=i: z[i]} for i in range(4)]
+    cons += [{"type": "ineq", "fun": lambda z: 1 - z[0] - z[1]}, {"type": "ineq", "fun": lambda z: 1 - z[2] - z[3]}]
+    best = min(float(np.sum((p - q) ** 2)) for p in P for q in Q)
+    for start in ([1 / 3] * 4, [0.1, 0.1, 0.8, 0.1], [0.8, 0.1, 0.1, 0.1], [0.1, 0.8, 0.1, 0.8], [0.5, 0.5, 0.5, 0.0]):
+        res = minimize(f, np.array(start), constraints=cons, method="SLSQP", options={"ftol": 1e-16, "maxiter": 500})
+        z = np.clip(res.x, 0, 1)
+        for w in (z[:2], z[2:]):
+            excess = w.sum() - 1
+            if excess > 0:
+                w -= excess / 2
+        best = min(best, f(z))
+    return float(np.sqrt(max(best, 0.0)))
