@@ -25,7 +25,7 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     from tankcd_cli.collision.obstacles import (
         collide_obstacles,
         load_obstacles,
-        vehicle_tree,
+        scene_vehicle_body,
     )
     from tankcd_cli.io.atomic import output_text
     from tankcd_cli.io.events import event_line
@@ -37,7 +37,7 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     sc = load_scene(scene)
     refuse_clashes({"--poses": poses_path, "--scene": scene, **scene_inputs(sc)}, {"--events": events_path})
     obstacles = load_obstacles(sc, cache=not no_cache, progress=step)
-    moving, parts, part_names = vehicle_tree(sc)
+    body = scene_vehicle_body(sc)
     method = f"bvh k{sc.collision.k} aabb_levels={sc.collision.aabb_levels} {sc.collision.split}"
     totals = {"rows": 0, "skipped": 0, "collisions": 0, "node_tests": 0, "tri_tests": 0}
 
@@ -46,12 +46,12 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
             totals["rows"] += len(stp)
             totals["skipped"] += int((~valid).sum())
             idx = valid.nonzero()[0]
-            hits = collide_obstacles(moving, parts, obstacles, R[idx], pos[idx], all_contacts=all_contacts)
+            hits = collide_obstacles(body, obstacles, R[idx], pos[idx], all_contacts=all_contacts)
             totals["node_tests"] += hits.node_tests
             totals["tri_tests"] += hits.tri_tests
             for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts):
                 i = idx[p]
-                out.write(event_line(stp[i], t[i], "obstacle", part_names[part], obstacles[o].name,
+                out.write(event_line(stp[i], t[i], "obstacle", body.part_names[part], obstacles[o].name,
                                      point=[round(float(c), 4) for c in point], contacts=int(n), method=method))
                 totals["collisions"] += 1
             out.flush()

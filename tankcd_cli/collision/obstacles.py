@@ -15,6 +15,7 @@ from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.store import read_tree, write_tree
 from tankcd_cli.errors import InputError
 from tankcd_cli.scene import CollisionSettings, ObstacleSpec, Scene
+from tankcd_cli.collision.vehicle_body import VehicleBody, group_placements, vehicle_body
 from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
 
 
@@ -113,20 +114,19 @@ def load_obstacles(scene: Scene, cache: bool = True, rebuild: bool = False,
     return out
 
 
-def vehicle_tree(scene: Scene, detail: int = 2) -> tuple[Tree, np.ndarray, tuple]:
-    """The vehicle's tree in its own frame, its triangles' part labels and the part names.
-
-    A scene's mesh is brought into the vehicle frame by its placement (scale, then rotation);
-    its parts are the file's (OBJ objects or groups, glTF nodes) when it has them, else one
-    part, "vehicle"."""
+def scene_vehicle_body(scene: Scene, detail: int = 2) -> VehicleBody:
+    """The scene's vehicle as moving parts (``collision.vehicle_body``): its mesh brought into the
+    vehicle frame by its placement (scale, then rotation), its parts the file's (OBJ objects or
+    groups, glTF nodes) when it has them, else one part, "vehicle"; without a mesh, the one
+    generated from the dimensions, whose turret and gun turn."""
     c = scene.collision
     if scene.vehicle_mesh:
         tris, parts, names = vehicle_mesh_triangles(scene)
     else:
         tris, parts = vehicle_mesh(scene.vehicle, detail)
         names = PARTS
-    tree = build_tree(tris, k=c.k, leaf_size=c.leaf_size, aabb_levels=c.aabb_levels, split=c.split)
-    return tree, parts, names
+    return vehicle_body(scene.vehicle, tris, parts, names, k=c.k, leaf_size=c.leaf_size, aabb_levels=c.aabb_levels,
+                        split=c.split)
 
 
 def vehicle_mesh_triangles(scene: Scene):
@@ -171,37 +171,46 @@ class ObstacleHits:
     broad_pairs: int
 
 
-def collide_obstacles(moving: Tree, parts: np.ndarray, obstacles: list[Obstacle], rotation: np.ndarray,
-                      translation: np.ndarray, all_contacts: bool = False) -> ObstacleHits:
-    """Broad phase on world AABBs, then the tandem tree walk for the pairs that remain."""
+def collide_obstacles(body: VehicleBody, obstacles: list[Obstacle], rotation: np.ndarray, translation: np.ndarray,
+                      turret_rad=0.0, gun_rad=0.0, all_contacts: bool = False) -> ObstacleHits:
+    """The vehicle at N poses (hull rotation (N, 3, 3), translation (N, 3), turret and gun angles
+    (N,) rad) against every obstacle: broad phase on world AABBs per group, then the tandem tree
+    walk for the pairs that remain. One row per (pose, obstacle) in contact: the part is the
+    first found (hull group first, then turret, then gun), ``contacts`` the triangle contacts
+    found over all groups (one per group touching unless ``all_contacts``)."""
     n = len(rotation)
     if not obstacles or n == 0:
         empty = np.zeros(0, dtype=np.int64)
         return ObstacleHits(empty, empty, empty, np.zeros((0, 3)), empty, 0, 0, 0)
-    # the vehicle's world AABB at each pose: its root box moved (centre R c + t, half-widths |R| h)
-    centre = 0.5 * (moving.lo[0, :3] + moving.hi[0, :3])
-    half = 0.5 * (moving.hi[0, :3] - moving.lo[0, :3])
-    world_centre = rotation @ centre + translation
-    world_half = np.abs(rotation) @ half
-    lo, hi = world_centre - world_half, world_centre + world_half
-    rows = {k: [] for k in ("pose", "obstacle", "part", "point", "contacts")}
+    turret_rad = np.broadcast_to(np.asarray(turret_rad, dtype=float), (n,))
+    gun_rad = np.broadcast_to(np.asarray(gun_rad, dtype=float), (n,))
+    part = {}  # (pose, obstacle) -> (part, point); counts summed beside
+    count: dict = {}
     node_tests = tri_tests = broad = 0
-    for j, ob in enumerate(obstacles):
-        near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
-        broad += len(near)
-        if len(near) == 0:
-            continue
-        res = collide(moving, ob.tree, rotation[near], translation[near], all_contacts=all_contacts)
-        node_tests += int(res.node_tests.sum())
-        tri_tests += int(res.tri_tests.sum())
-        hit = np.flatnonzero(res.found > 0)
-        rows["pose"].append(near[hit])
-        rows["obstacle"].append(np.full(len(hit), j))
-        rows["part"].append(parts[res.pairs[hit, 0, 0]])
-        rows["point"].append(res.points[hit, 0])
-        rows["contacts"].append(res.found[hit])
-    cat = {k: (np.concatenate(v) if v else np.zeros((0, 3) if k == "point" else 0, dtype=float if k == "point" else np.int64))
-           for k, v in rows.items()}
-    order = np.lexsort((cat["obstacle"], cat["pose"]))
-    return ObstacleHits(cat["pose"][order], cat["obstacle"][order], cat["part"][order], cat["point"][order],
-                        cat["contacts"][order], node_tests, tri_tests, broad)
+    for group in body.groups:
+        R, t = group_placements(body, group, rotation, translation, turret_rad, gun_rad)
+        tree = group.tree
+        # the group's world AABB at each pose: its root box moved (centre R c + t, half-widths |R| h)
+        centre = 0.5 * (tree.lo[0, :3] + tree.hi[0, :3])
+        half = 0.5 * (tree.hi[0, :3] - tree.lo[0, :3])
+        world_centre = R @ centre + t
+        world_half = np.abs(R) @ half
+        lo, hi = world_centre - world_half, world_centre + world_half
+        for j, ob in enumerate(obstacles):
+            near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
+            broad += len(near)
+            if len(near) == 0:
+                continue
+            res = collide(tree, ob.tree, R[near], t[near], all_contacts=all_contacts)
+            node_tests += int(res.node_tests.sum())
+            tri_tests += int(res.tri_tests.sum())
+            for k in np.flatnonzero(res.found > 0):
+                key = (int(near[k]), j)
+                part.setdefault(key, (int(group.parts[res.pairs[k, 0, 0]]), res.points[k, 0]))
+                count[key] = count.get(key, 0) + int(res.found[k])
+    keys = sorted(part)
+    pose = np.array([k[0] for k in keys], dtype=np.int64)
+    obstacle = np.array([k[1] for k in keys], dtype=np.int64)
+    return ObstacleHits(pose, obstacle, np.array([part[k][0] for k in keys], dtype=np.int64),
+                        np.array([part[k][1] for k in keys], dtype=float).reshape(-1, 3),
+                        np.array([count[k] for k in keys], dtype=np.int64), node_tests, tri_tests, broad)

@@ -42,9 +42,7 @@ class ReplaySetup:
     vehicle: Vehicle
     effects: dict
     obstacles: list = field(default_factory=list)
-    vehicle_tree: object = None
-    vehicle_parts: np.ndarray | None = None
-    part_names: tuple = ()
+    body: object = None  # collision.vehicle_body.VehicleBody: the vehicle's moving parts (with obstacles)
     seconds: dict = field(default_factory=lambda: {"matching": 0.0, "terrain": 0.0, "obstacles": 0.0, "internal": 0.0})
     escalate: bool | None = None  # key-point poses that fail the reference's certificate go to it (None: auto's)
     tolerance: float | None = None  # the certificate's tolerance, m (None: derived from the vehicle)
@@ -147,11 +145,11 @@ def prepare(surface, vehicle: Vehicle, scene=None, turret_moves: bool = False,
     effects = effects_of(scene, vehicle, turret_moves)
     setup = ReplaySetup(surface, vehicle, effects)
     if effects["obstacles"]:
-        from tankcd_cli.collision.obstacles import load_obstacles, vehicle_tree
+        from tankcd_cli.collision.obstacles import load_obstacles, scene_vehicle_body
 
         setup.obstacles = load_obstacles(scene, cache=True, progress=progress)
         warn_obstacles_beside(scene.path, setup.obstacles, surface)
-        setup.vehicle_tree, setup.vehicle_parts, setup.part_names = vehicle_tree(scene)
+        setup.body = scene_vehicle_body(scene)
     return setup
 
 
@@ -209,8 +207,9 @@ def _hull_bottom(setup, chunk, poses, idx):
 def _obstacles(setup, chunk, poses, idx, rotation):
     from tankcd_cli.collision.obstacles import collide_obstacles
 
-    hits = collide_obstacles(setup.vehicle_tree, setup.vehicle_parts, setup.obstacles, rotation, poses.position[idx])
-    return [Event(int(chunk.step[idx[p]]), float(chunk.t[idx[p]]), "obstacle", setup.part_names[part],
+    hits = collide_obstacles(setup.body, setup.obstacles, rotation, poses.position[idx],
+                             np.radians(chunk.turret_deg[idx]), np.radians(chunk.gun_deg[idx]))
+    return [Event(int(chunk.step[idx[p]]), float(chunk.t[idx[p]]), "obstacle", setup.body.part_names[part],
                   setup.obstacles[o].name, {"point": [round(float(c), 4) for c in point], "contacts": int(n)})
             for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts)]
 

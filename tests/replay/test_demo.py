@@ -73,7 +73,7 @@ def test_terrain_only_scene_loads_no_trees(run, tmp_path, monkeypatch):
     def forbidden(*a, **k):
         raise AssertionError("a tree was loaded for a scene without obstacles")
     monkeypatch.setattr(obstacles, "load_obstacles", forbidden)
-    monkeypatch.setattr(obstacles, "vehicle_tree", forbidden)
+    monkeypatch.setattr(obstacles, "scene_vehicle_body", forbidden)
     (tmp_path / "s.toml").write_text(f'[terrain]\npath = "{SAMPLE / "battlefield.asc"}"\n[vehicle]\nfuel_drums = false\n')
     result = run("replay", SAMPLE / "patrol.csv", "--scene", "s.toml", "--poses", "p.csv", "--summary")
     assert result.exit_code == 0, result.stderr
