@@ -156,3 +156,58 @@ def test_envelope_command_csv_and_png(run, tmp_path):
     assert (tmp_path / "env.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     m1 = run("envelope", "--vehicle", "m1", "--step", "30")
     assert all(line.endswith(",gun,true") for line in m1.stdout.strip().splitlines()[1:])
+
+
+# --- along the angle path between two rows ------------------------------------------------------
+
+def _dense_first(vehicle, az0, daz, el0, dele, step_deg=0.0005):
+    """The oracle: the exact test at steps of step_deg along the path; the first fraction that hits."""
+    turn = max(abs(daz), abs(dele))
+    n = max(int(np.ceil(np.degrees(turn) / step_deg)), 1)
+    s = np.linspace(0, 1, n + 1)
+    hit = gun_hits_drums(vehicle, az0 + s * daz, el0 + s * dele).any(axis=1)
+    return s[np.argmax(hit)] if hit.any() else None
+
+
+def test_the_turret_swinging_over_the_rear_meets_the_drums_where_the_envelope_says():
+    from tankcd_cli.collision.internal import first_gun_contacts
+    from tankcd_cli.geometry.motion import shorter_arc_deg
+
+    t72 = vehicle_preset("t72")
+    change = float(shorter_arc_deg(150.0, -150.0))  # 60 deg, through 180
+    found, s, drum = first_gun_contacts(t72, np.radians([150.0]), np.radians([change]), np.radians([-6.0]), [0.0])
+    assert found[0] and drum[0] == 0  # the left drum first, turning counter-clockwise over the rear
+    first = 150.0 + change * s[0]
+    # the envelope: the lowest safe elevation rises above -6 deg there
+    env = elevation_envelope(t72, np.array([first - 0.01, first + 0.01]))
+    assert env["min_elevation"][0] <= -6.0 < env["min_elevation"][1]
+    assert first == pytest.approx(161.68, abs=0.01)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-180, 180), st.floats(-90, 90), st.floats(-6, 14), st.floats(-20, 20))
+def test_the_first_contact_along_a_path_is_the_dense_sweeps_to_a_hundredth_of_a_degree(az0, daz, el0, dele):
+    from tankcd_cli.collision.internal import first_gun_contacts
+
+    t72 = vehicle_preset("t72")
+    a0, da, e0, de = np.radians([az0, daz, el0, dele])
+    found, s, _ = first_gun_contacts(t72, [a0], [da], [e0], [de])
+    dense = _dense_first(t72, a0, da, e0, de)
+    turn = np.degrees(max(abs(da), abs(de)))
+    if dense is None:
+        assert not found[0]
+        return
+    assert found[0]
+    assert abs(s[0] - dense) * turn <= 0.01
+
+
+def test_paths_that_start_touching_stop_at_zero_and_vehicles_without_drums_never_touch():
+    from tankcd_cli.collision.internal import first_gun_contacts
+
+    t72, m1 = vehicle_preset("t72"), vehicle_preset("m1")
+    found, s, _ = first_gun_contacts(t72, np.radians([180.0]), [0.1], np.radians([-6.0]), [0.0])
+    assert found[0] and s[0] == 0.0
+    found, s, drum = first_gun_contacts(m1, np.radians([150.0]), np.radians([60.0]), np.radians([-10.0]), [0.0])
+    assert not found.any() and np.isnan(s).all() and (drum == -1).all()
+    found, _, _ = first_gun_contacts(t72, np.radians([90.0]), [0.0], np.radians([-6.0]), [0.0])  # no motion
+    assert not found[0]
