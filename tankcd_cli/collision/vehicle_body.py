@@ -60,6 +60,15 @@ class BodyGroup:
     def name(self) -> str:
         return GROUPS[self.kind]
 
+    def bound_rate(self, travel, turn, dturret, dgun) -> np.ndarray:
+        """How far any point of the group moves per unit of a rigid step's fraction, at most (m):
+        travel (m) plus turn (rad) times ``radius``, plus the turret's and the gun's changes
+        (rad) times their radii, absolute values summed (``geometry.motion``'s bound), grown by
+        a relative 1e-9 for the bound's own rounding."""
+        rate = (np.abs(travel) + np.abs(turn) * self.radius + np.abs(dturret) * self.turret_radius
+                + np.abs(dgun) * self.gun_radius)
+        return rate * (1 + 1e-9) + 1e-12
+
 
 @dataclass(frozen=True)
 class VehicleBody:
