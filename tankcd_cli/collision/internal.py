@@ -124,26 +124,36 @@ def first_gun_contacts(vehicle: Vehicle, azimuth0, dazimuth, elevation0, delevat
     each drum within ``TOL`` above the truth, and no point of the barrel moves faster than
     speed = |dazimuth| rho_az + |delevation| rho_el (m per unit of s; rho_az the farthest a barrel
     point is from the turret axis, rho_el from the trunnion), so a path whose clearance at s is
-    d cannot touch a drum before s + (d - TOL) / speed. The walk advances by that, but never by
-    less than ``step_deg`` of the larger angle change (nor by more than that bound while the
-    clearance is under ``GUN_CLOSE``), testing exactly at every stop, so a contact is never passed:
+    d cannot touch a drum before s + (d - TOL) / speed. The walk (compiled: ``_gun_path``) advances
+    by that, but never by less than ``step_deg`` of the larger angle change, and by just that step
+    while the clearance is under ``GUN_CLOSE`` (where the distance's steps would shrink without
+    end on a grazing approach), testing exactly at every stop, so a contact is never passed:
     its first point is found to ``step_deg`` (0.005 deg; a graze shorter than that along the path,
     the barrel dipping a fraction of a millimetre into a drum, may go unseen). Paths that start
     touching are reported at s = 0.
     """
-    from tankcd_cli.geometry.cylinders import TOL, cylinders_distance_batch
+    from tankcd_cli.collision._gun_path import gun_path_contacts
+    from tankcd_cli.geometry.cylinders import TOL
 
     az0 = np.asarray(azimuth0, dtype=float).ravel()
-    daz = np.asarray(dazimuth, dtype=float).ravel()
-    el0 = np.asarray(elevation0, dtype=float).ravel()
-    dele = np.asarray(delevation, dtype=float).ravel()
-    m = len(az0)
-    found = np.zeros(m, dtype=bool)
-    s_hit = np.full(m, np.nan)
-    who = np.full(m, -1, dtype=np.int64)
     tanks = drums(vehicle)
-    if not tanks or m == 0:
-        return found, s_hit, who
+    if not tanks or len(az0) == 0:
+        return np.zeros(len(az0), dtype=bool), np.full(len(az0), np.nan), np.full(len(az0), -1, dtype=np.int64)
+    for _, _, axis, _, _ in tanks:
+        if not np.array_equal(axis, [0.0, 1.0, 0.0]):
+            raise ValueError("the compiled gun path takes drums across the hull (axis +y)")
+    rho_el = vehicle.gun_length + vehicle.gun_radius
+    rho_az = abs(vehicle.trunnion_forward) + rho_el
+    found, s_hit, who, errors = gun_path_contacts(
+        az0, dazimuth, elevation0, delevation,
+        [vehicle.turret_x, vehicle.trunnion_forward, vehicle.trunnion_height, vehicle.gun_length / 2,
+         vehicle.gun_radius],
+        np.array([t[1] for t in tanks]), np.array([[t[3], t[4]] for t in tanks]), rho_az, rho_el,
+        np.radians(step_deg), GUN_CLOSE, TOL)
+    if errors:
+        raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
+    found = found.astype(bool)
+    return found, s_hit, who
     rho_el = vehicle.gun_length + vehicle.gun_radius
     rho_az = abs(vehicle.trunnion_forward) + rho_el
     speed = np.abs(daz) * rho_az + np.abs(dele) * rho_el
