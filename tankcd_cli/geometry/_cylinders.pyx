@@ -331,12 +331,9 @@ def gjk_distance(cA, aA, double hA, double rA, cB, aB, double hB, double rB, dou
     return d
 
 
-def cylinders_distance_batch(cA, aA, double hA, double rA, cB, aB, double hB, double rB, normal, double tol,
-                             bint stop_apart=True):
+def cylinders_distance_batch(cA, aA, double hA, double rA, cB, aB, double hB, double rB, normal, double tol):
     """Distances (N,) between cylinder A_i (centres (N, 3), axes (N, 3), h, r) and a fixed cylinder B,
-    in 3D (normal = 0) or between their shadows on the plane of unit ``normal``, each within ``tol``
-    above the true distance. With ``stop_apart`` a pair more than ``tol`` apart gets the first
-    lower bound above ``tol`` instead (enough to decide contact, and quicker)."""
+    in 3D (normal = 0) or between their shadows on the plane of unit ``normal``."""
     cdef const double[:, ::1] ca = _rows3(cA, "cA")
     cdef const double[:, ::1] aa = _rows3(aA, "aA")
     cdef const double[::1] cb = _vec3(cB, "cB")
@@ -358,7 +355,7 @@ def cylinders_distance_batch(cA, aA, double hA, double rA, cB, aB, double hB, do
     with nogil:
         for i in prange(n, schedule="guided"):
             e = 0  # assigned in the loop: private to each thread
-            out[i] = gjk_c(&ca[i, 0], &aa[i, 0], hA, rA, &cb[0], &ab[0], hB, rB, nx, ny, nz, tol, stop_apart, &e)
+            out[i] = gjk_c(&ca[i, 0], &aa[i, 0], hA, rA, &cb[0], &ab[0], hB, rB, nx, ny, nz, tol, True, &e)
             if e:
                 bad += 1
     if bad:
