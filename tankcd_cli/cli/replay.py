@@ -41,6 +41,9 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
               help="The certificate's height tolerance at the footprint's corners, m (default: half the "
                    "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
+@click.option("--discrete", is_flag=True,
+              help="Check the effects at the rows only (the paper's frame-by-frame way, for comparison); by "
+                   "default they are checked along the motion between rows too.")
 @vehicle_option
 @click.option("--up", type=click.Choice(UP_AXES), default=None,
               help="Up axis of a terrain mesh classified on the fly (default: the format's convention, y for "
@@ -65,8 +68,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
 @click.pass_obj
-def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, vehicle_name,
-           up, cache,
+def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, discrete,
+           vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, jobs, scheduler, split_lines):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
@@ -128,7 +131,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     first = next(chunks, None)
     turret_moves = bool(first is not None and first.has_turret)
     setup = prepare(surface, vehicle, sc, turret_moves, progress=step)
-    setup.escalate, setup.tolerance = escalate, tolerance
+    setup.escalate, setup.tolerance, setup.continuous = escalate, tolerance, not discrete
     counts = new_counts()
     drawing = None
     if png:
@@ -178,15 +181,22 @@ def _report_summary(report, result: dict, summary_path, effects: dict, rows: int
     else:
         kinds = ", ".join(f"{k} {v}" for k, v in result["collisions"].items())
         ran = ", ".join(k for k, v in effects.items() if v)
-        report.info(f"replay: {rows:,} rows; collisions: {kinds}; off terrain {result['off_terrain']}; "
-                    f"effects: {ran} ({report.elapsed():.2f} s)")
+        between = ""
+        if result.get("mode") == "continuous":
+            found = ", ".join(f"{k} {v}" for k, v in result["between"].items() if v) or "none"
+            between = (f"; between rows ({result['motion']['substep_travel_m']:g} m / "
+                       f"{result['motion']['substep_turn_deg']:g} deg sub-steps, obstacles exact): {found}")
+        report.info(f"replay: {rows:,} rows; collisions at rows: {kinds}; off terrain {result['off_terrain']}"
+                    f"{between}; effects: {ran} ({report.elapsed():.2f} s)")
 
 
 def _exit_on_failures(result: dict, fail_on_collision: bool, allow_off_terrain: bool) -> None:
     """--fail-on-collision: exit 1 on a collision, or on rows off the terrain unless allowed."""
     if not fail_on_collision:
         return
-    if sum(result["collisions"].values()) or (result["off_terrain"] and not allow_off_terrain):
+    between = sum(v for k, v in result.get("between", {}).items() if k != "off_terrain")
+    off = result["off_terrain"] + result.get("between", {}).get("off_terrain", 0)
+    if sum(result["collisions"].values()) or between or (off and not allow_off_terrain):
         click.get_current_context().exit(EXIT_COLLISION)
 
 

@@ -46,6 +46,8 @@ class ReplaySetup:
     seconds: dict = field(default_factory=lambda: {"matching": 0.0, "terrain": 0.0, "obstacles": 0.0, "internal": 0.0})
     escalate: bool | None = None  # key-point poses that fail the reference's certificate go to it (None: auto's)
     tolerance: float | None = None  # the certificate's tolerance, m (None: derived from the vehicle)
+    continuous: bool = True  # check every effect along the motion between rows too (False: --discrete)
+    between: object = None  # replay.between_rows.BetweenCounts of this replay (continuous only)
 
 
 def load_terrain_surface(path: str, up: str | None = None, fmt: str | None = None, vehicle: Vehicle | None = None,
@@ -167,7 +169,14 @@ def warn_obstacles_beside(source: str, obstacles: list, surface) -> None:
 
 
 def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator[tuple[object, Poses, list]]:
-    """Match every trajectory chunk and run the enabled effects; yields (chunk, poses, events) in order."""
+    """Match every trajectory chunk and run the enabled effects at the rows and, unless the setup
+    is discrete, along the motion between them (``replay.between_rows``); yields (chunk, poses,
+    events) in order, events sorted by step and time."""
+    carry = None
+    if setup.continuous and setup.between is None:
+        from tankcd_cli.replay.between_rows import BetweenCounts
+
+        setup.between = BetweenCounts()
     for chunk in chunks:
         t0 = time.perf_counter()
         poses = match(setup.surface, setup.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=matcher,
@@ -179,19 +188,43 @@ def replay_chunks(setup: ReplaySetup, chunks, matcher: str = "auto") -> Iterator
             events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "off_terrain", "vehicle", "terrain",
                                 {"status": "off" if poses.status[i] == OFF else "partly_off"}))
         good = np.flatnonzero(poses.status != OFF)
+        n = len(chunk)
+        terrain = np.zeros(n, dtype=bool)
+        obstacle = np.zeros((n, len(setup.obstacles)), dtype=bool)
+        internal = np.zeros(n, dtype=bool)
         if setup.effects["terrain_contact"] and len(good):
             t0 = time.perf_counter()
-            events += _hull_bottom(setup, chunk, poses, good)
+            found = _hull_bottom(setup, chunk, poses, good)
+            terrain[[e.step - chunk.step[0] for e in found]] = True
+            events += found
             setup.seconds["terrain"] += time.perf_counter() - t0
         if setup.effects["obstacles"] and len(good):
             t0 = time.perf_counter()
-            events += _obstacles(setup, chunk, poses, good, poses.rotation[good])
+            found = _obstacles(setup, chunk, poses, good, poses.rotation[good])
+            names = {ob.name: j for j, ob in enumerate(setup.obstacles)}
+            for e in found:
+                obstacle[e.step - chunk.step[0], names[e.b]] = True
+            events += found
             setup.seconds["obstacles"] += time.perf_counter() - t0
         if setup.effects["internal"]:
             t0 = time.perf_counter()
-            events += _internal(setup, chunk)
+            found = _internal(setup, chunk)
+            internal[[e.step - chunk.step[0] for e in found]] = True
+            events += found
             setup.seconds["internal"] += time.perf_counter() - t0
-        events.sort(key=lambda e: e.step)
+        if setup.continuous:
+            from tankcd_cli.replay.between_rows import Rows, check_between
+
+            t0 = time.perf_counter()
+            rows = Rows(chunk.step, chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.turret_deg, chunk.gun_deg, poses,
+                        obstacle, internal, terrain)
+            both = rows if carry is None else Rows.join(carry, rows)
+            between, ending = check_between(both, setup, matcher, setup.between)
+            events += [Event(e.step, e.t, e.kind, e.a, e.b, e.extra) for e in between]
+            carry = rows.last()
+            carry.obstacle[0] |= ending  # the next chunk's first stretch continues a contact of the last
+            setup.seconds["between"] = setup.seconds.get("between", 0.0) + time.perf_counter() - t0
+        events.sort(key=lambda e: (e.step, e.t))
         yield chunk, poses, events
 
 

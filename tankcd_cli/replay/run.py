@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import itertools
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Callable, Iterable
 
 import numpy as np
@@ -18,6 +18,7 @@ def new_counts() -> dict:
 
     return {"rows": 0, "status": np.zeros(len(STATUS), int), "matcher": np.zeros(len(PLACED_BY), int),
             "events": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0},
+            "between": {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0},
             "extent": [np.inf, np.inf, -np.inf, -np.inf]}  # the trajectory's x min, y min, x max, y max
 
 
@@ -41,7 +42,7 @@ def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out
         out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS))
         out.flush()
         for e in events:
-            counts["events"][e.kind] += 1
+            counts["between" if e.extra.get("between") else "events"][e.kind] += 1
             if ev_out is not None:
                 ev_out.write(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
         counts["rows"] += len(chunk)
@@ -96,10 +97,14 @@ class ReplaySummary:
     """A replay's closing summary (docs/formats.md, "Replay summary").
 
     rows : trajectory rows read (each gave a pose row)
-    collisions : events per kind (obstacle, internal, terrain)
+    collisions : events at the rows per kind (obstacle, internal, terrain)
     off_terrain : rows whose footprint is not wholly on the terrain
     effects : which effects ran; matchers : rows per matcher (what placed them)
     seconds : the replay's time; seconds_by_effect : matching and each effect's share of it
+    mode : "continuous" (every effect along the motion between rows too) or "discrete" (rows only)
+    between : contacts that began between rows, per kind (obstacle, internal, terrain, off_terrain)
+    motion : what the checks between rows did and their resolution (intervals, sub-steps placed,
+        the sub-steps' largest travel and turn, obstacles' leaf bound, the gun's step)
     """
 
     rows: int
@@ -109,6 +114,14 @@ class ReplaySummary:
     matchers: dict
     seconds: float
     seconds_by_effect: dict
+    mode: str = "continuous"
+    between: dict = field(default_factory=dict)
+    motion: dict = field(default_factory=dict)
+
+    @property
+    def collided(self) -> bool:
+        """Whether any collision was found, at a row or between rows."""
+        return bool(sum(self.collisions.values()) or sum(v for k, v in self.between.items() if k != "off_terrain"))
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -118,11 +131,20 @@ def summary(counts: dict, setup: ReplaySetup, seconds: float) -> ReplaySummary:
     """The closing summary of ``write_replay``'s counts."""
     from tankcd_cli.matching.match import PLACED_BY
 
+    motion = {}
+    if setup.continuous:
+        from tankcd_cli.replay.between_rows import resolution
+
+        between = setup.between
+        motion = {"intervals": between.intervals if between else 0, "substeps": between.substeps if between else 0,
+                  **resolution(setup.surface)}
     return ReplaySummary(rows=counts["rows"], collisions={k: counts["events"][k] for k in KINDS},
                          off_terrain=counts["events"]["off_terrain"], effects=dict(setup.effects),
                          matchers={name: int(c) for name, c in zip(PLACED_BY, counts["matcher"]) if c},
                          seconds=round(seconds, 3),
-                         seconds_by_effect={k: round(v, 3) for k, v in setup.seconds.items()})
+                         seconds_by_effect={k: round(v, 3) for k, v in setup.seconds.items()},
+                         mode="continuous" if setup.continuous else "discrete",
+                         between=dict(counts["between"]) if setup.continuous else {}, motion=motion)
 
 
 def write_outputs(setup: ReplaySetup, chunks: Iterable, matcher: str, poses_path: str, events_path: str | None,

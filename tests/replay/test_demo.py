@@ -95,7 +95,7 @@ def test_fail_on_collision_and_events_file(run, tmp_path):
     result = run("replay", SAMPLE / "patrol.csv", "--scene", SAMPLE / "scene.toml", "--poses", "p.csv",
                  "--events", "e.jsonl", "--fail-on-collision")
     assert result.exit_code == 1
-    assert "collisions: obstacle" in result.stderr
+    assert "collisions at rows: obstacle" in result.stderr
     assert len((tmp_path / "e.jsonl").read_text().splitlines()) > 0
 
 
