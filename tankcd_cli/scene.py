@@ -1,45 +1,8 @@
 """Scenes (TOML): the terrain, the vehicle and what else is in the world, validated strictly.
 
-```toml
-[terrain]
-path = "terrain.h5"          # a store from classify, or any terrain input
-up = "z"                     # optional, for a mesh classified on the fly (default: the format's convention)
-
-[vehicle]
-preset = "t72"               # t72, t55, m1
-track_length = 4.3           # any dimension of tankcd_cli.vehicle.Vehicle overrides the preset
-fuel_drums = true
-mesh = "tank.obj"            # optional: the vehicle's shape; OBJ objects/groups, glTF nodes name its parts
-mesh_up = "y"                # optional (default: the format's convention: y for glTF/GLB, z otherwise)
-mesh_scale = 0.001           # optional: a number or [sx, sy, sz] > 0 (an asset in mm)
-mesh_yaw_deg = 90.0          # optional: turn the asset into the vehicle frame
-mesh_pitch_deg = 0.0         #   (x forward, y left, z up): vehicle point =
-mesh_roll_deg = 0.0          #   R(yaw, pitch, roll) @ (mesh_scale * mesh point)
-
-[[obstacle]]
-name = "depot"
-path = "depot.obj"
-up = "y"                     # optional (default: the format's convention)
-position = [500120.0, 4500340.0, 102.5]  # REQUIRED: where the mesh's origin goes, in the terrain's CRS, m
-yaw_deg = 0.0                # optional: about +z, counter-clockwise
-pitch_deg = 0.0              # optional: about +y
-roll_deg = 0.0               # optional: about +x
-scale = [1.0, 1.0, 1.0]      # optional: a number or [sx, sy, sz] > 0 (0.001 for an asset in mm)
-
-[collision]                  # optional: how obstacle trees are built
-k = 18                       # k-DOP type: 6, 14, 18, 26
-aabb_levels = 2              # top levels that use only the AABB
-split = "sah"                # or "median"
-leaf_size = 4
-```
-
-A mesh point p (z-up, after the ``up`` conversion) goes to the world as
-position + R @ (scale * p), with R = Rz(yaw) Ry(pitch) Rx(roll), the
-project's attitude convention (REP 103): the scale first, in the mesh's own
-axes, then the rotation, then the translation.
-
-Relative paths are relative to the scene file. Unknown keys, wrong types,
-missing files and out-of-range values are bad input (exit 3) naming the key.
+The schema (every table and key, its default and its checks, and how an obstacle's mesh is
+placed in the world) is documented once, in docs/formats.md, "Scene (TOML)". ``load_scene``
+reads a scene into a ``Scene``, or raises ``InputError`` naming the key at fault.
 """
 
 from __future__ import annotations
