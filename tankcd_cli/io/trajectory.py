@@ -22,7 +22,8 @@ OPTIONAL = ("turret_deg", "gun_deg")
 
 @dataclass(frozen=True)
 class TrajectoryChunk:
-    """Consecutive rows: step (row index from 0), first_line (file line of the first row), columns (N,)."""
+    """Consecutive rows: step (row index from 0), first_line (file line of the first row), columns (N,),
+    line (N,) the file line of each row."""
 
     step: np.ndarray
     first_line: int
@@ -33,6 +34,7 @@ class TrajectoryChunk:
     turret_deg: np.ndarray
     gun_deg: np.ndarray
     has_turret: bool
+    line: np.ndarray = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -164,7 +166,7 @@ def _chunks(fh, name: str, chunk_rows: int, first_step: int = 0,
         turret = values[:, wanted.index("turret_deg")] if "turret_deg" in wanted else np.zeros(n)
         gun = values[:, wanted.index("gun_deg")] if "gun_deg" in wanted else np.zeros(n)
         yield TrajectoryChunk(np.arange(step, step + n), rows[0], t, values[:, 1], values[:, 2], values[:, 3],
-                              turret, gun, any(c in wanted for c in OPTIONAL))
+                              turret, gun, any(c in wanted for c in OPTIONAL), np.asarray(rows[:n]))
         step += n
         if error is not None:
             raise error

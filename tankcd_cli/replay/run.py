@@ -28,17 +28,20 @@ def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out
     """Replay the chunks, writing the poses CSV to ``out`` (flushed per chunk) and the events to
     ``ev_out`` (or only counting them when None); returns ``counts`` updated.
 
-    ``observe(chunk, poses, events)`` sees every chunk (a map of the replay). At the end, a
-    trajectory (``source``) mostly off the terrain is a warning: the likeliest cause is a
+    ``observe(chunk, poses, events)`` sees every chunk (a map of the replay). Steps no vehicle
+    makes and headings that contradict the motion are warnings (``replay.plausibility``); at the
+    end, a trajectory (``source``) mostly off the terrain is one too: the likeliest cause is a
     trajectory in other coordinates than the terrain's (local against UTM).
     """
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows, header
     from tankcd_cli.matching.match import PLACED_BY, STATUS
     from tankcd_cli.replay.pipeline import replay_chunks
+    from tankcd_cli.replay.plausibility import MotionChecks
 
+    checks = MotionChecks(source or "trajectory")
     out.write(header())
-    for chunk, poses, events in replay_chunks(setup, chunks, matcher):
+    for chunk, poses, events in replay_chunks(setup, _checked(chunks, checks), matcher):
         out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS))
         out.flush()
         for e in events:
@@ -53,8 +56,16 @@ def write_replay(setup: ReplaySetup, chunks: Iterable, matcher: str, out, ev_out
             observe(chunk, poses, events)
         if on_chunk is not None:
             on_chunk(counts["rows"])
+    checks.finish()
     _warn_if_beside(setup.surface, counts, source)
     return counts
+
+
+def _checked(chunks, checks):
+    """The chunks, each shown to the motion checks on its way to the replay."""
+    for chunk in chunks:
+        checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
+        yield chunk
 
 
 def _grow_extent(extent: list, x: np.ndarray, y: np.ndarray) -> None:
