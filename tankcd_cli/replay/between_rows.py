@@ -212,19 +212,19 @@ def _obstacles(rows, setup, iv, a, b, n, first_sub, owner, frac, at, sub, placed
     end_is_row = seg_k == n[seg_iv] - 1
     start_sub = np.where(start_is_row, -1, first_sub[seg_iv] + seg_k - 1)
     end_sub = np.where(end_is_row, -1, first_sub[seg_iv] + seg_k)
+    # the placements in one table: the rows' first, then the sub-steps'
     P = rows.poses
-
-    def placement(is_row, row, sub_idx):
-        q = np.where(is_row[:, None], P.quaternion[row], sub.quaternion[np.maximum(sub_idx, 0)])
-        c = np.where(is_row[:, None], P.position[row], sub.position[np.maximum(sub_idx, 0)])
-        st = np.where(is_row, P.status[row], sub.status[np.maximum(sub_idx, 0)])
-        return q, c, st
-
-    q0, c0, st0 = placement(start_is_row, a[seg_iv], start_sub)
-    q1, c1, st1 = placement(end_is_row, b[seg_iv], end_sub)
+    quat = np.concatenate([P.quaternion, sub.quaternion])
+    pos = np.concatenate([P.position, sub.position])
+    status = np.concatenate([P.status, sub.status])
+    nrows = len(rows)
+    start = np.where(start_is_row, a[seg_iv], nrows + start_sub)
+    end = np.where(end_is_row, b[seg_iv], nrows + end_sub)
+    q0, c0, st0 = quat[start], pos[start], status[start]
+    q1, c1, st1 = quat[end], pos[end], status[end]
     f0 = seg_k / n[seg_iv]
     f1 = (seg_k + 1) / n[seg_iv]
-    touch0 = np.where(start_is_row[:, None], rows.obstacle[a[seg_iv]], sub_touch[np.maximum(start_sub, 0)])
+    touch0 = np.concatenate([rows.obstacle, sub_touch])[start]
     use = np.flatnonzero(placed[seg_iv] & (st0 != OFF) & (st1 != OFF))
     ending = np.zeros(k, dtype=bool)
     if len(use) == 0:

@@ -25,7 +25,10 @@ def big(tmp_path_factory):
     write_asc(tmp / "g.asc", 100 + np.sin(xs / 9) * np.cos(ys / 7), xll=500_000.0, yll=4_500_000.0)
     subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", tmp / "g.asc", "-o", tmp / "g.h5"], check=True)
     k = np.arange(ROWS)
-    traj = np.column_stack([k * 0.01, 500_010 + (k % 9000) * 0.01, np.full(ROWS, 4_500_060.0), (k % 360) - 180.0])
+    # round a 40 m circle at 1 m/s, heading the way it goes (a motion no warning is about)
+    a = k * 0.01 / 40.0
+    traj = np.column_stack([k * 0.01, 500_060 + 40 * np.cos(a), 4_500_060 + 40 * np.sin(a),
+                            (np.degrees(a) + 90.0 + 180.0) % 360.0 - 180.0])
     with open(tmp / "traj.csv", "w") as fh:
         fh.write("t,x,y,yaw_deg\n")
         np.savetxt(fh, traj, fmt="%.3f", delimiter=",")

@@ -73,7 +73,8 @@ def _fuzz(world, fmt, suffix, data):
     assert res.exit_code in (0, 3), (res.exit_code, res.stderr, data[:200])
     assert "Traceback" not in res.stderr
     if res.exit_code == 3:
-        lines = res.stderr.strip().splitlines()
+        # one error line (set-up warnings about rows read before the bad one may precede it)
+        lines = [ln for ln in res.stderr.strip().splitlines() if not ln.startswith("tankcd: warning:")]
         assert len(lines) == 1 and "fuzzed" in lines[0], (res.stderr, data[:200])
         assert not out.exists()
 
