@@ -19,23 +19,40 @@ def output_option(help_text: str):
     return deco
 
 
+QUIET_HELP = "Only warnings and errors on stderr (no progress, no closing report line)."
+VERBOSE_HELP = "More detail on stderr (repeatable); tracebacks on errors."
+
+
+def set_verbosity(ctx, verbose: int = 0, quiet: bool = False) -> None:
+    """-v and -q wherever given (before or after the command name): -q with -v is a usage error."""
+    meta = ctx.meta
+    if verbose:
+        meta["tankcd.verbose"] = meta.get("tankcd.verbose", 0) + verbose
+    if quiet:
+        meta["tankcd.quiet"] = True
+    if meta.get("tankcd.verbose") and meta.get("tankcd.quiet"):
+        raise click.UsageError("-q/--quiet and -v/--verbose contradict each other: give one of them")
+    if ctx.obj is not None:
+        ctx.obj.verbosity = -1 if meta.get("tankcd.quiet") else meta.get("tankcd.verbose", 0)
+
+
 def verbosity_options(f):
     """-v/-q/--strict after the command name too (``tankcd classify x.obj -v``)."""
     def set_verbose(ctx, param, value):
-        if value and ctx.obj is not None:
-            ctx.obj.verbosity = max(ctx.obj.verbosity, 0) + value
+        if value:
+            set_verbosity(ctx, verbose=value)
         return value
 
     def set_quiet(ctx, param, value):
-        if value and ctx.obj is not None:
-            ctx.obj.verbosity = -1
+        if value:
+            set_verbosity(ctx, quiet=True)
         return value
 
     f = click.option("-v", "--verbose", count=True, expose_value=False, callback=set_verbose,
-                     help="More detail on stderr.")(f)
+                     help=VERBOSE_HELP)(f)
     f = strict_option(f)
     return click.option("-q", "--quiet", is_flag=True, expose_value=False, callback=set_quiet,
-                        help="Only errors on stderr.")(f)
+                        help=QUIET_HELP)(f)
 
 
 STRICT_HELP = "Treat warnings (likely set-up slips) as bad input: exit 3, write nothing."
