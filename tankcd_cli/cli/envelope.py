@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import click
 
-from tankcd_cli.cli.options import VEHICLE_PRESETS, refuse_clashes, verbosity_options
+from tankcd_cli.cli.options import (
+    SCENE_VEHICLE,
+    VEHICLE_PRESETS,
+    check_option_combinations,
+    no_parquet,
+    refuse_clashes,
+    verbosity_options,
+)
 
 
 @click.command(short_help="Lowest safe gun elevation per turret azimuth (CSV; --png polar plot).")
@@ -16,8 +23,9 @@ from tankcd_cli.cli.options import VEHICLE_PRESETS, refuse_clashes, verbosity_op
 @click.option("--method", type=click.Choice(["exact", "projection"]), default="exact", show_default=True,
               help="exact cylinder test, or the paper's two-plane projection (conservative).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True), default="-", show_default=True,
-              help="CSV output (- for stdout).")
-@click.option("--png", type=click.Path(dir_okay=False), default=None, help="Also draw a polar plot.")
+              callback=no_parquet(".csv"), help="CSV output (- for stdout).")
+@click.option("--png", type=click.Path(dir_okay=False, allow_dash=True), default=None,
+              help="Also draw a polar plot (- for stdout, with -o FILE).")
 @verbosity_options
 @click.pass_obj
 def envelope(report, scene, vehicle_name, step_deg, method, output, png):
@@ -25,13 +33,15 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     which the barrel clears the rear fuel drums, to 0.01 degree (bisection on the exact test).
     Columns: azimuth_deg, min_elevation_deg (empty where even full elevation touches), limited_by
     (the drum that sets the limit, or "gun" where the gun's own depression limit does), checked
-    (every elevation above the limit was tested clear on a 0.25 degree grid)."""
+    (every elevation above the limit was tested clear on a 0.25 degree grid). A vehicle without
+    fuel drums has the gun's own limit at every azimuth, and says so."""
     import numpy as np
 
     from tankcd_cli.collision.internal import DRUMS, elevation_envelope
     from tankcd_cli.io.atomic import atomic_path, output_text
     from tankcd_cli.vehicle import vehicle_preset
 
+    check_option_combinations(click.get_current_context(), (SCENE_VEHICLE,))
     refuse_clashes({"--scene": scene}, {"-o/--output": output, "--png": png})
     if scene:
         from tankcd_cli.scene import load_scene
@@ -53,8 +63,25 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
 
         with atomic_path(png, ".png") as tmp:
             envelope_png(vehicle, env, tmp)
-    limited = env["limited"]
-    worst = np.nanmax(env["min_elevation"][limited]) if limited.any() else vehicle.gun_min_deg
-    report.info(f"envelope: {vehicle.name}, {len(az)} azimuths: drums limit depression over "
-                f"{limited.sum() * step_deg:.0f} deg of azimuth, to at worst {worst:.2f} deg "
-                f"(gun limit {vehicle.gun_min_deg:.1f} deg) ({report.elapsed():.2f} s)")
+    report.info(f"envelope: {vehicle.name}, {len(az)} azimuths: {_drums_say(vehicle, env, step_deg)} "
+                f"({report.elapsed():.2f} s)")
+
+
+def _drums_say(vehicle, env, step_deg: float) -> str:
+    """What the drums do to the gun's depression, in words (the closing report line)."""
+    import numpy as np
+
+    gun = f"{vehicle.gun_min_deg:.1f} deg"
+    if not vehicle.fuel_drums:
+        return f"no fuel drums fitted: the gun's own depression limit, {gun}, holds at every azimuth"
+    limited, blocked = env["limited"], ~np.isfinite(env["min_elevation"])
+    if not limited.any() and not blocked.any():
+        return f"the fuel drums never limit depression: the gun's own limit, {gun}, holds at every azimuth"
+    text = []
+    if limited.any():
+        worst = np.nanmax(env["min_elevation"][limited])
+        text.append(f"the fuel drums limit depression over {limited.sum() * step_deg:.0f} deg of azimuth, to at "
+                    f"worst {worst:.2f} deg (gun limit {gun})")
+    if blocked.any():
+        text.append(f"over {blocked.sum() * step_deg:.0f} deg of azimuth even full elevation meets a drum")
+    return "; ".join(text)

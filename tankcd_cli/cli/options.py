@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import click
 
 from tankcd_cli.names import PRESET_NAMES as VEHICLE_PRESETS
@@ -74,15 +76,33 @@ def strict_option(f):
     return click.option("--strict", is_flag=True, expose_value=False, callback=set_strict, help=STRICT_HELP)(f)
 
 
-def refuse_clashes(inputs: dict, outputs: dict) -> None:
-    """Exit 2 (a usage error naming both) when an output is an input or another output.
+def no_parquet(instead: str, reading: bool = False):
+    """An option callback: a path ending in .parquet is a usage error until Parquet is read and
+    written (the interface plans it for poses and events); ``instead`` is the suffix to give."""
+    def check(ctx, param, value):
+        for path in value if isinstance(value, (tuple, list)) else (value,):
+            if isinstance(path, str) and path.lower().endswith(".parquet"):
+                what = "input" if reading else "output"
+                raise click.BadParameter(f"{path}: Parquet {what} is not supported yet; "
+                                         f"{'give' if reading else 'write'} {instead}", ctx=ctx, param=param)
+        return value
+    return check
 
-    inputs, outputs : option label -> path (None and "-" are skipped). Paths are compared
+
+def refuse_clashes(inputs: dict, outputs: dict) -> None:
+    """Exit 2 (a usage error naming both) when an output is an input or another output, or when
+    two outputs are standard output (-).
+
+    inputs, outputs : option label -> path (None is skipped; "-" only counts as standard output). Paths are compared
     resolved (symbolic links, ``..``) and, where both exist, as files (hard links too).
     """
     from tankcd_cli.io.files import same_path
 
     seen = [(label, path) for label, path in inputs.items() if path not in (None, "-")]
+    to_stdout = [label for label, path in outputs.items() if path == "-"]
+    if len(to_stdout) > 1:
+        raise click.UsageError(f"{to_stdout[0]} and {to_stdout[1]} both go to standard output (-): give one of them "
+                               "a file")
     for label, path in outputs.items():
         if path in (None, "-"):
             continue
@@ -98,3 +118,69 @@ def scene_inputs(scene) -> dict:
     for ob in scene.obstacles:
         files[f"obstacle {ob.name!r}"] = ob.path
     return files
+
+
+# Options that only make sense with (or without) another. A rule names options by their
+# parameter names; a name that is not a parameter is a condition the command passes in
+# (``conditions``), labelled by the text given there.
+class Needs(NamedTuple):
+    """``option`` given without ``needed``: a usage error, ``why`` saying what option is for."""
+
+    option: str
+    needed: str
+    why: str
+
+
+class Excludes(NamedTuple):
+    """``option`` given with ``other``: a usage error, ``why`` saying what decides instead."""
+
+    option: str
+    other: str
+    why: str
+
+
+def given(ctx: click.Context, name: str) -> bool:
+    """Whether the user gave parameter ``name`` (on the command line), not left it at its default."""
+    from click.core import ParameterSource
+
+    return ctx.get_parameter_source(name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT,
+                                              ParameterSource.PROMPT)
+
+
+def option_label(ctx: click.Context, name: str) -> str:
+    """How the help spells parameter ``name``: ``-o/--output``, ``--png-colour``, ``MODEL``."""
+    for param in ctx.command.params:
+        if param.name == name:
+            if isinstance(param, click.Argument):
+                return param.human_readable_name
+            opts = [o for o in param.opts if o.startswith("--")] or list(param.opts)
+            shorts = [o for o in param.opts if not o.startswith("--")]
+            return "/".join(shorts + opts)
+    return name
+
+
+def check_option_combinations(ctx: click.Context, rules, conditions: dict | None = None) -> None:
+    """Exit 2 (a usage error naming both) at the first rule the given options break.
+
+    conditions : label -> bool, for rules that depend on more than one option having been given
+    (``{"fleet mode (--out-dir)": True}``); a rule names a condition by its label.
+    """
+    conditions = conditions or {}
+
+    def holds(name: str) -> bool:
+        return bool(conditions[name]) if name in conditions else given(ctx, name)
+
+    def label(name: str) -> str:
+        return name if name in conditions else option_label(ctx, name)
+
+    for rule in rules:
+        if not holds(rule.option):
+            continue
+        if isinstance(rule, Needs) and not holds(rule.needed):
+            raise click.UsageError(f"{label(rule.option)} needs {label(rule.needed)}: {rule.why}")
+        if isinstance(rule, Excludes) and holds(rule.other):
+            raise click.UsageError(f"{label(rule.option)} does not apply with {label(rule.other)}: {rule.why}")
+
+
+SCENE_VEHICLE = Excludes("vehicle_name", "scene", "the scene's [vehicle] table decides the vehicle (set its preset "
+                                                  "there)")
