@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from typing import NamedTuple
 
 import click
@@ -184,3 +185,43 @@ def check_option_combinations(ctx: click.Context, rules, conditions: dict | None
 
 SCENE_VEHICLE = Excludes("vehicle_name", "scene", "the scene's [vehicle] table decides the vehicle (set its preset "
                                                   "there)")
+
+
+FLEET = "fleet mode (--out-dir, or several trajectories)"
+ESCALATION = "escalation (--escalate, or --matcher auto without --no-escalate)"
+REPLAY_RULES = (
+    Needs("png_colour", "png", "it colours the path --png draws"),
+    Needs("allow_off_terrain", "fail_on_collision", "it keeps rows off the terrain from failing the run"),
+    Needs("tolerance", ESCALATION, "it is the certificate's tolerance, which only escalation checks"),
+    *(Needs(name, "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
+                             "trajectory there") for name in ("jobs", "scheduler", "split_lines")),
+    Excludes("up", "scene", "the scene's [terrain] up key decides"),
+    Excludes("poses_path", FLEET, "a fleet writes OUT/NAME.poses.csv for each trajectory"),
+    Excludes("events_path", FLEET, "a fleet writes OUT/NAME.events.jsonl for each trajectory"),
+    Excludes("cache", FLEET, "a fleet does not save its terrain beside it (classify it first with tankcd classify)"),
+)
+
+
+def check_replay_options(ctx: click.Context, fleet: bool) -> None:
+    """replay's options that only make sense with (or without) another: a usage error each.
+
+    --cache and --up also need a terrain classified on the fly: given a store (by --terrain or as
+    the scene's terrain), they are refused too."""
+    p = ctx.params
+    escalation = bool(p.get("escalate") or (p.get("escalate") is None and p.get("matcher") == "auto"))
+    check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation})
+    if not (given(ctx, "cache") or given(ctx, "up")):
+        return
+    from tankcd_cli.terrain.store import is_store
+
+    terrain, label = p.get("terrain"), "--terrain"
+    if terrain is None and p.get("scene") and os.path.exists(p["scene"]):
+        from tankcd_cli.scene import load_scene
+
+        terrain, label = load_scene(p["scene"]).terrain_path, "the scene's terrain"
+    if terrain is None or terrain == "-" or not os.path.isfile(terrain) or not is_store(terrain):
+        return
+    for name, why in (("cache", "it saves a terrain classified on the fly as a store"),
+                      ("up", "a store's terrain was turned z-up when it was classified")):
+        if given(ctx, name):
+            raise click.UsageError(f"{option_label(ctx, name)} does not apply to a store ({label} {terrain}): {why}")
