@@ -6,7 +6,14 @@ import os
 
 import click
 
-from tankcd_cli.cli.options import Excludes, Needs, check_option_combinations, refuse_clashes, verbosity_options
+from tankcd_cli.cli.options import (
+    Excludes,
+    Needs,
+    check_option_combinations,
+    no_stdin,
+    refuse_clashes,
+    verbosity_options,
+)
 from tankcd_cli.names import KDOP_KS, SPLITS, TREE_DEFAULTS, UP_AXES
 
 SCENE_DECIDES = "the scene's [collision] table sets how its trees are built, as replay and collide build them"
@@ -24,7 +31,7 @@ RULES = (
 @click.argument("model", required=False, type=click.Path(allow_dash=True))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True), default=None,
               help="MODEL's tree (default: MODEL's stem + .bvh.h5 beside it; - for stdout).")
-@click.option("--scene", type=click.Path(), default=None,
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin,
               help="Instead of MODEL: build (or refresh) the trees of every obstacle of this scene as replay "
                    "and collide use them, with the scene's [collision] settings, into .tankcd-cache/ beside it.")
 @click.option("--k", "k", type=click.Choice([str(k) for k in KDOP_KS]), default=str(TREE_DEFAULTS["k"]), show_default=True,

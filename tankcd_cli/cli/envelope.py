@@ -9,13 +9,14 @@ from tankcd_cli.cli.options import (
     VEHICLE_PRESETS,
     check_option_combinations,
     no_parquet,
+    no_stdin,
     refuse_clashes,
     verbosity_options,
 )
 
 
 @click.command(short_help="Lowest safe gun elevation per turret azimuth (CSV; --png polar plot).")
-@click.option("--scene", type=click.Path(), default=None, help="Take the vehicle from this scene.")
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin, help="Take the vehicle from this scene.")
 @click.option("--vehicle", "vehicle_name", type=click.Choice(VEHICLE_PRESETS), default="t72", show_default=True,
               help="Vehicle preset (without --scene).")
 @click.option("--step", "step_deg", type=click.FloatRange(0.01, 90), default=1.0, show_default=True,

@@ -90,6 +90,15 @@ def no_parquet(instead: str, reading: bool = False):
     return check
 
 
+def no_stdin(ctx, param, value):
+    """An option callback for a scene: - (standard input) is a usage error, since the paths a scene
+    names are relative to the scene's own file."""
+    if value == "-":
+        raise click.BadParameter("a scene is read from a file (the paths it names are relative to it), not from "
+                                 "standard input", ctx=ctx, param=param)
+    return value
+
+
 def refuse_clashes(inputs: dict, outputs: dict) -> None:
     """Exit 2 (a usage error naming both) when an output is an input or another output, or when
     two outputs are standard output (-).

@@ -7,6 +7,7 @@ import click
 from tankcd_cli.cli.options import (
     check_replay_options,
     no_parquet,
+    no_stdin,
     refuse_clashes,
     scene_inputs,
     vehicle_option,
@@ -25,14 +26,15 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
 @click.command(short_help="Replay a trajectory: poses to stdout or --poses, events to --events.")
 @click.argument("trajectories", nargs=-1, required=True)
-@click.option("--scene", type=click.Path(), default=None,
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin,
               help="Scene TOML: terrain, vehicle, obstacles; it decides which effects run.")
 @click.option("--terrain", "terrain", type=click.Path(), default=None,
               help="Terrain store, or any terrain input (classified on the fly), instead of a scene.")
 @click.option("--poses", "poses_path", type=click.Path(dir_okay=False, allow_dash=True), default="-",
               show_default=True, callback=no_parquet(".csv"), help="Poses CSV output (- for stdout).")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
-              callback=no_parquet(".jsonl"), help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
+              callback=no_parquet(".jsonl"),
+              help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
 @click.option("--matcher", type=click.Choice(MATCHER_CHOICES),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
 @click.option("--escalate/--no-escalate", default=None,
@@ -57,7 +59,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
               help="Draw the path over the class map, obstacles' footprints and the events, to this PNG.")
 @click.option("--png-colour", "png_colour", type=click.Choice(["path", "matcher"]), default="path",
-              show_default=True, help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
+              show_default=True,
+              help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
 @click.option("--out-dir", type=click.Path(file_okay=False), default=None,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,

@@ -6,11 +6,11 @@ import sys
 
 import click
 
-from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.cli.options import no_stdin, verbosity_options
 
 
 @click.command(short_help="Measure what accuracy costs in time: tables, CSV and plots.")
-@click.option("--scene", type=click.Path(), default=None,
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin,
               help="Measure on this scene's terrain, vehicle and obstacles (default: the sample battlefield).")
 @click.option("--trajectory", type=click.Path(), default=None,
               help="Trajectory CSV for the headline (default: the sample patrol, or a drive over the scene's terrain).")

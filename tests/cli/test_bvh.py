@@ -1,4 +1,5 @@
-"""tankcd bvh: a model's tree, or a scene's trees as replay and collide build them; every option applies or is refused."""
+"""tankcd bvh: a model's tree, or a scene's trees as replay and collide build them; each option applies or is
+refused."""
 
 from pathlib import Path
 
