@@ -246,4 +246,4 @@ def test_outputs_get_ordinary_permissions_and_info_keeps_utm_digits(run, tmp_pat
     os.umask(umask)
     assert (tmp_path / "g.h5").stat().st_mode & 0o777 == 0o666 & ~umask
     out = run("info", "g.h5").stdout
-    assert "4512345, 4512347" in out
+    assert "4512345 to 4512347" in out
