@@ -62,4 +62,5 @@ def test_quiet_with_verbose_is_a_usage_error(run, args):
 def test_verbose_before_or_after_the_command(run, args):
     result = run(*args, SAMPLE / "battlefield.asc", "-o", "b.h5")
     assert result.exit_code == 0
-    assert "battlefield.asc: 161 x 241 posts at 1 x 1 m, local grid (no CRS)\n" in result.stderr
+    assert "battlefield.asc: 161 rows x 241 columns of posts, 1 m (x) x 1 m (y) apart, local grid (no CRS)\n" \
+        in result.stderr
