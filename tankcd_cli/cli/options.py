@@ -10,9 +10,17 @@ import click
 from tankcd_cli.names import PRESET_NAMES as VEHICLE_PRESETS
 
 
-def vehicle_option(f):
-    return click.option("--vehicle", "vehicle_name", type=click.Choice(VEHICLE_PRESETS), default="t72",
-                        show_default=True, help="Vehicle preset whose footprint sizes the region classes.")(f)
+VEHICLE_HELP = "Vehicle preset whose footprint sizes the region classes."
+REPLAY_VEHICLE_HELP = ("Vehicle preset replayed, with --terrain (a scene's [vehicle] table decides with --scene); "
+                       "its footprint also sizes the classes of a terrain classified on the fly.")
+
+
+def vehicle_option(f=None, help_text: str = VEHICLE_HELP):
+    """--vehicle PRESET; ``@vehicle_option`` or ``@vehicle_option(help_text=...)``."""
+    def deco(g):
+        return click.option("--vehicle", "vehicle_name", type=click.Choice(VEHICLE_PRESETS), default="t72",
+                            show_default=True, help=help_text)(g)
+    return deco(f) if f is not None else deco
 
 
 def output_option(help_text: str):
@@ -96,6 +104,15 @@ def no_stdin(ctx, param, value):
     if value == "-":
         raise click.BadParameter("a scene is read from a file (the paths it names are relative to it), not from "
                                  "standard input", ctx=ctx, param=param)
+    return value
+
+
+def no_dash_directory(ctx, param, value):
+    """An option callback for an output directory: - (standard output) is a usage error, not a
+    directory named '-'."""
+    if value == "-":
+        raise click.BadParameter("several files go into this directory: give a directory, not - (standard "
+                                 "output)", ctx=ctx, param=param)
     return value
 
 

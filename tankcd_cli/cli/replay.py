@@ -5,7 +5,9 @@ from __future__ import annotations
 import click
 
 from tankcd_cli.cli.options import (
+    REPLAY_VEHICLE_HELP,
     check_replay_options,
+    no_dash_directory,
     no_parquet,
     no_stdin,
     refuse_clashes,
@@ -45,7 +47,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
               help="With escalation: the certificate's height tolerance at the footprint's corners, m (default: "
                    "half the footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
-@vehicle_option
+@vehicle_option(help_text=REPLAY_VEHICLE_HELP)
 @click.option("--up", type=click.Choice(UP_AXES), default=None,
               help="Up axis of a terrain mesh classified on the fly (default: the format's convention, y for "
                    "glTF and GLB, z for the rest).")
@@ -61,7 +63,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--png-colour", "png_colour", type=click.Choice(["path", "matcher"]), default="path",
               show_default=True,
               help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
-@click.option("--out-dir", type=click.Path(file_okay=False), default=None,
+@click.option("--out-dir", type=click.Path(file_okay=False), default=None, callback=no_dash_directory,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,
               help="Fleet mode: parallel processes (default: the number of cores).")

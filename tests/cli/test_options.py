@@ -48,3 +48,22 @@ def test_check_option_combinations_spells_options_as_the_help_does():
     assert error("-o", "a", "--scene", "s") == (2, "Error: -o/--output does not apply with --scene: the scene decides")
     assert error("--jobs", "2") == (2, "Error: --jobs needs fleet mode: fleets only")
     assert CliRunner().invoke(cmd, ["--png", "p", "--png-colour", "x", "-o", "a"]).exit_code == 0
+
+
+@pytest.mark.parametrize("args,option", [
+    (["demo", "-"], "'[DIRECTORY]'"),
+    (["tradeoff", "--out", "-", "--quick"], "'--out'"),
+    (["replay", "t.csv", "--terrain", "t.h5", "--out-dir", "-"], "'--out-dir'"),
+])
+def test_an_output_directory_named_dash_is_a_usage_error(run, tmp_path, args, option):
+    result = run(*args)
+    assert result.exit_code == 2
+    assert result.stderr.endswith(f"Error: Invalid value for {option}: several files go into this directory: give "
+                                  "a directory, not - (standard output)\n"), result.stderr
+    assert not (tmp_path / "-").exists()
+
+
+def test_replay_says_which_vehicle_it_replays(run):
+    text = " ".join(run("replay", "--help").stdout.split())
+    assert "Vehicle preset replayed, with --terrain (a scene's [vehicle] table decides with --scene); its " \
+           "footprint also sizes the classes of a terrain classified on the fly." in text
