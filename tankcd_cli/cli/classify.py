@@ -59,6 +59,10 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     from tankcd_cli.terrain.store import write_store
     from tankcd_cli.vehicle import vehicle_preset
 
+    if terrain != "-" and not os.path.exists(terrain):  # before -o's default is compared with it
+        from tankcd_cli.errors import InputError
+
+        raise InputError(terrain, "no such file")
     explicit = output is not None
     if output is None:
         if terrain == "-":

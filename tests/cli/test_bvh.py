@@ -73,3 +73,9 @@ def test_help_says_what_applies_to_a_scene(run):
     text = " ".join(run("bvh", "--help").stdout.split())
     assert "-o and the tree options apply to MODEL and are usage errors with --scene" in text
     assert "with the scene's [collision] settings, into .tankcd-cache/ beside it" in text
+
+
+def test_a_missing_model_is_no_such_file(run):
+    result = run("bvh", "missing.h5")
+    assert result.exit_code == 3
+    assert result.stderr == "tankcd: error: missing.h5: no such file\n"

@@ -274,3 +274,11 @@ def test_pairs_in_the_closing_line_say_their_order(run, tmp_path):
     result = run("classify", src, "-o", "g.h5")
     assert result.exit_code == 0
     assert f"{src} -> g.h5: 4 rows x 6 columns of posts (24 with data)" in result.stderr
+
+
+@pytest.mark.parametrize("args", [["missing.h5"], ["missing.h5", "-o", "out.h5"]])
+def test_a_missing_store_is_no_such_file(run, args):
+    # not "-o/--output missing.h5 is also TERRAIN", nor "unknown terrain format 'h5'"
+    result = run("classify", *args)
+    assert result.exit_code == 3
+    assert result.stderr == "tankcd: error: missing.h5: no such file\n"

@@ -180,3 +180,10 @@ def test_summary_prints_under_quiet(run, store):
     result = run("-q", "replay", "-", "--terrain", store, "--summary", input=trajectory(n=3))
     assert result.exit_code == 0
     assert json.loads(result.stderr)["rows"] == 3
+
+
+def test_a_missing_terrain_store_is_no_such_file(run, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory(n=3))
+    result = run("replay", "t.csv", "--terrain", "missing.h5")
+    assert result.exit_code == 3
+    assert result.stderr == "tankcd: error: missing.h5: no such file\n"
