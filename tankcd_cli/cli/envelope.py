@@ -38,7 +38,7 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     fuel drums has the gun's own limit at every azimuth, and says so."""
     import numpy as np
 
-    from tankcd_cli.collision.internal import DRUMS, elevation_envelope
+    from tankcd_cli.collision.internal import DRUMS, elevation_envelope, envelope_summary
     from tankcd_cli.io.atomic import atomic_path, output_text
     from tankcd_cli.vehicle import vehicle_preset
 
@@ -64,25 +64,21 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
 
         with atomic_path(png, ".png") as tmp:
             envelope_png(vehicle, env, tmp)
-    report.info(f"envelope: {vehicle.name}, {len(az)} azimuths: {_drums_say(vehicle, env, step_deg)} "
-                f"({report.elapsed():.2f} s)")
+    drums = _drums_say(envelope_summary(vehicle, env, step_deg))
+    report.info(f"envelope: {vehicle.name}, {len(az)} azimuths: {drums} ({report.elapsed():.2f} s)")
 
 
-def _drums_say(vehicle, env, step_deg: float) -> str:
-    """What the drums do to the gun's depression, in words (the closing report line)."""
-    import numpy as np
-
-    gun = f"{vehicle.gun_min_deg:.1f} deg"
-    if not vehicle.fuel_drums:
+def _drums_say(facts: dict) -> str:
+    """What the drums do to the gun's depression (``internal.envelope_summary``), in words."""
+    gun = f"{facts['gun_min_deg']:.1f} deg"
+    if not facts["fuel_drums"]:
         return f"no fuel drums fitted: the gun's own depression limit, {gun}, holds at every azimuth"
-    limited, blocked = env["limited"], ~np.isfinite(env["min_elevation"])
-    if not limited.any() and not blocked.any():
+    if facts["worst_deg"] is None and not facts["blocked_deg"]:
         return f"the fuel drums never limit depression: the gun's own limit, {gun}, holds at every azimuth"
     text = []
-    if limited.any():
-        worst = np.nanmax(env["min_elevation"][limited])
-        text.append(f"the fuel drums limit depression over {limited.sum() * step_deg:.0f} deg of azimuth, to at "
-                    f"worst {worst:.2f} deg (gun limit {gun})")
-    if blocked.any():
-        text.append(f"over {blocked.sum() * step_deg:.0f} deg of azimuth even full elevation meets a drum")
+    if facts["worst_deg"] is not None:
+        text.append(f"the fuel drums limit depression over {facts['limited_deg']:.0f} deg of azimuth, to at "
+                    f"worst {facts['worst_deg']:.2f} deg (gun limit {gun})")
+    if facts["blocked_deg"]:
+        text.append(f"over {facts['blocked_deg']:.0f} deg of azimuth even full elevation meets a drum")
     return "; ".join(text)

@@ -102,3 +102,15 @@ def elevation_envelope(vehicle: Vehicle, azimuth_deg: np.ndarray, resolution_deg
             checked[above] &= ~gun_hits_drums(vehicle, az[above], np.radians(np.full(above.sum(), e)), method).any(axis=1)
     return {"azimuth": azimuth_deg, "min_elevation": result, "limited": limited, "blocked_by": who,
             "checked": checked}
+
+
+def envelope_summary(vehicle: Vehicle, env: dict, step_deg: float) -> dict:
+    """What the drums do to the gun's depression over an envelope taken every ``step_deg``, as
+    plain values: ``fuel_drums``; ``limited_deg`` and ``blocked_deg``, the azimuth spans (deg)
+    where a drum sets the limit and where even full elevation meets a drum; ``worst_deg``, the
+    highest limit a drum sets (None where none does); ``gun_min_deg``, the gun's own limit."""
+    limited = np.asarray(env["limited"], dtype=bool)
+    blocked = ~np.isfinite(env["min_elevation"])
+    return {"fuel_drums": bool(vehicle.fuel_drums), "gun_min_deg": float(vehicle.gun_min_deg),
+            "limited_deg": float(limited.sum() * step_deg), "blocked_deg": float(blocked.sum() * step_deg),
+            "worst_deg": float(np.nanmax(env["min_elevation"][limited])) if limited.any() else None}
