@@ -1,4 +1,4 @@
-"""Options shared by several commands."""
+"""Options shared by several commands, and the checks that refuse what cannot apply (exit 2)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,6 @@ from typing import NamedTuple
 import click
 
 from tankcd_cli.names import PRESET_NAMES as VEHICLE_PRESETS
-
 
 VEHICLE_HELP = "Vehicle preset whose footprint sizes the region classes."
 REPLAY_VEHICLE_HELP = ("Vehicle preset replayed, with --terrain (a scene's [vehicle] table decides with --scene); "
@@ -120,8 +119,9 @@ def refuse_clashes(inputs: dict, outputs: dict) -> None:
     """Exit 2 (a usage error naming both) when an output is an input or another output, or when
     two outputs are standard output (-).
 
-    inputs, outputs : option label -> path (None is skipped; "-" only counts as standard output). Paths are compared
-    resolved (symbolic links, ``..``) and, where both exist, as files (hard links too).
+    inputs, outputs : option label -> path (None is skipped; "-" only counts as standard output).
+    Paths are compared resolved (symbolic links, ``..``) and, where both exist, as files (hard
+    links too).
     """
     from tankcd_cli.io.files import same_path
 
