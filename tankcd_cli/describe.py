@@ -2,7 +2,10 @@
 
 Facts are ordered dicts of plain values (numbers, strings, lists, nested dicts)
 with snake_case keys: ``info --json`` prints them as they are, the text output
-spells the keys with spaces."""
+spells the keys with spaces. One convention for every pair: coordinates, sizes and
+spacings are [x, y] or [x, y, z] lists, ranges (``extent_*``) [min, max], bounds
+{"min": [x, y, z], "max": [x, y, z]}, grid shapes {"rows", "columns"} (row 0 the north),
+and area shares fractions from 0 to 1 (``area_fraction_*``)."""
 
 from __future__ import annotations
 
@@ -62,16 +65,21 @@ def describe_store(path: str) -> dict:
             **_provenance(a),
             "vertices": n,
             "faces": m,
-            "dem_grid_posts": [int(grid[0]), int(grid[1])] if grid else None,  # None: an irregular mesh
+            "dem_grid_posts": _shape(grid) if grid else None,  # None: an irregular mesh
             "extent_x": [lo[0], hi[0]],
             "extent_y": [lo[1], hi[1]],
             "extent_z": [lo[2], hi[2]],
             **_classes(a),
-            "class_raster_cells": [int(raster[0]), int(raster[1])],
+            "class_raster_cells": _shape(raster),
             "clean_up": {"merged_vertices": a.get("merged_vertices"),
                          "unreferenced_vertices": a.get("unreferenced_vertices"),
                          "degenerate_faces": a.get("degenerate_faces"), "repeated_faces": a.get("repeated_faces")},
         }
+
+
+def _shape(shape) -> dict:
+    """A grid's shape, its order said: {"rows": ..., "columns": ...}."""
+    return {"rows": int(shape[0]), "columns": int(shape[1])}
 
 
 def _provenance(a: dict) -> dict:
@@ -104,7 +112,7 @@ def _describe_grid(path: str, a: dict) -> dict:
         **_provenance(a),
         "crs": crs_name or ("local grid (no CRS)" if not crs else "unnamed CRS"),
         "reprojected_from": a.get("source_crs_name") if a.get("reprojected") else None,
-        "grid_posts": [int(rows), int(cols)],
+        "grid_posts": _shape((rows, cols)),
         "posts": rows * cols,
         "posts_with_data": a.get("valid_posts"),
         "post_spacing": spacing,
@@ -114,7 +122,7 @@ def _describe_grid(path: str, a: dict) -> dict:
         "extent_z": [lo[2], hi[2]],
         "size_km": [round((hi[0] - lo[0]) / 1000, 3), round((hi[1] - lo[1]) / 1000, 3)],
         "diagonal": a.get("diagonal"),  # each cell split along it
-        "tile_posts": [int(chunks[0]), int(chunks[1])] if chunks else None,
+        "tile_posts": _shape(chunks) if chunks else None,
         "heights": dtype,
         "bytes_per_post": round(size / max(rows * cols, 1), 2),
         **_classes(a),
@@ -132,9 +140,9 @@ def _classes(a: dict) -> dict:
         "threshold_flat": a.get("threshold_flat"),
         "threshold_uneven": a.get("threshold_uneven"),
         "thresholds_from": a.get("threshold_derivation"),
-        "area_flat": f"{a.get('share_flat', 0):.1%}",
-        "area_general": f"{a.get('share_general', 0):.1%}",
-        "area_uneven": f"{a.get('share_uneven', 0):.1%}",
+        "area_fraction_flat": float(a.get("share_flat", 0.0)),
+        "area_fraction_general": float(a.get("share_general", 0.0)),
+        "area_fraction_uneven": float(a.get("share_uneven", 0.0)),
     }
 
 
@@ -196,7 +204,8 @@ def _scene_terrain(sc) -> dict:
             i = dem.info
         x0, y0 = float(i.origin[0]), float(i.origin[1])
         dx, dy = float(i.spacing[0]), float(i.spacing[1])
-        return {"kind": f"DEM ({i.format}, {i.rows} x {i.cols} posts, classified on the fly)", "crs": i.crs_name,
+        return {"kind": f"DEM ({i.format}, {i.rows} rows x {i.cols} columns of posts, classified on the fly)",
+                "crs": i.crs_name,
                 "extent_x": [x0, x0 + (i.cols - 1) * dx], "extent_y": [y0 - (i.rows - 1) * dy, y0]}
     from tankcd_cli.terrain.classify import load_terrain
 

@@ -58,14 +58,17 @@ def envelope_png(vehicle, env, path: str) -> None:
     ax.set_theta_direction(1)
     order = np.argsort(az)
     a, e = np.append(az[order], az[order][0] + 2 * np.pi), np.append(lim[order], lim[order][0])
-    ax.fill_between(a, lo, np.where(np.isfinite(e), e, hi), color="#e53935", alpha=0.35, label="barrel meets a drum")
+    if vehicle.fuel_drums:
+        ax.fill_between(a, lo, np.where(np.isfinite(e), e, hi), color="#e53935", alpha=0.35,
+                        label="barrel meets a drum")
     ax.plot(a, np.where(np.isfinite(e), e, np.nan), color="#b71c1c", lw=2, label="lowest safe elevation")
     ax.plot(np.linspace(0, 2 * np.pi, 361), np.full(361, lo), "k--", lw=1, label=f"gun limit {lo:g} deg")
     ax.set_ylim(lo - 1, max(1.0, np.nanmax(np.where(np.isfinite(lim), lim, lo)) + 2))
     ax.set_rlabel_position(90)
     ax.set_xticks(np.radians([0, 90, 180, 270]))
     ax.set_xticklabels(["front", "left", "rear", "right"])
-    ax.set_title(f"{vehicle.name}: gun depression limit by turret azimuth (deg)", fontsize=10)
+    drums = "" if vehicle.fuel_drums else " (no fuel drums: the gun's own limit)"
+    ax.set_title(f"{vehicle.name}: gun depression limit by turret azimuth (deg){drums}", fontsize=10)
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8)
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)

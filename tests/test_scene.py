@@ -256,7 +256,7 @@ def test_info_json_is_snake_case_nested_objects_without_json_in_strings(run, wor
     assert on["bounds"] == {"min": [X0 + 9, Y0 + 9, 100.0], "max": [X0 + 11, Y0 + 11, 103.0]}
     assert facts["vehicle"]["mesh"]["triangles"] == 12
     text = run("info", "scene.toml").stdout
-    assert re.search(r"on terrain:\s+False", text) and re.search(r"on terrain:\s+True", text)
+    assert re.search(r"on terrain:\s+no\n", text) and re.search(r"on terrain:\s+yes\n", text)
     assert "k 26, aabb levels 2, split sah, leaf size 4" in text
 
 

@@ -6,7 +6,7 @@ import os
 
 import click
 
-from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_options
+from tankcd_cli.cli.options import given, option_label, output_option, vehicle_option, verbosity_options
 from tankcd_cli.names import AUTO_METHODS, CURVATURE_METHODS, UP_AXES
 
 METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet on a mesh), grid (DEMs only: "
@@ -29,8 +29,8 @@ METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet 
 @click.option("--thresholds", nargs=2, type=float, default=None, metavar="FLAT UNEVEN",
               help="Class boundaries on footprint-averaged |H|, 1/m (default: derived from the vehicle's "
                    "track length; see README).")
-@click.option("--png", type=click.Path(dir_okay=False), default=None,
-              help="Also draw the class map and curvature map to this PNG.")
+@click.option("--png", type=click.Path(dir_okay=False, allow_dash=True), default=None,
+              help="Also draw the class map and curvature map to this PNG (- for stdout, with -o FILE).")
 @click.option("--crs", default=None, metavar="CRS",
               help="DEMs: the metric CRS to reproject to (EPSG:32633, a WKT or PROJ string); default: a "
                    "geographic DEM goes to the UTM zone of its centre, a projected one stays as it is.")
@@ -59,6 +59,10 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     from tankcd_cli.terrain.store import write_store
     from tankcd_cli.vehicle import vehicle_preset
 
+    if terrain != "-" and not os.path.exists(terrain):  # before -o's default is compared with it
+        from tankcd_cli.errors import InputError
+
+        raise InputError(terrain, "no such file")
     explicit = output is not None
     if output is None:
         if terrain == "-":
@@ -93,6 +97,11 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
         raise click.UsageError("--scheduler applies to DEMs; a mesh is classified in this process")
     if crs or band:
         raise click.UsageError("--crs and --band apply to DEM rasters; meshes keep their coordinates")
+    ctx = click.get_current_context()
+    for name in ("tile", "jobs"):
+        if given(ctx, name):
+            raise click.UsageError(f"{option_label(ctx, name)} applies to DEM rasters, classified tile by tile; a "
+                                   "mesh is classified whole")
     if method == "grid":
         raise click.UsageError("--method grid needs a DEM; meshes take cotan, sphere or jet")
     method = AUTO_METHODS["mesh"] if method == "auto" else method
@@ -121,8 +130,8 @@ def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, 
     from tankcd_cli.terrain.dem_classify import classify_dem
 
     info = dem.info
-    report.detail(f"classify: {info.source}: {info.rows:,} x {info.cols:,} posts at {info.spacing[0]:g} x "
-                  f"{info.spacing[1]:g} m, {info.crs_name}"
+    report.detail(f"classify: {info.source}: {info.rows:,} rows x {info.cols:,} columns of posts, "
+                  f"{info.spacing[0]:g} m (x) x {info.spacing[1]:g} m (y) apart, {info.crs_name}"
                   + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
 
     def progress(done, total, posts, seconds):
@@ -137,7 +146,7 @@ def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, 
 
             with atomic_path(png, ".png") as tmp_png:
                 grid_map_png(tmp, tmp_png, title=info.source)
-    report.info(f"classify: {info.source} -> {output}: {info.rows:,} x {info.cols:,} posts "
+    report.info(f"classify: {info.source} -> {output}: {info.rows:,} rows x {info.cols:,} columns of posts "
                 f"({a['valid_posts']:,} with data), H by {method}; flat {a['share_flat']:.0%}, "
                 f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
                 f"({report.elapsed():.2f} s)")

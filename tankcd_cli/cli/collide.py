@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import click
 
-from tankcd_cli.cli.options import refuse_clashes, scene_inputs, verbosity_options
+from tankcd_cli.cli.options import no_parquet, no_stdin, refuse_clashes, scene_inputs, verbosity_options
 from tankcd_cli.names import EXIT_COLLISION
 
 
 @click.command(short_help="Test the vehicle at given poses against the scene's obstacles.")
-@click.option("--scene", required=True, type=click.Path(), help="Scene TOML.")
+@click.option("--scene", required=True, type=click.Path(), callback=no_stdin, help="Scene TOML.")
 @click.option("--poses", "poses_path", required=True, type=click.Path(allow_dash=True),
+              callback=no_parquet(".csv", reading=True),
               help="Poses CSV (x, y, z and roll/pitch/yaw_deg or qw..qz; - for stdin).")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default="-",
-              show_default=True, help="Events JSON Lines output (- for stdout).")
+              show_default=True, callback=no_parquet(".jsonl"),
+              help="Events JSON Lines output (- for stdout): the fields replay's obstacle events have.")
 @click.option("--all-contacts", is_flag=True, help="Count every touching triangle pair (default: stop at the first).")
 @click.option("--fail-on-collision", is_flag=True, help="Exit 1 when any collision is found.")
 @click.option("--no-cache", is_flag=True, help="Do not write obstacle trees to the scene's cache.")
@@ -21,7 +23,9 @@ from tankcd_cli.names import EXIT_COLLISION
 @click.pass_obj
 def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collision, no_cache):
     """Place the scene's vehicle (its mesh, or one generated from the preset) at every
-    pose of POSES and report each obstacle it touches, one JSON event per contact."""
+    pose of POSES and report each obstacle it touches, one JSON event per contact, with the
+    fields of replay's obstacle events (step, t, kind, a, b, point, contacts). The trees are
+    built with the scene's [collision] settings, which the closing line names."""
     from tankcd_cli.collision.obstacles import (
         collide_obstacles,
         load_obstacles,
@@ -38,7 +42,8 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     refuse_clashes({"--poses": poses_path, "--scene": scene, **scene_inputs(sc)}, {"--events": events_path})
     obstacles = load_obstacles(sc, cache=not no_cache, progress=step)
     body = scene_vehicle_body(sc)
-    method = f"bvh k{sc.collision.k} aabb_levels={sc.collision.aabb_levels} {sc.collision.split}"
+    c = sc.collision
+    method = f"trees: k {c.k}, aabb levels {c.aabb_levels}, split {c.split}, leaf size {c.leaf_size}"
     totals = {"rows": 0, "skipped": 0, "collisions": 0, "node_tests": 0, "tri_tests": 0}
 
     def run(out):
@@ -52,7 +57,7 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
             for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts):
                 i = idx[p]
                 out.write(event_line(stp[i], t[i], "obstacle", body.part_names[part], obstacles[o].name,
-                                     point=[round(float(c), 4) for c in point], contacts=int(n), method=method))
+                                     point=[round(float(v), 4) for v in point], contacts=int(n)))
                 totals["collisions"] += 1
             out.flush()
 
@@ -60,6 +65,6 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
         run(out)
     report.info(f"collide: {totals['rows']:,} poses ({totals['skipped']} without a pose), {len(obstacles)} obstacles, "
                 f"{totals['collisions']} collisions; {totals['node_tests']:,} node-pair and {totals['tri_tests']:,} "
-                f"triangle tests ({report.elapsed():.2f} s)")
+                f"triangle tests; {method} ({report.elapsed():.2f} s)")
     if fail_on_collision and totals["collisions"]:
         click.get_current_context().exit(EXIT_COLLISION)

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import click
 
-from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.cli.options import no_dash_directory, verbosity_options
 
 
 @click.command(short_help="Run the whole pipeline on the sample battlefield.")
-@click.argument("directory", default="tankcd-demo", type=click.Path(file_okay=False))
+@click.argument("directory", default="tankcd-demo", type=click.Path(file_okay=False), callback=no_dash_directory)
 @verbosity_options
 @click.pass_obj
 def demo(report, directory):

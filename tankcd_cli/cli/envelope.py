@@ -4,11 +4,19 @@ from __future__ import annotations
 
 import click
 
-from tankcd_cli.cli.options import VEHICLE_PRESETS, refuse_clashes, verbosity_options
+from tankcd_cli.cli.options import (
+    SCENE_VEHICLE,
+    VEHICLE_PRESETS,
+    check_option_combinations,
+    no_parquet,
+    no_stdin,
+    refuse_clashes,
+    verbosity_options,
+)
 
 
 @click.command(short_help="Lowest safe gun elevation per turret azimuth (CSV; --png polar plot).")
-@click.option("--scene", type=click.Path(), default=None, help="Take the vehicle from this scene.")
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin, help="Take the vehicle from this scene.")
 @click.option("--vehicle", "vehicle_name", type=click.Choice(VEHICLE_PRESETS), default="t72", show_default=True,
               help="Vehicle preset (without --scene).")
 @click.option("--step", "step_deg", type=click.FloatRange(0.01, 90), default=1.0, show_default=True,
@@ -16,8 +24,9 @@ from tankcd_cli.cli.options import VEHICLE_PRESETS, refuse_clashes, verbosity_op
 @click.option("--method", type=click.Choice(["exact", "projection"]), default="exact", show_default=True,
               help="exact cylinder test, or the paper's two-plane projection (conservative).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True), default="-", show_default=True,
-              help="CSV output (- for stdout).")
-@click.option("--png", type=click.Path(dir_okay=False), default=None, help="Also draw a polar plot.")
+              callback=no_parquet(".csv"), help="CSV output (- for stdout).")
+@click.option("--png", type=click.Path(dir_okay=False, allow_dash=True), default=None,
+              help="Also draw a polar plot (- for stdout, with -o FILE).")
 @verbosity_options
 @click.pass_obj
 def envelope(report, scene, vehicle_name, step_deg, method, output, png):
@@ -25,13 +34,15 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     which the barrel clears the rear fuel drums, to 0.01 degree (bisection on the exact test).
     Columns: azimuth_deg, min_elevation_deg (empty where even full elevation touches), limited_by
     (the drum that sets the limit, or "gun" where the gun's own depression limit does), checked
-    (every elevation above the limit was tested clear on a 0.25 degree grid)."""
+    (every elevation above the limit was tested clear on a 0.25 degree grid). A vehicle without
+    fuel drums has the gun's own limit at every azimuth, and says so."""
     import numpy as np
 
-    from tankcd_cli.collision.internal import DRUMS, elevation_envelope
+    from tankcd_cli.collision.internal import DRUMS, elevation_envelope, envelope_summary
     from tankcd_cli.io.atomic import atomic_path, output_text
     from tankcd_cli.vehicle import vehicle_preset
 
+    check_option_combinations(click.get_current_context(), (SCENE_VEHICLE,))
     refuse_clashes({"--scene": scene}, {"-o/--output": output, "--png": png})
     if scene:
         from tankcd_cli.scene import load_scene
@@ -53,8 +64,21 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
 
         with atomic_path(png, ".png") as tmp:
             envelope_png(vehicle, env, tmp)
-    limited = env["limited"]
-    worst = np.nanmax(env["min_elevation"][limited]) if limited.any() else vehicle.gun_min_deg
-    report.info(f"envelope: {vehicle.name}, {len(az)} azimuths: drums limit depression over "
-                f"{limited.sum() * step_deg:.0f} deg of azimuth, to at worst {worst:.2f} deg "
-                f"(gun limit {vehicle.gun_min_deg:.1f} deg) ({report.elapsed():.2f} s)")
+    drums = _drums_say(envelope_summary(vehicle, env, step_deg))
+    report.info(f"envelope: {vehicle.name}, {len(az)} azimuths: {drums} ({report.elapsed():.2f} s)")
+
+
+def _drums_say(facts: dict) -> str:
+    """What the drums do to the gun's depression (``internal.envelope_summary``), in words."""
+    gun = f"{facts['gun_min_deg']:.1f} deg"
+    if not facts["fuel_drums"]:
+        return f"no fuel drums fitted: the gun's own depression limit, {gun}, holds at every azimuth"
+    if facts["worst_deg"] is None and not facts["blocked_deg"]:
+        return f"the fuel drums never limit depression: the gun's own limit, {gun}, holds at every azimuth"
+    text = []
+    if facts["worst_deg"] is not None:
+        text.append(f"the fuel drums limit depression over {facts['limited_deg']:.0f} deg of azimuth, to at "
+                    f"worst {facts['worst_deg']:.2f} deg (gun limit {gun})")
+    if facts["blocked_deg"]:
+        text.append(f"over {facts['blocked_deg']:.0f} deg of azimuth even full elevation meets a drum")
+    return "; ".join(text)

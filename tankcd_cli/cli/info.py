@@ -1,4 +1,4 @@
-"""tankcd info FILE: describe a terrain store."""
+"""tankcd info FILE: describe a terrain store, a tree or a scene."""
 
 from __future__ import annotations
 
@@ -9,8 +9,15 @@ import click
 from tankcd_cli.cli.options import verbosity_options
 
 
-@click.command(short_help="Describe a store.")
-@click.argument("file", type=click.Path())
+def _a_file(ctx, param, value):
+    if value == "-":
+        raise click.BadParameter("info reads a file (a store is read in place, a scene's paths are relative to "
+                                 "it), not standard input", ctx=ctx, param=param)
+    return value
+
+
+@click.command(short_help="Describe a terrain store, a tree or a scene.")
+@click.argument("file", type=click.Path(allow_dash=True), callback=_a_file)
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
 @verbosity_options
 @click.pass_obj
@@ -23,7 +30,13 @@ def info(report, file, as_json):
     (position, angles, scale, triangles, world bounds, whether it lies over
     the terrain), with the effects the scene enables.
 
-    --json prints the same facts as one JSON object with snake_case keys."""
+    Every pair says its order: "161 rows x 241 columns", "0.24 km (x) x 0.16 km (y)",
+    "x 500000, y 4500160", "500000 to 500240".
+
+    --json prints the same facts as one JSON object with snake_case keys: points, sizes
+    and spacings as [x, y] or [x, y, z], extents as [min, max], bounds as {min, max},
+    grid shapes as {rows, columns}, area shares as fractions from 0 to 1
+    (area_fraction_flat, ...)."""
     from tankcd_cli.describe import describe_store
 
     facts = describe_store(file)
@@ -50,7 +63,7 @@ def _lines(facts: dict, indent: str = "") -> list[str]:
     out = []
     for key, value in facts.items():
         label = f"{indent}{_label(key)}:"
-        if isinstance(value, dict) and (_nested(value) or len(_fmt(value)) > INLINE):
+        if isinstance(value, dict) and not _pair(key, value) and (_nested(value) or len(_fmt(value)) > INLINE):
             out.append(label)
             out += _lines(value, indent + "  ")
         elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
@@ -59,14 +72,19 @@ def _lines(facts: dict, indent: str = "") -> list[str]:
                 out.append(f"{indent}  {_label(str(item.get('name', i + 1)))}:")
                 out += _lines({k: v for k, v in item.items() if k != "name"}, indent + "    ")
         else:
-            text = NONE_TEXT.get(key, "none") if value is None else _fmt(value)
+            text = NONE_TEXT.get(key, "none") if value is None else _fmt(value, key)
             out.append(f"{label:<{WIDTH}}{text}" if len(label) < WIDTH else f"{label} {text}")
     return out
 
 
 # what a null fact means, in the text output
 NONE_TEXT = {"up": "the format's convention", "on_terrain": "unknown (no terrain)",
-             "mesh": "none (generated from the preset's dimensions)", "path": "none"}
+             "mesh": "none (generated from the preset's dimensions)", "path": "none",
+             "dem_grid_posts": "none (an irregular mesh)"}
+# every pair says its order: sizes and spacings as "A unit (x) x B unit (y)"; the label loses the unit
+SIZES = {"size_km": ("size", "km"), "post_spacing": ("post spacing", "m")}
+POINTS = {"north_west_post", "position", "scale"}  # "x A, y B(, z C)"
+AXES = "xyz"
 
 
 def _nested(value: dict) -> bool:
@@ -75,18 +93,55 @@ def _nested(value: dict) -> bool:
 
 
 def _label(key: str) -> str:
+    if key in SIZES:
+        return SIZES[key][0]
+    if key.startswith("area_fraction_"):  # a fraction in JSON, a percentage here
+        return "area " + key.removeprefix("area_fraction_")
     return key.replace("_", " ")
 
 
-def _fmt(value) -> str:
+def _pair(key: str, value) -> str | None:
+    """A pair or triple in words that say its order, or None if ``value`` is not one."""
+    if isinstance(value, dict) and set(value) == {"rows", "columns"}:
+        return f"{_fmt(value['rows'])} rows x {_fmt(value['columns'])} columns"
+    if isinstance(value, dict) and set(value) == {"min", "max"} and _numbers(value["min"]) \
+            and _numbers(value["max"]) and len(value["min"]) == len(value["max"]) <= 3:
+        return ", ".join(f"{a} {_fmt(lo)} to {_fmt(hi)}" for a, lo, hi in zip(AXES, value["min"], value["max"]))
+    if not _numbers(value):
+        return None
+    if key.startswith("extent_") and len(value) == 2:
+        return f"{_fmt(value[0])} to {_fmt(value[1])}"
+    if key in SIZES and len(value) == 2:
+        unit = SIZES[key][1]
+        return f"{_fmt(value[0])} {unit} (x) x {_fmt(value[1])} {unit} (y)"
+    if key in POINTS and len(value) <= 3:
+        return ", ".join(f"{a} {_fmt(v)}" for a, v in zip(AXES, value))
+    if key == "nodes_per_level":
+        return f"{_fmt(value)} (from the root down)"
+    return None
+
+
+def _numbers(value) -> bool:
+    return isinstance(value, (list, tuple)) and bool(value) and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+
+
+def _fmt(value, key: str = "") -> str:
     if value is None:
         return "none"
+    pair = _pair(key, value)
+    if pair is not None:
+        return pair
+    if isinstance(value, bool):
+        return "yes" if value else "no"
     if isinstance(value, float):
+        if key.startswith("area_fraction_"):
+            return f"{value:.1%}"
         return f"{value:.10g}"  # UTM northings keep their metres
     if isinstance(value, (list, tuple)):
         return ", ".join(_fmt(v) for v in value)
     if isinstance(value, dict):
-        return ", ".join(f"{_label(k)} " + (f"[{_fmt(v)}]" if isinstance(v, (list, tuple)) else _fmt(v))
+        return ", ".join(f"{_label(k)} " + (f"[{_fmt(v, k)}]" if isinstance(v, (list, tuple)) else _fmt(v, k))
                          for k, v in value.items())
     from tankcd_cli.errors import printable
 

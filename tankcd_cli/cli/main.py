@@ -9,7 +9,7 @@ import sys
 import click
 
 from tankcd_cli import __version__
-from tankcd_cli.cli.options import strict_option
+from tankcd_cli.cli.options import QUIET_HELP, VERBOSE_HELP, set_verbosity, strict_option
 from tankcd_cli.cli.report import Reporter
 from tankcd_cli.errors import InputError, SetupWarning
 
@@ -136,18 +136,21 @@ def _quiet_broken_pipe() -> None:
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, "--version", prog_name="tankcd")
-@click.option("-v", "--verbose", count=True, help="More detail on stderr (repeatable); tracebacks on errors.")
-@click.option("-q", "--quiet", is_flag=True, help="Only errors on stderr.")
+@click.option("-v", "--verbose", count=True, help=VERBOSE_HELP)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @strict_option
 @click.pass_context
 def cli(ctx, verbose, quiet):
     """tankcd: place a tank on real terrain and tell when it collides.
 
-    Data goes to stdout or to files, messages and progress to stderr.
+    Data goes to stdout or to files, messages and progress to stderr; -q keeps
+    only warnings (likely set-up slips: --strict makes them errors) and errors,
+    before or after the command name.
     Exit codes: 0 done, 1 collision with --fail-on-collision, 2 usage error,
     3 bad input data, 4 internal error.
     """
-    ctx.obj = Reporter(-1 if quiet else verbose)
+    ctx.obj = Reporter(0)
+    set_verbosity(ctx, verbose, quiet)
 
 
 class Terminated(KeyboardInterrupt):

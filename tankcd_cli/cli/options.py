@@ -1,15 +1,25 @@
-"""Options shared by several commands."""
+"""Options shared by several commands, and the checks that refuse what cannot apply (exit 2)."""
 
 from __future__ import annotations
+
+import os
+from typing import NamedTuple
 
 import click
 
 from tankcd_cli.names import PRESET_NAMES as VEHICLE_PRESETS
 
+VEHICLE_HELP = "Vehicle preset whose footprint sizes the region classes."
+REPLAY_VEHICLE_HELP = ("Vehicle preset replayed, with --terrain (a scene's [vehicle] table decides with --scene); "
+                       "its footprint also sizes the classes of a terrain classified on the fly.")
 
-def vehicle_option(f):
-    return click.option("--vehicle", "vehicle_name", type=click.Choice(VEHICLE_PRESETS), default="t72",
-                        show_default=True, help="Vehicle preset whose footprint sizes the region classes.")(f)
+
+def vehicle_option(f=None, help_text: str = VEHICLE_HELP):
+    """--vehicle PRESET; ``@vehicle_option`` or ``@vehicle_option(help_text=...)``."""
+    def deco(g):
+        return click.option("--vehicle", "vehicle_name", type=click.Choice(VEHICLE_PRESETS), default="t72",
+                            show_default=True, help=help_text)(g)
+    return deco(f) if f is not None else deco
 
 
 def output_option(help_text: str):
@@ -19,23 +29,40 @@ def output_option(help_text: str):
     return deco
 
 
+QUIET_HELP = "Only warnings and errors on stderr (no progress, no closing report line)."
+VERBOSE_HELP = "More detail on stderr (repeatable); tracebacks on errors."
+
+
+def set_verbosity(ctx, verbose: int = 0, quiet: bool = False) -> None:
+    """-v and -q wherever given (before or after the command name): -q with -v is a usage error."""
+    meta = ctx.meta
+    if verbose:
+        meta["tankcd.verbose"] = meta.get("tankcd.verbose", 0) + verbose
+    if quiet:
+        meta["tankcd.quiet"] = True
+    if meta.get("tankcd.verbose") and meta.get("tankcd.quiet"):
+        raise click.UsageError("-q/--quiet and -v/--verbose contradict each other: give one of them")
+    if ctx.obj is not None:
+        ctx.obj.verbosity = -1 if meta.get("tankcd.quiet") else meta.get("tankcd.verbose", 0)
+
+
 def verbosity_options(f):
     """-v/-q/--strict after the command name too (``tankcd classify x.obj -v``)."""
     def set_verbose(ctx, param, value):
-        if value and ctx.obj is not None:
-            ctx.obj.verbosity = max(ctx.obj.verbosity, 0) + value
+        if value:
+            set_verbosity(ctx, verbose=value)
         return value
 
     def set_quiet(ctx, param, value):
-        if value and ctx.obj is not None:
-            ctx.obj.verbosity = -1
+        if value:
+            set_verbosity(ctx, quiet=True)
         return value
 
     f = click.option("-v", "--verbose", count=True, expose_value=False, callback=set_verbose,
-                     help="More detail on stderr.")(f)
+                     help=VERBOSE_HELP)(f)
     f = strict_option(f)
     return click.option("-q", "--quiet", is_flag=True, expose_value=False, callback=set_quiet,
-                        help="Only errors on stderr.")(f)
+                        help=QUIET_HELP)(f)
 
 
 STRICT_HELP = "Treat warnings (likely set-up slips) as bad input: exit 3, write nothing."
@@ -57,15 +84,52 @@ def strict_option(f):
     return click.option("--strict", is_flag=True, expose_value=False, callback=set_strict, help=STRICT_HELP)(f)
 
 
-def refuse_clashes(inputs: dict, outputs: dict) -> None:
-    """Exit 2 (a usage error naming both) when an output is an input or another output.
+def no_parquet(instead: str, reading: bool = False):
+    """An option callback: a path ending in .parquet is a usage error until Parquet is read and
+    written (the interface plans it for poses and events); ``instead`` is the suffix to give."""
+    def check(ctx, param, value):
+        for path in value if isinstance(value, (tuple, list)) else (value,):
+            if isinstance(path, str) and path.lower().endswith(".parquet"):
+                what = "input" if reading else "output"
+                raise click.BadParameter(f"{path}: Parquet {what} is not supported yet; "
+                                         f"{'give' if reading else 'write'} {instead}", ctx=ctx, param=param)
+        return value
+    return check
 
-    inputs, outputs : option label -> path (None and "-" are skipped). Paths are compared
-    resolved (symbolic links, ``..``) and, where both exist, as files (hard links too).
+
+def no_stdin(ctx, param, value):
+    """An option callback for a scene: - (standard input) is a usage error, since the paths a scene
+    names are relative to the scene's own file."""
+    if value == "-":
+        raise click.BadParameter("a scene is read from a file (the paths it names are relative to it), not from "
+                                 "standard input", ctx=ctx, param=param)
+    return value
+
+
+def no_dash_directory(ctx, param, value):
+    """An option callback for an output directory: - (standard output) is a usage error, not a
+    directory named '-'."""
+    if value == "-":
+        raise click.BadParameter("several files go into this directory: give a directory, not - (standard "
+                                 "output)", ctx=ctx, param=param)
+    return value
+
+
+def refuse_clashes(inputs: dict, outputs: dict) -> None:
+    """Exit 2 (a usage error naming both) when an output is an input or another output, or when
+    two outputs are standard output (-).
+
+    inputs, outputs : option label -> path (None is skipped; "-" only counts as standard output).
+    Paths are compared resolved (symbolic links, ``..``) and, where both exist, as files (hard
+    links too).
     """
     from tankcd_cli.io.files import same_path
 
     seen = [(label, path) for label, path in inputs.items() if path not in (None, "-")]
+    to_stdout = [label for label, path in outputs.items() if path == "-"]
+    if len(to_stdout) > 1:
+        raise click.UsageError(f"{to_stdout[0]} and {to_stdout[1]} both go to standard output (-): give one of them "
+                               "a file")
     for label, path in outputs.items():
         if path in (None, "-"):
             continue
@@ -81,3 +145,109 @@ def scene_inputs(scene) -> dict:
     for ob in scene.obstacles:
         files[f"obstacle {ob.name!r}"] = ob.path
     return files
+
+
+# Options that only make sense with (or without) another. A rule names options by their
+# parameter names; a name that is not a parameter is a condition the command passes in
+# (``conditions``), labelled by the text given there.
+class Needs(NamedTuple):
+    """``option`` given without ``needed``: a usage error, ``why`` saying what option is for."""
+
+    option: str
+    needed: str
+    why: str
+
+
+class Excludes(NamedTuple):
+    """``option`` given with ``other``: a usage error, ``why`` saying what decides instead."""
+
+    option: str
+    other: str
+    why: str
+
+
+def given(ctx: click.Context, name: str) -> bool:
+    """Whether the user gave parameter ``name`` (on the command line), not left it at its default."""
+    from click.core import ParameterSource
+
+    return ctx.get_parameter_source(name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT,
+                                              ParameterSource.PROMPT)
+
+
+def option_label(ctx: click.Context, name: str) -> str:
+    """How the help spells parameter ``name``: ``-o/--output``, ``--png-colour``, ``MODEL``."""
+    for param in ctx.command.params:
+        if param.name == name:
+            if isinstance(param, click.Argument):
+                return param.human_readable_name
+            opts = [o for o in param.opts if o.startswith("--")] or list(param.opts)
+            shorts = [o for o in param.opts if not o.startswith("--")]
+            return "/".join(shorts + opts)
+    return name
+
+
+def check_option_combinations(ctx: click.Context, rules, conditions: dict | None = None) -> None:
+    """Exit 2 (a usage error naming both) at the first rule the given options break.
+
+    conditions : label -> bool, for rules that depend on more than one option having been given
+    (``{"fleet mode (--out-dir)": True}``); a rule names a condition by its label.
+    """
+    conditions = conditions or {}
+
+    def holds(name: str) -> bool:
+        return bool(conditions[name]) if name in conditions else given(ctx, name)
+
+    def label(name: str) -> str:
+        return name if name in conditions else option_label(ctx, name)
+
+    for rule in rules:
+        if not holds(rule.option):
+            continue
+        if isinstance(rule, Needs) and not holds(rule.needed):
+            raise click.UsageError(f"{label(rule.option)} needs {label(rule.needed)}: {rule.why}")
+        if isinstance(rule, Excludes) and holds(rule.other):
+            raise click.UsageError(f"{label(rule.option)} does not apply with {label(rule.other)}: {rule.why}")
+
+
+SCENE_VEHICLE = Excludes("vehicle_name", "scene", "the scene's [vehicle] table decides the vehicle (set its preset "
+                                                  "there)")
+
+
+FLEET = "fleet mode (--out-dir, or several trajectories)"
+ESCALATION = "escalation (--escalate, or --matcher auto without --no-escalate)"
+REPLAY_RULES = (
+    Needs("png_colour", "png", "it colours the path --png draws"),
+    Needs("allow_off_terrain", "fail_on_collision", "it keeps rows off the terrain from failing the run"),
+    Needs("tolerance", ESCALATION, "it is the certificate's tolerance, which only escalation checks"),
+    *(Needs(name, "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
+                             "trajectory there") for name in ("jobs", "scheduler", "split_lines")),
+    Excludes("up", "scene", "the scene's [terrain] up key decides"),
+    Excludes("poses_path", FLEET, "a fleet writes OUT/NAME.poses.csv for each trajectory"),
+    Excludes("events_path", FLEET, "a fleet writes OUT/NAME.events.jsonl for each trajectory"),
+    Excludes("cache", FLEET, "a fleet does not save its terrain beside it (classify it first with tankcd classify)"),
+)
+
+
+def check_replay_options(ctx: click.Context, fleet: bool) -> None:
+    """replay's options that only make sense with (or without) another: a usage error each.
+
+    --cache and --up also need a terrain classified on the fly: given a store (by --terrain or as
+    the scene's terrain), they are refused too."""
+    p = ctx.params
+    escalation = bool(p.get("escalate") or (p.get("escalate") is None and p.get("matcher") == "auto"))
+    check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation})
+    if not (given(ctx, "cache") or given(ctx, "up")):
+        return
+    from tankcd_cli.terrain.store import is_store
+
+    terrain, label = p.get("terrain"), "--terrain"
+    if terrain is None and p.get("scene") and os.path.exists(p["scene"]):
+        from tankcd_cli.scene import load_scene
+
+        terrain, label = load_scene(p["scene"]).terrain_path, "the scene's terrain"
+    if terrain is None or terrain == "-" or not os.path.isfile(terrain) or not is_store(terrain):
+        return
+    for name, why in (("cache", "it saves a terrain classified on the fly as a store"),
+                      ("up", "a store's terrain was turned z-up when it was classified")):
+        if given(ctx, name):
+            raise click.UsageError(f"{option_label(ctx, name)} does not apply to a store ({label} {terrain}): {why}")

@@ -5,6 +5,11 @@ from __future__ import annotations
 import click
 
 from tankcd_cli.cli.options import (
+    REPLAY_VEHICLE_HELP,
+    check_replay_options,
+    no_dash_directory,
+    no_parquet,
+    no_stdin,
     refuse_clashes,
     scene_inputs,
     vehicle_option,
@@ -23,13 +28,14 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
 @click.command(short_help="Replay a trajectory: poses to stdout or --poses, events to --events.")
 @click.argument("trajectories", nargs=-1, required=True)
-@click.option("--scene", type=click.Path(), default=None,
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin,
               help="Scene TOML: terrain, vehicle, obstacles; it decides which effects run.")
 @click.option("--terrain", "terrain", type=click.Path(), default=None,
               help="Terrain store, or any terrain input (classified on the fly), instead of a scene.")
 @click.option("--poses", "poses_path", type=click.Path(dir_okay=False, allow_dash=True), default="-",
-              show_default=True, help="Poses CSV output (- for stdout).")
+              show_default=True, callback=no_parquet(".csv"), help="Poses CSV output (- for stdout).")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
+              callback=no_parquet(".jsonl"),
               help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
 @click.option("--matcher", type=click.Choice(MATCHER_CHOICES),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
@@ -39,26 +45,28 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
                    "--matcher auto, off for a matcher named; about 1.5x plain auto's whole replay, 2x its "
                    "matching).")
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
-              help="The certificate's height tolerance at the footprint's corners, m (default: half the "
-                   "footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
+              help="With escalation: the certificate's height tolerance at the footprint's corners, m (default: "
+                   "half the footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
 @click.option("--discrete", is_flag=True,
               help="Check the effects at the rows only (the paper's frame-by-frame way, for comparison); by "
                    "default they are checked along the motion between rows too.")
-@vehicle_option
+@vehicle_option(help_text=REPLAY_VEHICLE_HELP)
 @click.option("--up", type=click.Choice(UP_AXES), default=None,
               help="Up axis of a terrain mesh classified on the fly (default: the format's convention, y for "
                    "glTF and GLB, z for the rest).")
-@click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it.")
+@click.option("--cache", is_flag=True, help="Save a terrain classified on the fly as a store beside it, and reuse it "
+                                            "(one replay; not with a store).")
 @click.option("--fail-on-collision", is_flag=True,
               help="Exit 1 when any collision (obstacle, internal, terrain) occurs or a row is off the terrain.")
 @click.option("--allow-off-terrain", is_flag=True, help="With --fail-on-collision: rows off the terrain do not fail.")
 @click.option("--summary", "summary_path", is_flag=False, flag_value=SUMMARY_STDERR, default=None, metavar="[FILE]",
-              help="The closing summary as JSON: one line on stderr, or into FILE (- for stdout).")
+              help="The closing summary as JSON: one line on stderr (under -q too), or into FILE (- for stdout).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
               help="Draw the path over the class map, obstacles' footprints and the events, to this PNG.")
 @click.option("--png-colour", "png_colour", type=click.Choice(["path", "matcher"]), default="path",
-              show_default=True, help="Colour the drawn path plainly or by the matcher that placed each pose.")
-@click.option("--out-dir", type=click.Path(file_okay=False), default=None,
+              show_default=True,
+              help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
+@click.option("--out-dir", type=click.Path(file_okay=False), default=None, callback=no_dash_directory,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,
               help="Fleet mode: parallel processes (default: the number of cores).")
@@ -93,6 +101,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     if scene is not None and ctx.get_parameter_source("vehicle_name") == click.core.ParameterSource.COMMANDLINE:
         raise click.UsageError("--vehicle does not apply with --scene: the scene's [vehicle] table decides the "
                                "vehicle (set its preset there)")
+    check_replay_options(ctx, fleet_mode)
     if fleet_mode:
         if png:
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")

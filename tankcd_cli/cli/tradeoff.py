@@ -6,18 +6,19 @@ import sys
 
 import click
 
-from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.cli.options import no_dash_directory, no_stdin, verbosity_options
 
 
 @click.command(short_help="Measure what accuracy costs in time: tables, CSV and plots.")
-@click.option("--scene", type=click.Path(), default=None,
+@click.option("--scene", type=click.Path(), default=None, callback=no_stdin,
               help="Measure on this scene's terrain, vehicle and obstacles (default: the sample battlefield).")
 @click.option("--trajectory", type=click.Path(), default=None,
               help="Trajectory CSV for the headline (default: the sample patrol, or a drive over the scene's terrain).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="tankcd-tradeoff", show_default=True,
+              callback=no_dash_directory,
               help="Directory for tradeoff.md, tradeoff.csv and tradeoff.png.")
-@click.option("--quick", is_flag=True, help="Small inputs and 3 repeats (a few seconds, for CI); the full run "
-                                            "takes about half a minute.")
+@click.option("--quick", is_flag=True, help="Small inputs and 3 repeats, for CI: under a minute on 2 cores (the "
+                                            "full run takes about three times as long).")
 @verbosity_options
 @click.pass_obj
 def tradeoff(report, scene, trajectory, out_dir, quick):

@@ -154,31 +154,15 @@ def first_gun_contacts(vehicle: Vehicle, azimuth0, dazimuth, elevation0, delevat
         raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
     found = found.astype(bool)
     return found, s_hit, who
-    rho_el = vehicle.gun_length + vehicle.gun_radius
-    rho_az = abs(vehicle.trunnion_forward) + rho_el
-    speed = np.abs(daz) * rho_az + np.abs(dele) * rho_el
-    turn = np.maximum(np.abs(daz), np.abs(dele))
-    fixed = np.where(turn > 0, np.radians(step_deg) / np.where(turn > 0, turn, 1.0), np.inf)
-    s = np.zeros(m)
-    live = np.arange(m)
-    for _ in range(1_000_000):
-        if len(live) == 0:
-            break
-        c, a, h, r = barrel(vehicle, az0[live] + s[live] * daz[live], el0[live] + s[live] * dele[live])
-        clear = np.full(len(live), np.inf)
-        touching = np.full(len(live), -1, dtype=np.int64)
-        for j, (_, dc, da, dh, dr) in enumerate(tanks):
-            d = cylinders_distance_batch(c, a, h, r, dc, da, dh, dr, np.zeros(3), TOL, False)
-            touching = np.where((touching < 0) & (d <= TOL), j, touching)
-            clear = np.minimum(clear, d - TOL)
-        hit = touching >= 0
-        found[live[hit]] = True
-        s_hit[live[hit]] = s[live[hit]]
-        who[live[hit]] = touching[hit]
-        go = ~hit
-        lv = live[go]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ahead = np.where(clear[go] > GUN_CLOSE, np.maximum(clear[go] / speed[lv], fixed[lv]), fixed[lv])
-        s[lv] = s[lv] + np.maximum(ahead, 0.0)
-        live = lv[(s[lv] <= 1.0) & (speed[lv] > 0)]
-    return found, s_hit, who
+
+
+def envelope_summary(vehicle: Vehicle, env: dict, step_deg: float) -> dict:
+    """What the drums do to the gun's depression over an envelope taken every ``step_deg``, as
+    plain values: ``fuel_drums``; ``limited_deg`` and ``blocked_deg``, the azimuth spans (deg)
+    where a drum sets the limit and where even full elevation meets a drum; ``worst_deg``, the
+    highest limit a drum sets (None where none does); ``gun_min_deg``, the gun's own limit."""
+    limited = np.asarray(env["limited"], dtype=bool)
+    blocked = ~np.isfinite(env["min_elevation"])
+    return {"fuel_drums": bool(vehicle.fuel_drums), "gun_min_deg": float(vehicle.gun_min_deg),
+            "limited_deg": float(limited.sum() * step_deg), "blocked_deg": float(blocked.sum() * step_deg),
+            "worst_deg": float(np.nanmax(env["min_elevation"][limited])) if limited.any() else None}

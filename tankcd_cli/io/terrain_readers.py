@@ -149,6 +149,8 @@ def read_terrain(path: str, up: str | None = None, fmt: str | None = None) -> Ra
         if path.lower().endswith(".tar.gz"):
             fmt = "tar.gz"
     fmt = fmt.lower()
+    if path != "-" and not os.path.exists(path):  # before the format: a missing store is not an unknown format
+        raise InputError(name, "no such file")
     if fmt in IMAGE_SUFFIXES:
         raise InputError(name, IMAGE_NOT_A_MESH)
     if fmt in COLLADA_SUFFIXES and not _collada_available():

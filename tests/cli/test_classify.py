@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from tankcd_cli.terrain.store import read_store, write_store
-from tests.conftest import write_asc
+from tests.conftest import write_asc, write_obj
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
 
@@ -137,7 +137,7 @@ def test_quiet_and_verbose(run, tmp_path):
     quiet = run("-q", "classify", src, "-o", "q.h5")
     assert quiet.exit_code == 0 and quiet.stderr == ""
     loud = run("classify", src, "-o", "v.h5", "-v")
-    assert "5 x 5 posts at 1 x 1 m, local grid (no CRS)" in loud.stderr
+    assert "5 rows x 5 columns of posts, 1 m (x) x 1 m (y) apart, local grid (no CRS)" in loud.stderr
 
 
 def test_user_thresholds_recorded(run, tmp_path):
@@ -246,4 +246,39 @@ def test_outputs_get_ordinary_permissions_and_info_keeps_utm_digits(run, tmp_pat
     os.umask(umask)
     assert (tmp_path / "g.h5").stat().st_mode & 0o777 == 0o666 & ~umask
     out = run("info", "g.h5").stdout
-    assert "4512345, 4512347" in out
+    assert "4512345 to 4512347" in out
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--tile", "64"], "--tile applies to DEM rasters, classified tile by tile; a mesh is classified whole"),
+    (["--jobs", "1"], "--jobs applies to DEM rasters, classified tile by tile; a mesh is classified whole"),
+])
+def test_dem_options_on_a_mesh_are_usage_errors(run, tmp_path, args, message):
+    src = write_obj(tmp_path / "m.obj", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    result = run("classify", src, "-o", "m.h5", *args)
+    assert result.exit_code == 2
+    assert result.stderr.endswith(f"Error: {message}\n"), result.stderr
+    assert not (tmp_path / "m.h5").exists()
+
+
+def test_store_and_map_both_on_stdout_is_a_usage_error(run, tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.zeros((5, 5)))
+    result = run("classify", src, "-o", "-", "--png", "-")
+    assert result.exit_code == 2
+    assert result.stderr.endswith("Error: -o/--output and --png both go to standard output (-): give one of them a "
+                                  "file\n")
+
+
+def test_pairs_in_the_closing_line_say_their_order(run, tmp_path):
+    src = write_asc(tmp_path / "g.asc", np.zeros((4, 6)))
+    result = run("classify", src, "-o", "g.h5")
+    assert result.exit_code == 0
+    assert f"{src} -> g.h5: 4 rows x 6 columns of posts (24 with data)" in result.stderr
+
+
+@pytest.mark.parametrize("args", [["missing.h5"], ["missing.h5", "-o", "out.h5"]])
+def test_a_missing_store_is_no_such_file(run, args):
+    # not "-o/--output missing.h5 is also TERRAIN", nor "unknown terrain format 'h5'"
+    result = run("classify", *args)
+    assert result.exit_code == 3
+    assert result.stderr == "tankcd: error: missing.h5: no such file\n"

@@ -2,6 +2,7 @@
 
 import json
 import os
+from pathlib import Path
 
 import pytest
 
@@ -15,6 +16,10 @@ def write_obj(path, tris):
                 fh.write("v %r %r %r\n" % tuple(float(c) for c in v))
         for i in range(len(tris)):
             fh.write(f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}\n")
+
+
+OBSTACLE_EVENT_FIELDS = {"step", "t", "kind", "a", "b", "point", "contacts"}
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
 
 
 @pytest.fixture
@@ -38,8 +43,9 @@ def test_collide_reports_the_block(run, scene):
     assert [e["step"] for e in events] == [1]  # only the pose whose front reaches the block
     e = events[0]
     assert e["kind"] == "obstacle" and e["b"] == "block" and e["a"] in ("hull", "gun", "track_left", "track_right")
-    assert {"t", "point", "method"} <= set(e)
+    assert set(e) == OBSTACLE_EVENT_FIELDS  # replay's obstacle events have these
     assert "(1 without a pose)" in result.stderr
+    assert "trees: k 18, aabb levels 2, split sah, leaf size 4" in result.stderr
     assert os.path.exists(scene / ".tankcd-cache" / "block.bvh.h5")
 
 
@@ -95,3 +101,33 @@ def test_scene_validation_names_the_key(run, scene, text, fragment):
     result = run("info", "bad.toml")
     assert result.exit_code == 3
     assert "bad.toml" in result.stderr and fragment in result.stderr, result.stderr
+
+
+def test_collide_events_are_replays_obstacle_events(run, tmp_path):
+    """The same kind carries the same fields: collide on replay's poses gives replay's obstacle events
+    at the rows (the patrol without its turret columns: the poses carry no turret angles)."""
+    scene = SAMPLE / "scene.toml"
+    lines = (SAMPLE / "patrol.csv").read_text().splitlines()
+    (tmp_path / "still.csv").write_text("\n".join(",".join(line.split(",")[:4]) for line in lines) + "\n")
+    replayed = run("replay", "still.csv", "--scene", scene, "--poses", "p.csv", "--events", "r.jsonl", "--discrete")
+    assert replayed.exit_code == 0, replayed.stderr
+    collided = run("collide", "--scene", scene, "--poses", "p.csv", "--events", "c.jsonl")
+    assert collided.exit_code == 0, collided.stderr
+    ours = [json.loads(line) for line in (tmp_path / "c.jsonl").read_text().splitlines()]
+    theirs = [json.loads(line) for line in (tmp_path / "r.jsonl").read_text().splitlines()]
+    theirs = [e for e in theirs if e["kind"] == "obstacle"]
+    assert ours and {frozenset(e) for e in ours} == {frozenset(e) for e in theirs} == {frozenset(OBSTACLE_EVENT_FIELDS)}
+    assert [(e["step"], e["a"], e["b"], e["contacts"]) for e in ours] == \
+        [(e["step"], e["a"], e["b"], e["contacts"]) for e in theirs]
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--poses", "p.parquet"], "Invalid value for '--poses': p.parquet: Parquet input is not supported yet; give .csv"),
+    (["--poses", "poses.csv", "--events", "e.parquet"],
+     "Invalid value for '--events': e.parquet: Parquet output is not supported yet; write .jsonl"),
+])
+def test_parquet_is_a_usage_error(run, scene, args, message):
+    result = run("collide", "--scene", "scene.toml", *args)
+    assert result.exit_code == 2
+    assert result.stderr.endswith(f"Error: {message}\n"), result.stderr
+    assert not (scene / "e.parquet").exists()

@@ -1,6 +1,7 @@
 """tankcd replay over a terrain: pose rows for every trajectory row, bad rows named exactly."""
 
 import csv
+import json
 import io
 import subprocess
 import sys
@@ -110,3 +111,79 @@ def test_pipeline_into_head_exits_quietly(store, tmp_path):
                           shell=True, capture_output=True, text=True)
     assert proc.stdout.count("\n") == 2
     assert "Traceback" not in proc.stderr and "Error" not in proc.stderr
+
+
+# options that only make sense with another: usage errors naming both (issue 22)
+FLEET = "fleet mode (--out-dir, or several trajectories)"
+ESCALATION = "escalation (--escalate, or --matcher auto without --no-escalate)"
+FLEET_NEEDS = "it sets how a fleet runs, and a fleet writes one poses and one events file per trajectory there"
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--png-colour", "matcher"], "--png-colour needs --png: it colours the path --png draws"),
+    (["--allow-off-terrain"], "--allow-off-terrain needs --fail-on-collision: it keeps rows off the terrain from "
+                              "failing the run"),
+    (["--matcher", "two_point", "--tolerance", "0.1"],
+     f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
+    (["--no-escalate", "--tolerance", "0.1"],
+     f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
+    (["--jobs", "2"], f"--jobs needs --out-dir: {FLEET_NEEDS}"),
+    (["--scheduler", "tcp://localhost:8786"], f"--scheduler needs --out-dir: {FLEET_NEEDS}"),
+    (["--split-lines", "5000"], f"--split-lines needs --out-dir: {FLEET_NEEDS}"),
+    (["--out-dir", "o", "--poses", "p.csv"],
+     f"--poses does not apply with {FLEET}: a fleet writes OUT/NAME.poses.csv for each trajectory"),
+    (["--out-dir", "o", "--events", "e.jsonl"],
+     f"--events does not apply with {FLEET}: a fleet writes OUT/NAME.events.jsonl for each trajectory"),
+    (["--out-dir", "o", "--cache"],
+     f"--cache does not apply with {FLEET}: a fleet does not save its terrain beside it (classify it first with "
+     "tankcd classify)"),
+    (["--cache"], "--cache does not apply to a store (--terrain {store}): it saves a terrain classified on the "
+                  "fly as a store"),
+    (["--up", "y"], "--up does not apply to a store (--terrain {store}): a store's terrain was turned z-up when it "
+                    "was classified"),
+    (["--png", "-"], "--poses and --png both go to standard output (-): give one of them a file"),
+    (["--poses", "p.parquet"], "Invalid value for '--poses': p.parquet: Parquet output is not supported yet; "
+                               "write .csv"),
+    (["--events", "e.Parquet"], "Invalid value for '--events': e.Parquet: Parquet output is not supported yet; "
+                                "write .jsonl"),
+])
+def test_options_that_cannot_apply_are_usage_errors(run, store, tmp_path, args, message):
+    (tmp_path / "t.csv").write_text(trajectory(n=3))
+    result = run("replay", "t.csv", "--terrain", store, *args)
+    assert result.exit_code == 2, result.stderr
+    assert result.stderr.endswith(f"Error: {message.format(store=store)}\n"), result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.csv"]
+
+
+def test_scene_options_that_cannot_apply_are_usage_errors(run, store, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory(n=3))
+    up = run("replay", "t.csv", "--scene", SAMPLE / "scene.toml", "--up", "y")
+    assert up.exit_code == 2
+    assert up.stderr.endswith("Error: --up does not apply with --scene: the scene's [terrain] up key decides\n")
+    (tmp_path / "s.toml").write_text(f'[terrain]\npath = "{store}"\n')
+    cache = run("replay", "t.csv", "--scene", "s.toml", "--cache")
+    assert cache.exit_code == 2
+    assert cache.stderr.endswith(f"Error: --cache does not apply to a store (the scene's terrain {store}): it saves "
+                                 "a terrain classified on the fly as a store\n")
+
+
+def test_the_options_work_with_what_they_need(run, store, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory(n=3))
+    result = run("replay", "t.csv", "--terrain", store, "--png", "m.png", "--png-colour", "matcher", "--poses",
+                 "p.csv", "--fail-on-collision", "--allow-off-terrain", "--escalate", "--matcher", "two_point",
+                 "--tolerance", "0.05")
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "m.png").exists() and (tmp_path / "p.csv").exists()
+
+
+def test_summary_prints_under_quiet(run, store):
+    result = run("-q", "replay", "-", "--terrain", store, "--summary", input=trajectory(n=3))
+    assert result.exit_code == 0
+    assert json.loads(result.stderr)["rows"] == 3
+
+
+def test_a_missing_terrain_store_is_no_such_file(run, tmp_path):
+    (tmp_path / "t.csv").write_text(trajectory(n=3))
+    result = run("replay", "t.csv", "--terrain", "missing.h5")
+    assert result.exit_code == 3
+    assert result.stderr == "tankcd: error: missing.h5: no such file\n"

@@ -211,3 +211,17 @@ def test_paths_that_start_touching_stop_at_zero_and_vehicles_without_drums_never
     assert not found.any() and np.isnan(s).all() and (drum == -1).all()
     found, _, _ = first_gun_contacts(t72, np.radians([90.0]), [0.0], np.radians([-6.0]), [0.0])  # no motion
     assert not found[0]
+
+
+def test_envelope_summary_of_a_vehicle_with_and_without_drums():
+    from tankcd_cli.collision.internal import envelope_summary
+
+    az = np.arange(0.0, 360.0, 1.0)
+    m1 = vehicle_preset("m1")
+    facts = envelope_summary(m1, elevation_envelope(m1, az), 1.0)
+    assert facts == {"fuel_drums": False, "gun_min_deg": -10.0, "limited_deg": 0.0, "blocked_deg": 0.0,
+                     "worst_deg": None}
+    t72 = vehicle_preset("t72")
+    facts = envelope_summary(t72, elevation_envelope(t72, az), 1.0)
+    assert facts["fuel_drums"] and facts["limited_deg"] == 37.0 and facts["blocked_deg"] == 0.0
+    assert t72.gun_min_deg < facts["worst_deg"] < 0
