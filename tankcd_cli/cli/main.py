@@ -98,6 +98,10 @@ class LazyGroup(click.Group):
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
+    ctx = click.get_current_context(silent=True)
+    reporter = ctx.find_object(Reporter) if ctx is not None else None
+    if reporter is not None and reporter.verbosity < 0:
+        return  # -q: errors only (under --strict a warning is one)
     text = message.one_line() if isinstance(message, SetupWarning) else f"{category.__name__}: {message}"
     if isinstance(message, SetupWarning) or issubclass(category, SetupWarning):
         click.echo(f"tankcd: warning: {text}", err=True)
@@ -144,7 +148,7 @@ def cli(ctx, verbose, quiet):
     """tankcd: place a tank on real terrain and tell when it collides.
 
     Data goes to stdout or to files, messages and progress to stderr; -q keeps
-    only warnings (likely set-up slips: --strict makes them errors) and errors,
+    only errors (set-up warnings too go unsaid: --strict makes them errors),
     before or after the command name.
     Exit codes: 0 done, 1 collision with --fail-on-collision, 2 usage error,
     3 bad input data, 4 internal error.

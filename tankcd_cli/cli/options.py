@@ -29,7 +29,7 @@ def output_option(help_text: str):
     return deco
 
 
-QUIET_HELP = "Only warnings and errors on stderr (no progress, no closing report line)."
+QUIET_HELP = "Only errors on stderr (no warnings, progress or closing report line; --strict still fails on a warning)."
 VERBOSE_HELP = "More detail on stderr (repeatable); tracebacks on errors."
 
 

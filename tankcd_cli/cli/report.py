@@ -9,7 +9,7 @@ import click
 
 
 class Reporter:
-    """verbosity: -1 quiet (warnings and errors only: those do not go through here), 0 normal, 1+ detail."""
+    """verbosity: -1 quiet (errors only: they do not go through here; warnings are dropped where they are shown), 0 normal, 1+ detail."""
 
     def __init__(self, verbosity: int = 0):
         self.verbosity = verbosity

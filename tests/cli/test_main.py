@@ -7,7 +7,7 @@ import pytest
 from tankcd_cli.cli.main import COMMANDS
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
-QUIET_HELP = "Only warnings and errors on stderr (no progress, no closing report line)."
+QUIET_HELP = "Only errors on stderr (no warnings, progress or closing report line; --strict still fails on a warning)."
 CONTRADICTION = "Error: -q/--quiet and -v/--verbose contradict each other: give one of them\n"
 
 
@@ -22,13 +22,13 @@ def test_every_help_states_the_quiet_rule(run, command):
     assert QUIET_HELP in _one_line(result.stdout)
 
 
-def test_group_help_says_quiet_keeps_warnings(run):
-    assert "-q keeps only warnings (likely set-up slips: --strict makes them errors) and errors" in \
+def test_group_help_says_quiet_keeps_only_errors(run):
+    assert "-q keeps only errors (set-up warnings too go unsaid: --strict makes them errors)" in \
         _one_line(run("--help").stdout)
 
 
 @pytest.mark.parametrize("where", ["before", "after"])
-def test_quiet_keeps_warnings_and_drops_the_report_line(run, where):
+def test_quiet_drops_warnings_and_the_report_line_but_strict_still_fails(run, where):
     # a closed object classified as a terrain: a set-up warning, then the closing report line
     args = ["classify", SAMPLE / "depot.obj", "-o", "d.h5"]
     loud = run(*args)
@@ -36,8 +36,9 @@ def test_quiet_keeps_warnings_and_drops_the_report_line(run, where):
     assert "tankcd: warning: " in loud.stderr and "classify: " in loud.stderr
     quiet = run(*(["-q"] + args if where == "before" else args + ["-q"]))
     assert quiet.exit_code == 0
-    warning = [line for line in loud.stderr.splitlines() if line.startswith("tankcd: warning: ")]
-    assert quiet.stderr.splitlines() == warning
+    assert quiet.stderr == ""
+    strict = run(*(["-q", "--strict"] + args if where == "before" else args + ["-q", "--strict"]))
+    assert strict.exit_code == 3 and strict.stderr.startswith("tankcd: error: ") and "(--strict)" in strict.stderr
 
 
 def test_quiet_keeps_errors(run):
