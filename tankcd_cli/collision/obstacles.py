@@ -187,8 +187,19 @@ def collide_obstacles(body: VehicleBody, obstacles: list[Obstacle], rotation: np
     part = {}  # (pose, obstacle) -> (part, point); counts summed beside
     count: dict = {}
     node_tests = tri_tests = broad = 0
+    # first the box no point of the vehicle leaves under any articulation: its radius about the origin
+    translation = np.asarray(translation, dtype=float)
+    reach = body.radius * (1 + 1e-9)
+    close = np.zeros(n, dtype=bool)
+    for ob in obstacles:
+        close |= ((translation - reach <= ob.hi) & (translation + reach >= ob.lo)).all(axis=1)
+    sel = np.flatnonzero(close)
+    if len(sel) == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return ObstacleHits(empty, empty, empty, np.zeros((0, 3)), empty, 0, 0, 0)
     for group in body.groups:
-        R, t = group_placements(body, group, rotation, translation, turret_rad, gun_rad)
+        R, t = group_placements(body, group, np.asarray(rotation)[sel], translation[sel], turret_rad[sel],
+                                gun_rad[sel])
         tree = group.tree
         # the group's world AABB at each pose: its root box moved (centre R c + t, half-widths |R| h)
         centre = 0.5 * (tree.lo[0, :3] + tree.hi[0, :3])
@@ -205,7 +216,7 @@ def collide_obstacles(body: VehicleBody, obstacles: list[Obstacle], rotation: np
             node_tests += int(res.node_tests.sum())
             tri_tests += int(res.tri_tests.sum())
             for k in np.flatnonzero(res.found > 0):
-                key = (int(near[k]), j)
+                key = (int(sel[near[k]]), j)
                 part.setdefault(key, (int(group.parts[res.pairs[k, 0, 0]]), res.points[k, 0]))
                 count[key] = count.get(key, 0) + int(res.found[k])
     keys = sorted(part)
@@ -236,10 +247,11 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
     gun0 by dturret, dgun (M,) rad at constant rates (``geometry.motion``; ``bvh.sweep`` for the
     method and its guarantees).
 
-    Broad phase per group and obstacle: the group's world box at the step's middle grown by half
-    its motion bound holds the group throughout the step (every point stays within half the
-    bound of where it is at the middle), so a step whose grown box misses the obstacle's box
-    costs that box test alone."""
+    Broad phase: first a box around the whole step (the hull origin's two places grown by the
+    vehicle's radius, which no point of it passes under any articulation), then per group and
+    obstacle the group's world box at the step's middle grown by half its motion bound, which
+    holds the group throughout the step (every point stays within half the bound of where it is
+    at the middle); a step whose boxes miss every obstacle's costs those box tests alone."""
     from tankcd_cli.bvh._sweep import chain_placements
     from tankcd_cli.bvh.sweep import first_contacts, motion_rows, static_rows
     from tankcd_cli.geometry.motion import rotation_angle
@@ -251,11 +263,22 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
     queries = 0
     if m == 0 or not obstacles:
         return _swept_hits(best_s, best_part, best_point, queries)
-    angles = (np.asarray(turret0, float), np.asarray(gun0, float))
-    changes = (np.asarray(dturret, float), np.asarray(dgun, float))
+    c0, c1 = np.asarray(c0, float), np.asarray(c1, float)
+    reach = body.radius * (1 + 1e-9)
+    lo = np.minimum(c0, c1) - reach
+    hi = np.maximum(c0, c1) + reach
+    close = np.zeros(m, dtype=bool)
+    for ob in obstacles:
+        close |= ((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1)
+    idx = np.flatnonzero(close)
+    if len(idx) == 0:
+        return _swept_hits(best_s, best_part, best_point, queries)
+    q0, q1, c0, c1 = np.asarray(q0, float)[idx], np.asarray(q1, float)[idx], c0[idx], c1[idx]
+    angles = (np.asarray(turret0, float)[idx], np.asarray(gun0, float)[idx])
+    changes = (np.asarray(dturret, float)[idx], np.asarray(dgun, float)[idx])
     theta = rotation_angle(q0, q1)
-    travel = np.linalg.norm(np.asarray(c1) - np.asarray(c0), axis=1)
-    half_s = np.full(m, 0.5)
+    travel = np.linalg.norm(c1 - c0, axis=1)
+    half_s = np.full(len(idx), 0.5)
     for group in body.groups:
         joints = body.joints(group.kind)
         rows, njoints = motion_rows(q0, c0, q1, c1, joints, angles[:group.kind], changes[:group.kind])
@@ -275,7 +298,7 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
             still, none = static_rows(len(near))
             got = first_contacts(tree, ob.tree, rows[near], njoints[near], still, none, rate[near])
             hit = np.flatnonzero(got.found)
-            k = near[hit]
+            k = idx[near[hit]]
             better = got.s[hit] < best_s[k, j]
             k, h = k[better], hit[better]
             best_s[k, j] = got.s[h]
