@@ -52,6 +52,46 @@ class TrajectoryPart:
     rows: int
 
 
+def lead_row(path: str, part: TrajectoryPart) -> TrajectoryChunk | None:
+    """The data row just before ``part`` (one row, with its step and line), or None for a part that
+    starts the file: the row a part's first interval of motion starts from."""
+    import io
+
+    if part.step_offset == 0:
+        return None
+    name, fh = open_input(path, text=False)
+    try:
+        header = b""
+        while not header.strip():
+            line = fh.readline()
+            if not line:
+                return None
+            header = line
+        body_start = fh.tell()
+        back = 4096
+        while True:  # the last line with content before the part's first byte
+            lo = max(body_start, part.start - back)
+            fh.seek(lo)
+            data = fh.read(part.start - lo)
+            lines = [ln for ln in data.split(b"\n") if ln.strip()]
+            if lines and (lo == body_start or len(lines) > 1):
+                break
+            if lo == body_start:
+                return None
+            back *= 4
+        last = lines[-1]
+        # the lines after it before the part (its own line break ends it: that is not one)
+        gap = data[data.rindex(last) + len(last):].count(b"\n") - 1
+        text = header.decode("utf-8-sig") + last.decode("utf-8") + "\n"
+    except UnicodeDecodeError:
+        raise InputError(name, "not UTF-8 text (a trajectory is a CSV file)") from None
+    finally:
+        fh.close()
+    line_before = part.line_offset - gap  # the lead row's own line in the whole file
+    chunks = list(_chunks(io.StringIO(text, newline=""), name, 1, part.step_offset - 1, line_before - 1))
+    return chunks[0] if chunks else None
+
+
 def read_trajectory(path: str, chunk_rows: int = 65536, part: TrajectoryPart | None = None) -> Iterator[TrajectoryChunk]:
     """Yield validated chunks of a trajectory CSV in file order (only ``part``'s rows, if given:
     steps and line numbers stay those of the whole file)."""
