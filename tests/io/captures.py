@@ -16,7 +16,30 @@ GUN_ELEVATION = 4416 + 13
 # -- DIS -----------------------------------------------------------------------------------------------
 def es_dis7(site, app, ent, location, orientation, velocity=(0.0, 0.0, 0.0), parts=(), marking="T72",
             timestamp=0, kind=(1, 1, 222, 1, 2, 3, 0)):
-    """An Entity State PDU serialized by opendis (DIS 7). ``parts``: (parameter type, float value)."""
+    """An Entity State PDU (DIS 7) serialized by opendis, or where opendis is not installed by
+    ``es_dis7_by_hand`` (the same bytes: test_dis checks). ``parts``: (parameter type, float value)."""
+    try:
+        import opendis  # noqa: F401
+    except ImportError:
+        return es_dis7_by_hand(site, app, ent, location, orientation, velocity, parts, marking, timestamp, kind)
+    return es_dis7_opendis(site, app, ent, location, orientation, velocity, parts, marking, timestamp, kind)
+
+
+def es_dis7_by_hand(site, app, ent, location, orientation, velocity=(0.0, 0.0, 0.0), parts=(), marking="T72",
+                    timestamp=0, kind=(1, 1, 222, 1, 2, 3, 0)):
+    """IEEE 1278.1-2012 7.2.2's Entity State PDU by hand (as es_dis7 fills it)."""
+    body = struct.pack(">HHHBB", site, app, ent, 0, len(parts)) + struct.pack(">BBHBBBB", *kind) + bytes(8)
+    body += struct.pack(">3f", *velocity) + struct.pack(">3d", *location) + struct.pack(">3f", *orientation)
+    body += struct.pack(">I", 0) + struct.pack(">B15s3f3f", 4, bytes(15), 0, 0, 0, 0, 0, 0)
+    body += struct.pack(">B11s", 1, marking.encode()) + struct.pack(">I", 0)
+    for ptype, value in parts:  # VariableParameter, record type 0: articulated part
+        body += struct.pack(">BBHIf4x", 0, 1, 0, ptype, value)
+    return struct.pack(">BBBBIHBB", 7, 1, 1, 1, timestamp, 12 + len(body), 0, 0) + body
+
+
+def es_dis7_opendis(site, app, ent, location, orientation, velocity=(0.0, 0.0, 0.0), parts=(), marking="T72",
+                    timestamp=0, kind=(1, 1, 222, 1, 2, 3, 0)):
+    """An Entity State PDU serialized by opendis (DIS 7)."""
     from io import BytesIO
 
     from opendis.DataOutputStream import DataOutputStream
