@@ -194,9 +194,7 @@ not read the articulated parts' values as the standard lays them out), in memory
 PDUs and 8 MiB reads, whatever the capture's size (opendis's figure includes the payloads it was handed).
 Target: at least 1,000,000 PDUs/s: {"met" if rate_ours >= 1e6 else "NOT met"}.
 """
-    from _report import save_report as _save
-
-    _save(text, args.out)
+    save_report(text, args.out)
 
 
 if __name__ == "__main__":

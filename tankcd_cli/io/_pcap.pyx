@@ -276,7 +276,8 @@ def walk_pcap(const uint8_t[::1] buf, Py_ssize_t pos, bint big, bint nanos, int 
                 first_sec[0] = sec
                 first_frac[0] = rd32(d + pos + 4, big) * scale
             status = _packet(d + pos + 16, caplen, link, packet, sec, rd32(d + pos + 4, big) * scale, pos + 16,
-                             &out_off[0], &out_pkt[0], &out_sec[0], &out_frac[0], &n_out, &counts[0], &types[0], &err[0])
+                             &out_off[0], &out_pkt[0], &out_sec[0], &out_frac[0], &n_out, &counts[0], &types[0],
+                             &err[0])
             if status != S_OK:
                 break
             pos += 16 + caplen
@@ -367,7 +368,8 @@ def walk_pcapng(const uint8_t[::1] buf, Py_ssize_t pos, bint big, int64_t packet
             packet += 1
             counts[C_PACKETS] += 1
             status = _packet(b + data, caplen, <int>if_link[ifid], packet, sec, frac, pos + data,
-                             &out_off[0], &out_pkt[0], &out_sec[0], &out_frac[0], &n_out, &counts[0], &types[0], &err[0])
+                             &out_off[0], &out_pkt[0], &out_sec[0], &out_frac[0], &n_out, &counts[0], &types[0],
+                             &err[0])
             if status != S_OK:
                 break
             pos += blen

@@ -31,7 +31,6 @@ pcapng interfaces each have their timestamp resolution (``if_tsresol``) and offs
 
 from __future__ import annotations
 
-import os
 import struct
 from dataclasses import dataclass, field
 from typing import Iterator
@@ -71,6 +70,7 @@ COUNT_NAMES = ("packets", "not_ip", "not_udp", "ipv6_extension", "fragments", "f
 PCAP_MAGIC = {b"\xd4\xc3\xb2\xa1": (False, False), b"\xa1\xb2\xc3\xd4": (True, False),   # microseconds
               b"\x4d\x3c\xb2\xa1": (False, True), b"\xa1\xb2\x3c\x4d": (True, True)}     # nanoseconds
 PCAPNG_SHB = b"\x0a\x0d\x0d\x0a"
+MAX_BLOCK = 1 << 26  # bytes: a pcapng block that is not a packet (a section header, interface, name or statistics)
 
 
 @dataclass
@@ -235,7 +235,8 @@ def _decode(buf, offsets, packet, t, float64_senders, source) -> EntityStates:
         version=version,
         entity_type=np.column_stack([rec[k] for k in ("kind", "domain", "country", "category", "subcategory",
                                                       "specific", "extra")]).astype(np.uint16).reshape(n, 7),
-        marking=rec["marking"].copy(), dr_algorithm=rec["dr_algorithm"].copy(), timestamp=rec["timestamp"].astype(np.uint32))
+        marking=rec["marking"].copy(), dr_algorithm=rec["dr_algorithm"].copy(),
+        timestamp=rec["timestamp"].astype(np.uint32))
 
 
 def _check_states(location, orientation, packet, source) -> None:
@@ -416,7 +417,7 @@ class DisCapture:
                     section_big = bom == b"\x1a\x2b\x3c\x4d"
                 fmt = ">I" if section_big else "<I"
                 blen = struct.unpack_from(fmt, arr, pos + 4)[0]
-                if blen < 12 or blen % 4:
+                if blen < 12 or blen % 4 or blen > MAX_BLOCK:
                     raise InputError(self.path, f"corrupt pcapng: a block of length {blen}", where=f"byte {at}")
                 if have >= blen:
                     code = struct.unpack(fmt, btype)[0]

@@ -208,7 +208,8 @@ def to_terrain_crs(lon_deg, lat_deg, crs_wkt: str, *, heading=None, enu_yaw=None
 def meridian_convergence(lon_deg, lat_deg, crs_wkt: str, source: str | None = None) -> np.ndarray:
     """The convergence (rad) at each point: ``grid_yaw - enu_yaw`` (positive where true north lies
     counter-clockwise of grid north), measured as in :func:`grid_yaw` for a true heading of north."""
-    return wrap_angle(grid_yaw(lon_deg, lat_deg, crs_wkt, heading=np.zeros(np.shape(lon_deg)), source=source) - np.pi / 2)
+    north = grid_yaw(lon_deg, lat_deg, crs_wkt, heading=np.zeros(np.shape(lon_deg)), source=source)
+    return wrap_angle(north - np.pi / 2)
 
 
 def dis_to_terrain(location_ecef: np.ndarray, orientation: np.ndarray, crs_wkt: str, source: str | None = None):

@@ -240,7 +240,8 @@ class _Points:
         lon = np.frombuffer(self.lon, np.float64).copy()
         lat = np.frombuffer(self.lat, np.float64).copy()
         t = (micros - micros[0]) / 1e6
-        start = datetime.fromtimestamp(micros[0] // 1_000_000, timezone.utc).replace(microsecond=int(micros[0] % 1_000_000))
+        start = datetime.fromtimestamp(micros[0] // 1_000_000, timezone.utc).replace(
+            microsecond=int(micros[0] % 1_000_000))
         return GpxTrack(track=track, track_names=list(self.track_names), segment=segment, piece=piece, lon=lon,
                         lat=lat, ele=np.frombuffer(self.ele, np.float64).copy(), t=t,
                         heading=track_headings(lon, lat, piece), line=line, start=start)

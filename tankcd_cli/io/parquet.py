@@ -113,8 +113,9 @@ class ParquetTableWriter:
     :class:`Coded` (for ``dict`` columns); a column left out is all null. ``close()`` completes the
     file (renamed onto ``target``); ``abort()`` (or leaving a ``with`` block by an exception)
     removes it. Compression zstd (level 1); float columns byte-stream-split (their bytes grouped by
-    place, which zstd compresses far better for smooth numbers), int64 columns delta-packed; min/max statistics for the columns named
-    in ``statistics`` (None: all), which readers use to skip row groups.
+    place, which zstd compresses far better for smooth numbers), int64 columns delta-packed; min/max
+    statistics for the columns named in ``statistics`` (None: all), which readers use to skip row
+    groups.
     """
 
     def __init__(self, target: str, schema: Sequence[tuple[str, str]], metadata: dict | None = None,

@@ -312,3 +312,34 @@ def test_decode_entity_states_on_a_buffer_and_entity_text():
     assert states.entity.tolist() == ["1:2:3", "65535:0:7"] and states.packet.tolist() == [1, 2]
     assert states.turret_azimuth[0] == 0.5 and states.marking.tolist() == [b"T72", b"BMP"]
     assert entity_text(np.zeros((0, 3))).shape == (0,)
+
+
+def test_corrupted_and_cut_captures_give_input_errors_only(tmp_path):
+    """Bytes flipped and files cut anywhere: the reader decodes or says InputError, never anything else
+    (the framing pass reads untrusted lengths)."""
+    rows = exercise()[:30]
+    frames = [(T0 + t, C.ethernet(C.ipv4(C.udp(pdu + (C.other_pdu() if k % 3 else b""))))) for k, (t, _, pdu, _) in
+              enumerate(rows)]
+    good = [C.pcap(frames), C.pcap(frames, big=True, nanos=True),
+            C.pcapng([(1, None, 0), (101, 9, 0)], [(k % 2, int((T0 + t) * (1e6 if k % 2 == 0 else 1e9)),
+                                                   f if k % 2 == 0 else f[14:]) for k, (t, f) in enumerate(frames)])]
+    rng = np.random.default_rng(12)
+    outcomes = {"ok": 0, "error": 0}
+    for data in good:
+        for trial in range(150):
+            bad = bytearray(data)
+            if trial % 3 == 0:
+                bad = bad[:rng.integers(0, len(bad))]
+            else:
+                for at in rng.integers(0, len(bad), rng.integers(1, 6)):
+                    bad[at] = rng.integers(0, 256)
+            path = _write(tmp_path, bytes(bad), "f.pcapng" if data is good[2] else "f.pcap")
+            try:
+                capture = DisCapture(path, block_pdus=8, chunk_bytes=512)
+                capture.chunk_bytes = 512
+                for block in capture.blocks():
+                    assert len(block) <= 8
+                outcomes["ok"] += 1
+            except InputError:
+                outcomes["error"] += 1
+    assert outcomes["ok"] > 50 and outcomes["error"] > 50
