@@ -515,3 +515,33 @@ def read_capture(path: str) -> tuple[EntityStates, CaptureCounts]:
     capture = DisCapture(path)
     states = capture.read()
     return states, capture.counts
+
+
+def articulation_angles(turret_azimuth, gun_elevation) -> tuple[np.ndarray, np.ndarray]:
+    """DIS articulated-part angles (rad) -> the contract's turret and gun angles (rad).
+
+    DIS turns articulated parts by the right-hand rule in the entity's frame (x forward, y right,
+    z down): a positive azimuth about z (down) turns the gun from forward toward the right,
+    clockwise seen from above; a positive elevation about y (right) turns it from forward toward
+    -z, up. The contract's turret azimuth turns counter-clockwise about the hull's +z (up), its
+    gun elevation raises the muzzle: turret = -azimuth (to (-pi, pi]), gun = elevation. NaN stays NaN.
+    """
+    turret = -np.asarray(turret_azimuth, dtype=np.float64)
+    turret = np.pi - np.mod(np.pi - turret, 2 * np.pi)
+    return turret, np.asarray(gun_elevation, dtype=np.float64).copy()
+
+
+def trajectory_columns(states: EntityStates, crs_wkt: str, source: str | None = None) -> dict:
+    """Entity states -> the trajectory CSV's columns in the terrain's CRS (a dict of (N,) arrays, rows in
+    capture order): ``t`` (s), ``entity`` (str), ``x``, ``y`` (m), ``yaw_deg`` (from grid east, the
+    convergence applied), ``turret_deg``, ``gun_deg`` (NaN where a PDU had no such part), and for
+    inspection ``h`` (m above the ellipsoid), ``pitch_deg``, ``roll_deg`` (REP 103, about the local
+    level), ``lon``, ``lat`` (deg), ``packet``. A terrain without a CRS: InputError naming ``source``."""
+    from tankcd_cli.io.geodesy import dis_to_terrain
+
+    frame = dis_to_terrain(states.location, states.orientation, crs_wkt, source=source)
+    turret, gun = articulation_angles(states.turret_azimuth, states.gun_elevation)
+    return {"t": states.t, "entity": states.entity, "x": frame["x"], "y": frame["y"],
+            "yaw_deg": np.degrees(frame["grid_yaw"]), "turret_deg": np.degrees(turret), "gun_deg": np.degrees(gun),
+            "h": frame["h"], "pitch_deg": np.degrees(frame["pitch"]), "roll_deg": np.degrees(frame["roll"]),
+            "lon": frame["lon"], "lat": frame["lat"], "packet": states.packet}

@@ -343,3 +343,36 @@ def test_corrupted_and_cut_captures_give_input_errors_only(tmp_path):
             except InputError:
                 outcomes["error"] += 1
     assert outcomes["ok"] > 50 and outcomes["error"] > 50
+
+
+def test_trajectory_columns_in_a_utm_zone(tmp_path):
+    """An entity at a known place, attitude and turret: the columns a trajectory CSV takes."""
+    pyproj = pytest.importorskip("pyproj")
+    from tankcd_cli.io.dis import articulation_angles, trajectory_columns
+    from tankcd_cli.io.geodesy import dis_body_to_ecef, enu_basis
+
+    lon, lat = 17.5, 48.2  # UTM 33N, 2.5 deg east of the central meridian
+    yaw = np.radians(30.0)  # ENU yaw: 30 deg north of true east
+    # the DIS body frame (x fwd, y right, z down) of a level vehicle with that yaw, in ECEF
+    enu = np.array([[np.cos(yaw), np.sin(yaw), 0], [np.sin(yaw), -np.cos(yaw), 0], [0, 0, -1]]).T
+    body = enu_basis([lon], [lat])[0].T @ enu
+    psi, theta, phi = np.arctan2(body[1, 0], body[0, 0]), -np.arcsin(body[2, 0]), np.arctan2(body[2, 1], body[2, 2])
+    assert np.allclose(dis_body_to_ecef(psi, theta, phi)[0], body)
+    pdu = C.es_dis7(1, 2, 3, ecef(lon, lat, 200.0), (psi, theta, phi),
+                    parts=[(C.TURRET_AZIMUTH, 0.5), (C.GUN_ELEVATION, 0.1)])
+    states, _ = read_capture(_write(tmp_path, C.pcap([(T0, C.ethernet(C.ipv4(C.udp(pdu))))])))
+    wkt = pyproj.CRS.from_epsg(32633).to_wkt()
+    cols = trajectory_columns(states, wkt, source="c.pcap")
+    x, y = pyproj.Transformer.from_crs("EPSG:4326", wkt, always_xy=True).transform(lon, lat)
+    assert cols["x"][0] == pytest.approx(x, abs=1e-3) and cols["y"][0] == pytest.approx(y, abs=1e-3)
+    conv = pyproj.Proj(pyproj.CRS.from_epsg(32633)).get_factors(lon, lat).meridian_convergence
+    assert cols["yaw_deg"][0] == pytest.approx(30.0 + conv, abs=1e-4)  # float32 angles in the PDU
+    assert cols["turret_deg"][0] == pytest.approx(-np.degrees(float(np.float32(0.5))), abs=1e-9)
+    assert cols["gun_deg"][0] == pytest.approx(np.degrees(float(np.float32(0.1))), abs=1e-9)
+    assert abs(cols["pitch_deg"][0]) < 1e-4 and abs(cols["roll_deg"][0]) < 1e-4
+    assert cols["h"][0] == pytest.approx(200.0, abs=1e-3) and cols["entity"].tolist() == ["1:2:3"]
+    with pytest.raises(InputError, match="c.pcap: geographic input needs a terrain with a CRS"):
+        trajectory_columns(states, "", source="c.pcap")
+    turret, gun = articulation_angles([np.pi / 2, -3.0, np.nan], [0.1, 0.0, np.nan])
+    np.testing.assert_allclose(turret[:2], [-np.pi / 2, 3.0])
+    assert np.isnan(turret[2]) and np.isnan(gun[2])
