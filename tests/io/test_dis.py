@@ -376,3 +376,12 @@ def test_trajectory_columns_in_a_utm_zone(tmp_path):
     turret, gun = articulation_angles([np.pi / 2, -3.0, np.nan], [0.1, 0.0, np.nan])
     np.testing.assert_allclose(turret[:2], [-np.pi / 2, 3.0])
     assert np.isnan(turret[2]) and np.isnan(gun[2])
+
+
+def test_dis_5_is_decoded_and_dis_4_counted(tmp_path):
+    loc = ecef(10, 50)
+    v5 = C.es_dis6(1, 1, 5, loc, (0.5, 0, 0), version=5)
+    v4 = C.es_dis6(1, 1, 4, loc, (0.5, 0, 0), version=4)
+    states, counts = read_capture(_write(tmp_path, C.pcap([(T0, C.ethernet(C.ipv4(C.udp(v5 + v4))))])))
+    assert states.entity.tolist() == ["1:1:5"] and states.version.tolist() == [5]
+    assert counts.entity_states_v4 == 1 and counts.skipped() == {"entity_states_v4": 1}
