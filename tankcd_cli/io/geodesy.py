@@ -95,6 +95,11 @@ def ecef_to_enu_vectors(v: np.ndarray, lon_deg, lat_deg) -> np.ndarray:
     return np.einsum("nij,nj->ni", enu_basis(lon_deg, lat_deg), np.asarray(v, dtype=np.float64).reshape(-1, 3))
 
 
+def enu_to_ecef_vectors(v: np.ndarray, lon_deg, lat_deg) -> np.ndarray:
+    """Vectors (N, 3) in local ENU axes at each (lon, lat) -> the same in ECEF axes."""
+    return np.einsum("nji,nj->ni", enu_basis(lon_deg, lat_deg), np.asarray(v, dtype=np.float64).reshape(-1, 3))
+
+
 # -- orientations --------------------------------------------------------------------------------------
 def _rz(a):
     c, s, o, z = np.cos(a), np.sin(a), np.ones_like(a), np.zeros_like(a)

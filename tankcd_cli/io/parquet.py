@@ -20,6 +20,7 @@ import contextlib
 import hashlib
 import json
 import math
+import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
@@ -146,7 +147,7 @@ class ParquetTableWriter:
                                             column_encoding=encoding or None,
                                             write_statistics=True if statistics is None else list(statistics))
         except BaseException:
-            self._stack.__exit__(*__import__("sys").exc_info())
+            self._stack.__exit__(*sys.exc_info())
             raise
 
     def write(self, columns: dict) -> None:
@@ -212,7 +213,7 @@ class ParquetTableWriter:
         try:
             writer.close()
         except BaseException:
-            self._stack.__exit__(*__import__("sys").exc_info())
+            self._stack.__exit__(*sys.exc_info())
             raise
         self._stack.close()
 

@@ -48,6 +48,10 @@ def test_enu_basis_is_orthonormal_and_up_is_the_ellipsoid_normal():
     np.testing.assert_allclose(r[:, 2], up, atol=1e-8)
     north = G.geodetic_to_ecef(lon, lat + 1e-6, h) - G.geodetic_to_ecef(lon, lat - 1e-6, h)
     np.testing.assert_allclose(r[4:, 1], north[4:] / np.linalg.norm(north[4:], axis=1)[:, None], atol=1e-8)
+    v = np.random.default_rng(5).normal(size=(len(lon), 3))
+    enu = G.ecef_to_enu_vectors(v, lon, lat)
+    np.testing.assert_allclose(enu[:, 2], np.einsum("ij,ij->i", v, up), atol=1e-8)  # up component: along the normal
+    np.testing.assert_allclose(G.enu_to_ecef_vectors(enu, lon, lat), v, atol=1e-12)
 
 
 # (EPSG, longitude of the central meridian): UTM zones in both hemispheres
