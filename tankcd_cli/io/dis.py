@@ -20,13 +20,20 @@ first 4 bytes of the 8-byte value field (4 bytes of padding after). DIS 6 and 5
 senders write either a float32 with 4 zero bytes after it (the SISO enumerations' layout, as
 DIS 7) or a float64 (Open-DIS's DIS 6 classes and Wireshark read it so). Here a DIS 6 value
 whose last 4 bytes are zero is a float32, any other a float64, and once a sender (site,
-application) has shown a float64 value, all its values are read as float64 (a float64 of a
-round value, 0.5 rad say, has 4 zero bytes too).
+application) has shown a float64 value, its values are read as float64 from then on (from the
+start of that block: a float64 of a round value, 0.5 rad say, has 4 zero bytes too).
 
 Times: ``t`` counts seconds from the first packet of the capture (whatever it holds), from
 the integer timestamps (whole seconds and the fraction apart: no precision lost to the epoch).
 pcapng interfaces each have their timestamp resolution (``if_tsresol``) and offset
 (``if_tsoffset``); a simple packet block has no timestamp and takes the one before it.
+
+For a replay: rows come in capture order, the entities interleaved as their PDUs arrived. A
+capture's times normally rise, but a pcapng merged from several interfaces, or a capture
+tool's buffering, can put a packet a little before the one ahead of it: an entity's ``t``
+may then go back. The sender's dead-reckoning algorithm (``dr_algorithm``) and velocity come
+along; between two updates the contract's motion (both ends known) is used, not the sender's
+extrapolation from the first.
 """
 
 from __future__ import annotations
