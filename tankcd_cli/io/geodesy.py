@@ -14,8 +14,8 @@ Conventions (docs: interface.md "Frames, units, signs"):
   central meridian of a transverse Mercator zone in the northern hemisphere, west of it in the
   southern). It is pyproj's ``Factors.meridian_convergence`` (degrees) with this sign, which the
   tests prove against steps through pyproj's transforms and ``Geod.inv``. Here it is not taken
-  from a formula: the grid direction is measured, a central difference over the geodesic
-  through the point along the heading (+-0.5 m): exact for any projection, conformal or not;
+  from a formula: the grid direction is measured, a central difference through the CRS along
+  the heading (+-0.5 m, see ``grid_yaw``): exact for any projection, conformal or not;
 - DIS orientation (IEEE 1278.1 1.3.2 / 6.2.33): Euler angles psi, theta, phi turning the ECEF axes
   into the body's (x forward, y right, z down) by z, then the new y, then the new x:
   R_body->ECEF = Rz(psi) Ry(theta) Rx(phi);
@@ -124,12 +124,30 @@ def dis_body_to_ecef(psi, theta, phi) -> np.ndarray:
 
 def dis_orientation_to_enu(psi, theta, phi, lon_deg, lat_deg) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """DIS orientation (N,) rad at (lon, lat) (N,) deg -> the local ENU attitude (yaw, pitch, roll) (N,)
-    rad in REP 103: yaw counter-clockwise from local (true) east."""
-    r = enu_basis(lon_deg, lat_deg) @ dis_body_to_ecef(psi, theta, phi)  # body (x fwd, y right, z down) -> ENU
-    r = r * np.array([1.0, -1.0, -1.0])  # columns y, z flipped: REP 103's x forward, y left, z up
-    yaw = np.arctan2(r[:, 1, 0], r[:, 0, 0])
-    pitch = -np.arcsin(np.clip(r[:, 2, 0], -1.0, 1.0))
-    roll = np.arctan2(r[:, 2, 1], r[:, 2, 2])
+    rad in REP 103: yaw counter-clockwise from local (true) east.
+
+    R = E B with B = Rz(psi) Ry(theta) Rx(phi) (body -> ECEF) and E the ENU rows (ECEF -> ENU);
+    REP 103's frame is B's with y and z flipped. Only the entries the angles need are formed:
+    the body's x axis in ENU (yaw, pitch) and the up components of its y and z axes (roll)."""
+    psi, theta, phi = (np.asarray(a, dtype=np.float64) for a in (psi, theta, phi))
+    lon, lat = np.radians(lon_deg), np.radians(lat_deg)
+    cs, ss, ct, st, cf, sf = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta), np.cos(phi), np.sin(phi)
+    co, so, ca, sa = np.cos(lon), np.sin(lon), np.cos(lat), np.sin(lat)
+    # the body's axes in ECEF: the columns of B
+    bx = (cs * ct, ss * ct, -st)
+    by = (cs * st * sf - ss * cf, ss * st * sf + cs * cf, ct * sf)
+    bz = (cs * st * cf + ss * sf, ss * st * cf - cs * sf, ct * cf)
+    east = (-so, co, 0.0)
+    north = (-sa * co, -sa * so, ca)
+    up = (ca * co, ca * so, sa)
+
+    def dot(a, b):
+        return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+    fwd_e, fwd_n, fwd_u = dot(east, bx), dot(north, bx), dot(up, bx)
+    yaw = np.arctan2(fwd_n, fwd_e)
+    pitch = -np.arcsin(np.clip(fwd_u, -1.0, 1.0))
+    roll = np.arctan2(-dot(up, by), -dot(up, bz))  # REP 103's y (left) = -body y, z (up) = -body z
     return yaw, pitch, roll
 
 
@@ -176,23 +194,27 @@ def grid_yaw(lon_deg, lat_deg, crs_wkt: str, *, heading=None, enu_yaw=None, sour
              step: float = 0.5) -> np.ndarray:
     """The direction in the projected CRS (counter-clockwise from grid east, rad) of a true ``heading``
     (clockwise from true north, rad) or a local ``enu_yaw`` (counter-clockwise from true east, rad) at
-    each (lon, lat) (N,) deg: the chord between the points ``step`` m behind and ahead along the
-    geodesic through the point (a central difference: its error is of order step^2 times the
-    derivative of the image's curvature, far below 1e-9 rad)."""
+    each (lon, lat) (N,) deg.
+
+    Measured through the CRS: the points ``step`` m behind and ahead of each point along a curve
+    leaving it at that azimuth (dlat = s cos(az) / M, dlon = s sin(az) / (N cos(lat)), M and N the
+    ellipsoid's radii of curvature) are projected, and the chord between them is the direction.
+    The curve's tangent is the geodesic's, so this central difference gives the projected
+    tangent with an error of order step^2 (far below 1e-9 rad), for any projection."""
     if (heading is None) == (enu_yaw is None):
         raise TypeError("give heading or enu_yaw")
-    from pyproj import Geod
-
     lon = np.asarray(lon_deg, dtype=np.float64)
     lat = np.asarray(lat_deg, dtype=np.float64)
-    az = np.degrees(np.asarray(heading, dtype=np.float64) if heading is not None else enu_yaw_to_heading(enu_yaw))
+    az = np.asarray(heading, dtype=np.float64) if heading is not None else enu_yaw_to_heading(enu_yaw)
     lon, lat, az = np.broadcast_arrays(lon, lat, az)
-    geod = Geod(ellps="WGS84")
-    d = np.full(lon.shape, float(step))
-    lon1, lat1, _ = geod.fwd(lon, lat, az, d)
-    lon0, lat0, _ = geod.fwd(lon, lat, az + 180.0, d)
-    x1, y1 = project(lon1, lat1, crs_wkt, source)
-    x0, y0 = project(lon0, lat0, crs_wkt, source)
+    phi = np.radians(lat)
+    w2 = 1 - E2 * np.sin(phi) ** 2
+    n = A / np.sqrt(w2)  # prime vertical radius of curvature
+    m = A * (1 - E2) / (w2 * np.sqrt(w2))  # meridional
+    dlat = np.degrees(step * np.cos(az) / m)
+    dlon = np.degrees(step * np.sin(az) / (n * np.cos(phi)))
+    x1, y1 = project(lon + dlon, lat + dlat, crs_wkt, source)
+    x0, y0 = project(lon - dlon, lat - dlat, crs_wkt, source)
     return np.arctan2(y1 - y0, x1 - x0)
 
 
