@@ -116,12 +116,14 @@ class ParquetTableWriter:
     removes it. Compression zstd (level 1); float columns byte-stream-split (their bytes grouped by
     place, which zstd compresses far better for smooth numbers), int64 columns delta-packed; min/max
     statistics for the columns named in ``statistics`` (None: all), which readers use to skip row
-    groups.
+    groups. ``threaded``: each row group is encoded and written by a thread of its own while the
+    caller goes on (pyarrow lets go of the GIL meanwhile), one at a time: at most two batches are
+    held; an error there is raised by the next ``write`` or by ``close``.
     """
 
     def __init__(self, target: str, schema: Sequence[tuple[str, str]], metadata: dict | None = None,
                  compression: str = "zstd", compression_level: int | None = 1,
-                 statistics: Sequence[str] | None = None):
+                 statistics: Sequence[str] | None = None, threaded: bool = False):
         pa, pq = pyarrow_modules()
         from tankcd_cli.io.atomic import atomic_path
 
@@ -134,6 +136,8 @@ class ParquetTableWriter:
         fields = [pa.field(name, _arrow_type(pa, kind)) for name, kind in schema]
         self.schema = pa.schema(fields, metadata={str(k): str(v) for k, v in (metadata or {}).items()})
         self.rows = 0
+        self._pool = None
+        self._pending = None
         self._stack = contextlib.ExitStack()
         tmp = self._stack.enter_context(atomic_path(target, ".parquet"))
         # encodings: floats byte-stream-split, 64-bit integers (steps: rising) delta-packed, text dictionaries
@@ -149,6 +153,10 @@ class ParquetTableWriter:
         except BaseException:
             self._stack.__exit__(*sys.exc_info())
             raise
+        if threaded:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="tankcd-parquet")
 
     def write(self, columns: dict) -> None:
         """One batch: a row group of the columns given (all of one length)."""
@@ -162,8 +170,19 @@ class ParquetTableWriter:
             raise ValueError(f"columns not in the schema: {sorted(unknown)}")
         n = lengths.pop() if lengths else 0
         arrays = [self._array(name, kind, columns.get(name), n) for name, kind in self.kinds.items()]
-        self._writer.write_table(pa.Table.from_arrays(arrays, schema=self.schema))
+        table = pa.Table.from_arrays(arrays, schema=self.schema)
+        if self._pool is None:
+            self._writer.write_table(table)
+        else:
+            self._wait()
+            self._pending = self._pool.submit(self._writer.write_table, table)
         self.rows += n
+
+    def _wait(self) -> None:
+        """The row group being written (threaded) is written; its error, if any, raised here."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
 
     def _array(self, name, kind, values, n):
         pa = self._pa
@@ -209,6 +228,12 @@ class ParquetTableWriter:
         """Complete the file: it appears at ``target``."""
         if self._writer is None:
             return
+        try:
+            self._wait()
+        except BaseException:
+            self.abort(sys.exc_info())
+            raise
+        self._stop_pool()
         writer, self._writer = self._writer, None
         try:
             writer.close()
@@ -217,10 +242,18 @@ class ParquetTableWriter:
             raise
         self._stack.close()
 
+    def _stop_pool(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
     def abort(self, exc_info=None) -> None:
         """Give up: nothing is left at ``target`` (or beside it)."""
         if self._writer is None:
             return
+        with contextlib.suppress(BaseException):
+            self._wait()
+        self._stop_pool()
         writer, self._writer = self._writer, None
         with contextlib.suppress(Exception):
             writer.close()
@@ -290,11 +323,12 @@ def pose_columns(step, t, poses, matcher_names, status_names, entity=None) -> di
 class PosesParquetWriter(ParquetTableWriter):
     """The poses as Parquet: ``write_chunk(step, t, poses, matcher_names, status_names, entity=None)``
     as ``poses_csv.format_rows`` takes them (see :func:`pose_columns`); ``entity`` (bool) when the rows
-    carry an entity column (a (N,) str array per chunk)."""
+    carry an entity column (a (N,) str array per chunk). Threaded by default (``threaded=False`` not)."""
 
     def __init__(self, target: str, metadata: dict | None = None, entity: bool = False, **kw):
         # statistics for the columns queries select rows by (the others' cost a third of the writing)
         kw.setdefault("statistics", ("step", "t", "entity") if entity else ("step", "t"))
+        kw.setdefault("threaded", True)  # the encoding overlaps the replay's next chunk
         super().__init__(target, pose_schema(entity), metadata, **kw)
 
     def write_chunk(self, step, t, poses, matcher_names, status_names, entity=None) -> None:

@@ -209,3 +209,25 @@ def test_without_pyarrow_one_line_names_the_extra(tmp_path, monkeypatch):
     assert str(info.value) == "Parquet output needs pyarrow: pip install 'tankcd[parquet]'" == P.PYARROW_MISSING
     assert os.listdir(tmp_path) == []
     assert P.is_parquet("out/P.PARQUET") and not P.is_parquet("p.csv") and not P.is_parquet(None)
+
+
+def test_threaded_writing_gives_the_same_file_and_its_errors(tmp_path, monkeypatch):
+    plain, threaded = str(tmp_path / "a.parquet"), str(tmp_path / "b.parquet")
+    for target, flag in ((plain, False), (threaded, True)):
+        with P.PosesParquetWriter(target, threaded=flag) as w:
+            for step, t, p in _chunks():
+                w.write_chunk(step, t, p, PLACED_BY, STATUS)
+        assert w.rows == 3000
+    assert pq.read_table(threaded).equals(pq.read_table(plain))
+    assert pq.ParquetFile(threaded).num_row_groups == 3
+    # an error while a row group is written in the thread: raised by close, nothing left behind
+    w = P.ParquetTableWriter(str(tmp_path / "c.parquet"), [("a", "int64")], threaded=True)
+
+    def fail(table):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(w._writer, "write_table", fail)
+    w.write({"a": np.arange(5)})
+    with pytest.raises(OSError, match="No space left"):
+        w.close()
+    assert sorted(os.listdir(tmp_path)) == ["a.parquet", "b.parquet"]
