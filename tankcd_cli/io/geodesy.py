@@ -212,7 +212,8 @@ def grid_yaw(lon_deg, lat_deg, crs_wkt: str, *, heading=None, enu_yaw=None, sour
     n = A / np.sqrt(w2)  # prime vertical radius of curvature
     m = A * (1 - E2) / (w2 * np.sqrt(w2))  # meridional
     dlat = np.degrees(step * np.cos(az) / m)
-    dlon = np.degrees(step * np.sin(az) / (n * np.cos(phi)))
+    with np.errstate(divide="ignore", invalid="ignore"):  # a pole has no heading: NaN there
+        dlon = np.degrees(step * np.sin(az) / (n * np.cos(phi)))
     x1, y1 = project(lon + dlon, lat + dlat, crs_wkt, source)
     x0, y0 = project(lon - dlon, lat - dlat, crs_wkt, source)
     return np.arctan2(y1 - y0, x1 - x0)
