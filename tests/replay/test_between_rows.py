@@ -112,3 +112,92 @@ def test_the_hull_bottom_scrapes_over_a_mound_between_the_tracks(run, tmp_path):
     # the hull's front edge reaches the mound's first posts after about (49 - 3.43 - 40) / 20 of the second
     assert (49 - 3.43 - 1 - 40) / 20 <= terrain[0]["t"] <= (51 + 3.43 - 40) / 20
     assert summary["motion"]["substep_travel_m"] == 0.5 and summary["motion"]["substeps"] == 39
+
+
+# --- hard cases ---------------------------------------------------------------------------------
+
+def _wall_scene(tmp_path, lo, hi, vehicle=None):
+    _flat(tmp_path)
+    return _scene(tmp_path, [("wall", lo, hi)], vehicle if vehicle is not None else _hull_mesh(tmp_path))
+
+
+@pytest.mark.parametrize("yaw0,yaw1,hit", [(170, -170, True), (-170, 170, True), (10, -10, False)])
+def test_the_heading_wraps_the_short_way(run, tmp_path, yaw0, yaw1, hit):
+    # a thin post due west, 5.9 m out: only the gun (its muzzle 6.1 m ahead, turret forward) reaches
+    # it, and only heading west: turning 170 -> -170 goes through 180 (20 deg), not round by east
+    cx, cy = 60.0, 30.0
+    _wall_scene(tmp_path, [cx - 5.92, cy - 0.02, 95.0], [cx - 5.88, cy + 0.02, 105.0], vehicle="")
+    _, events, summary = _replay(run, tmp_path, f"t,x,y,yaw_deg\n0,{cx},{cy},{yaw0}\n1,{cx},{cy},{yaw1}\n")
+    between = [(e["a"], e["between"]) for e in events if e["kind"] == "obstacle"]
+    assert between == ([("gun", True)] if hit else [])
+    assert summary["motion"]["substeps"] == 19  # 20 deg of turn at 1 deg
+
+
+def test_a_half_turn_goes_counter_clockwise(run, tmp_path):
+    # the turret from 0 to 180 exactly: counter-clockwise, the gun over the left side, into a wall there
+    _wall_scene(tmp_path, [40.0, 34.0, 95.0], [80.0, 34.3, 105.0], vehicle="")
+    rows = "t,x,y,yaw_deg,turret_deg,gun_deg\n0,60,30,0,0,0\n1,60,30,0,180,0\n"
+    _, events, _ = _replay(run, tmp_path, rows)
+    assert [(e["a"], e["b"], e["between"]) for e in events if e["kind"] == "obstacle"] == [("gun", "wall", True)]
+    # the same half turn, started from -180 (the same angle), still turns counter-clockwise: over the right side
+    _, events, _ = _replay(run, tmp_path, rows.replace(",0,0,0\n1", ",0,-180,0\n1").replace(",180,0\n", ",0,0\n"))
+    assert [e for e in events if e["kind"] == "obstacle"] == []
+
+
+def test_rows_at_the_same_time_have_no_motion_between_them(run, tmp_path):
+    _wall_scene(tmp_path, [50.0, 10.0, 95.0], [50.2, 50.0, 105.0])
+    result, events, summary = _replay(run, tmp_path, "t,x,y,yaw_deg\n0,40,30,0\n0,60,30,0\n")
+    assert events == [] and summary["motion"]["intervals"] == 0
+    assert "same t" in result.stderr  # the jump itself is a warning
+
+
+@pytest.mark.parametrize("gap,hit", [(0.0015, False), (0.0005, None), (-0.001, True)])
+def test_a_near_miss_beside_a_wall(run, tmp_path, gap, hit):
+    # the hull's left side (y = 30 + 1.73) drives along a wall whose face is gap beyond it
+    face = 30.0 + 1.73 + gap
+    _wall_scene(tmp_path, [30.0, face, 95.0], [90.0, face + 0.3, 105.0])
+    _, events, _ = _replay(run, tmp_path, "t,x,y,yaw_deg\n0,40,30,0\n1,41,30,0\n", "--discrete")
+    at_rows = [e for e in events if e["kind"] == "obstacle"]
+    _, events, _ = _replay(run, tmp_path, "t,x,y,yaw_deg\n0,40,30,0\n1,41,30,0\n")
+    obstacle = [e for e in events if e["kind"] == "obstacle"]
+    if hit is False:
+        assert obstacle == []  # 1.5 mm clear all along: no event
+    elif hit is True:
+        # touching at both rows: reported at the rows, not again between them
+        assert at_rows and obstacle == at_rows and not any(e.get("between") for e in obstacle)
+    # 0.5 mm: either answer is right (a pass within 1 mm may count)
+
+
+def test_a_contact_across_a_chunk_boundary_is_reported_once(tmp_path):
+    from tankcd_cli.io.trajectory import read_trajectory
+    from tankcd_cli.replay.pipeline import load_terrain_surface, prepare, replay_chunks
+    from tankcd_cli.scene import load_scene
+
+    _wall_scene(tmp_path, [50.0, 10.0, 95.0], [50.2, 50.0, 105.0])
+    (tmp_path / "t.csv").write_text("t,x,y,yaw_deg\n" + "".join(f"{k},{30 + 15 * k},30,0\n" for k in range(4)))
+    scene = load_scene(str(tmp_path / "scene.toml"))
+    surface, _ = load_terrain_surface(scene.required_terrain(), vehicle=scene.vehicle)
+
+    def events_with(chunk_rows):
+        setup = prepare(surface, scene.vehicle, scene)
+        return [(e.step, e.kind, e.b, round(e.t, 6), e.extra.get("between")) for _, _, evs in
+                replay_chunks(setup, read_trajectory(str(tmp_path / "t.csv"), chunk_rows=chunk_rows)) for e in evs]
+
+    whole = events_with(100)
+    # rows at x = 30, 45, 60, 75: the hull's front (3.43 m ahead) first reaches the wall between rows 1 and 2
+    assert [(s, k, b, between) for s, k, b, _, between in whole] == [(1, "obstacle", "wall", True)]
+    assert events_with(1) == events_with(2) == whole  # the interval 0 -> 1 straddles chunks of one row
+
+
+def test_a_path_leaving_the_terrain_between_rows(run, tmp_path):
+    def hole(z, x0, y0):
+        z[20:40, 55:65] = -9999.0
+
+    _flat(tmp_path, bump=hole)
+    (tmp_path / "ground.asc").write_text((tmp_path / "ground.asc").read_text().replace(
+        "cellsize 1.0\n", "cellsize 1.0\nNODATA_value -9999\n"))
+    _scene(tmp_path)
+    _, events, summary = _replay(run, tmp_path, "t,x,y,yaw_deg\n0,40,30,0\n2,80,30,0\n")
+    off = [e for e in events if e["kind"] == "off_terrain"]
+    assert len(off) == 1 and off[0]["between"] and off[0]["step"] == 0
+    assert 0 < off[0]["t"] < 2 and summary["between"]["off_terrain"] == 1
