@@ -27,11 +27,13 @@ def tradeoff(report, scene, trajectory, out_dir, quick):
     rigid-hull reference), tree layouts and python-fcl/coal where installed (brute force), the
     two-plane internal test (the exact cylinder test), and auto against always-reference on a
     whole replay (the headline). Writes OUT/tradeoff.md, tradeoff.csv and tradeoff.png."""
+    from tankcd_cli.tradeoff.measure import ratio_text
     from tankcd_cli.tradeoff.report import run_tradeoff
 
     res = run_tradeoff(out_dir, scene, trajectory, quick, progress=report.progress("tradeoff"),
                        command="tankcd " + " ".join(sys.argv[1:]))
     h = res.headline
-    report.info(f"tradeoff: auto is {h['speedup']:.1f}x faster than reference for a median attitude error of "
+    report.info(f"tradeoff: auto is {ratio_text(h['speedup'], *h['speedup_spread'], 'faster', 'slower', 'reference')} "
+                f"than reference for a median attitude error of "
                 f"{h['attitude_error_median_deg']:.2f} deg; wrote tradeoff.md, tradeoff.csv, tradeoff.png in "
                 f"{out_dir} ({report.elapsed():.1f} s)")

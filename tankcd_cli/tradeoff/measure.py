@@ -88,6 +88,59 @@ def timed(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
     return float(np.median(times)), float(min(times)), float(max(times))
 
 
+@dataclass(frozen=True)
+class Paired:
+    """Two workloads timed in turn (A B A B ...), each ``repeats`` times after one warm-up of each:
+    their medians and spreads (s), and the ratio B / A pair by pair (median, lowest, highest), which
+    holds when the machine's speed drifts between pairs."""
+
+    a: tuple  # (median, fastest, slowest) seconds
+    b: tuple
+    ratio: float
+    ratio_lo: float
+    ratio_hi: float
+
+    @property
+    def decided(self) -> bool:
+        """Whether every pair agrees which is faster (the spread does not straddle 1)."""
+        return self.ratio_lo > 1.0 or self.ratio_hi < 1.0
+
+
+def paired(fn_a: Callable[[], object], fn_b: Callable[[], object], repeats: int) -> Paired:
+    """``fn_a`` and ``fn_b`` timed alternately (see ``Paired``)."""
+    fn_a()
+    fn_b()
+    ta, tb = [], []
+    for _ in range(repeats):
+        for fn, times in ((fn_a, ta), (fn_b, tb)):
+            start = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - start)
+    ratios = np.array(tb) / np.array(ta)
+    spread = lambda v: (float(np.median(v)), float(min(v)), float(max(v)))  # noqa: E731
+    return Paired(spread(ta), spread(tb), float(np.median(ratios)), float(ratios.min()), float(ratios.max()))
+
+
+def ratio_text(value: float, lo: float, hi: float, faster: str, slower: str, what: str = "") -> str:
+    """A ratio as words a reader can trust: "3.1x faster (pairs 2.8-3.4x)", "1.6x slower", or, where
+    the pairs disagree which is faster, that the spread cannot tell."""
+    if lo <= 1.0 <= hi:
+        return (f"within noise of {what or 'the other'} (pairs {lo:.2f}-{hi:.2f}x: this machine's spread cannot "
+                "tell which is faster)")
+    if value >= 1.0:
+        return f"{value:.1f}x {faster} (pairs {lo:.1f}-{hi:.1f}x)"
+    return f"{1 / value:.1f}x {slower} (pairs {1 / hi:.1f}-{1 / lo:.1f}x)"
+
+
+def cost_text(value: float, lo: float, hi: float, of: str) -> str:
+    """What one workload costs against another: "1.9x the time of plain auto (pairs 1.7-2.1x)", or,
+    where the pairs disagree which is faster, that the spread cannot tell."""
+    if lo <= 1.0 <= hi:
+        return (f"within noise of {of} (pairs {lo:.2f}-{hi:.2f}x: this machine's spread cannot tell which is "
+                "faster)")
+    return f"{value:.2f}x the time of {of} (pairs {lo:.2f}-{hi:.2f}x)"
+
+
 def machine() -> dict:
     """CPU, cores and the versions that decide the figures."""
     import scipy
@@ -489,9 +542,20 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
 
     say(f"headline: auto vs reference on {name}")
     n = len(x)
-    t_auto = timed(lambda: match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=False), budget.repeats)
-    t_ref = timed(lambda: match(surface, vehicle, x, y, yaw, "reference", measure=True), budget.repeats)
-    t_esc = timed(lambda: match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True), budget.repeats)
+
+    def plain():
+        return match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=False)
+
+    def reference():
+        return match(surface, vehicle, x, y, yaw, "reference", measure=True)
+
+    def escalated():
+        return match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True)
+
+    # timed in pairs, in turn: a ratio of two medians taken minutes apart is at the mercy of the machine
+    vs_ref = paired(plain, reference, budget.repeats)
+    vs_esc = paired(plain, escalated, budget.repeats)
+    t_auto, t_ref, t_esc = vs_ref.a, vs_ref.b, vs_esc.b
     a = match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=False)
     r = match(surface, vehicle, x, y, yaw, "reference", measure=True)
     e = match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True)
@@ -505,7 +569,9 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
     truth = "reference (rigid hull on every terrain triangle under the tracks)"
     h = {"trajectory": name, "poses": n,
          "auto_seconds": t_auto[0], "auto_spread": t_auto[1:], "reference_seconds": t_ref[0], "reference_spread": t_ref[1:],
-         "speedup": t_ref[0] / t_auto[0], "time_saved_share": 1.0 - t_auto[0] / t_ref[0],
+         "speedup": vs_ref.ratio, "speedup_spread": (vs_ref.ratio_lo, vs_ref.ratio_hi),
+         "time_saved_share": 1.0 - 1.0 / vs_ref.ratio,
+         "escalation_cost": vs_esc.ratio, "escalation_cost_spread": (vs_esc.ratio_lo, vs_esc.ratio_hi),
          "attitude_error_median_deg": float(np.median(att)), "attitude_error_p95_deg": _pct(att, 95),
          "attitude_error_max_deg": _pct(att, 100),
          "height_error_median_m": float(np.median(dz)), "height_error_p95_m": _pct(dz, 95),
@@ -521,11 +587,12 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
          "escalated_penetration_p95_m": _pct(e.penetration[ok_e], 95),
          "escalation_tolerance_m": escalation_tolerance(vehicle)}
     res.headline = h
-    for key in ("auto_seconds", "reference_seconds", "speedup", "time_saved_share", "attitude_error_median_deg",
+    for key in ("auto_seconds", "reference_seconds", "speedup", "escalation_cost", "time_saved_share",
+                "attitude_error_median_deg",
                 "attitude_error_p95_deg", "attitude_error_max_deg", "height_error_median_m", "height_error_p95_m",
                 "height_error_max_m", "escalated_seconds", "escalated_share", "escalated_attitude_error_p95_deg",
                 "escalated_height_error_max_m"):
         unit = "s" if key.endswith("seconds") else ("deg" if key.endswith("deg") else ("m" if key.endswith("_m") else "1"))
-        spread = h.get(key.replace("seconds", "spread"), (float("nan"), float("nan"))) if unit == "s" else (float("nan"),) * 2
+        spread = h.get(key.replace("seconds", "spread") if unit == "s" else f"{key}_spread", (float("nan"),) * 2)
         res.records.append(Record("headline", f"{name} ({n:,} poses)", "auto vs reference", key, float(h[key]), unit, truth,
                                   *spread))

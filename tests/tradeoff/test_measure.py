@@ -1,0 +1,23 @@
+"""How the report states a ratio: only what its pairs support."""
+
+from tankcd_cli.tradeoff.measure import Paired, cost_text, paired, ratio_text
+
+
+def test_a_ratio_whose_pairs_agree_is_stated_with_its_spread():
+    assert ratio_text(3.14, 2.8, 3.4, "faster", "slower") == "3.1x faster (pairs 2.8-3.4x)"
+    assert ratio_text(0.5, 0.4, 0.6, "faster", "slower") == "2.0x slower (pairs 1.7-2.5x)"
+    assert cost_text(1.9, 1.7, 2.1, "plain auto") == "1.90x the time of plain auto (pairs 1.70-2.10x)"
+
+
+def test_a_ratio_whose_pairs_disagree_is_not_a_verdict():
+    for text in (ratio_text(2.5, 0.9, 6.0, "faster", "slower", "reference"), cost_text(0.5, 0.4, 1.3, "plain auto")):
+        assert "cannot tell which is faster" in text and "x faster" not in text
+    assert not Paired((1, 1, 1), (1, 1, 1), 1.0, 0.9, 1.1).decided
+    assert Paired((1, 1, 1), (2, 2, 2), 2.0, 1.8, 2.2).decided
+
+
+def test_pairs_run_in_turn_and_count_every_call():
+    calls = []
+    result = paired(lambda: calls.append("a"), lambda: calls.append("b"), 3)
+    assert calls == ["a", "b"] + ["a", "b"] * 3  # one warm-up each, then alternately
+    assert result.ratio_lo <= result.ratio <= result.ratio_hi
