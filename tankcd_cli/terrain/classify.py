@@ -10,9 +10,9 @@ import numpy as np
 from tankcd_cli import __version__
 from tankcd_cli.io.terrain_readers import RawTerrain
 from tankcd_cli.names import AUTO_METHODS
-from tankcd_cli.terrain.curvature import mean_curvature, open_vertices
+from tankcd_cli.terrain.curvature.mean import mean_curvature, open_vertices
 from tankcd_cli.terrain.locate import build_buckets
-from tankcd_cli.terrain.mesh import CleanMesh, clean_mesh
+from tankcd_cli.terrain.mesh.clean import CleanMesh, clean_mesh
 from tankcd_cli.terrain.regions import (NO_CLASS, Thresholds, class_shares, classify_values, default_thresholds,
                                         footprint_curvature, vertex_areas)
 from tankcd_cli.terrain.store import TerrainStore
@@ -118,7 +118,7 @@ def warn_if_not_a_height_field(raw: RawTerrain) -> None:
     """A warning when a mesh read as a terrain does not look like one (see ``height_field_problems``),
     saying whether the other up axis would make it one."""
     from tankcd_cli.errors import warn
-    from tankcd_cli.terrain.mesh import height_field_problems
+    from tankcd_cli.terrain.mesh.clean import height_field_problems
 
     problems = height_field_problems(raw.vertices, raw.faces)
     if not problems:

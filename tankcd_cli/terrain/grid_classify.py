@@ -34,7 +34,7 @@ from typing import Callable
 
 import numpy as np
 
-from tankcd_cli.terrain.curvature import BOUNDARY_NEIGHBOURS, JET_DEGREE
+from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, JET_DEGREE
 from tankcd_cli.terrain.regions import NO_CLASS, Thresholds, classify_values
 
 GRID_METHODS = ("grid", "cotan", "sphere", "jet")
@@ -264,9 +264,9 @@ def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: fl
     Coordinates come from whole-grid indices (row0, col0: the window's first post), so the
     fit does not depend on the window. ``fast``: the compiled fit (the mesh layout's), else numpy."""
     if fast:
-        from tankcd_cli.terrain.jet_kernels import jet_fit as fit
+        from tankcd_cli.terrain.curvature.jet_fit import jet_fit as fit
     else:
-        from tankcd_cli.terrain.curvature import _jet_chunk as fit
+        from tankcd_cli.terrain.curvature.jet import jet_fit_numpy as fit
 
     H = np.zeros(z.shape)
     rr_all, cc_all = np.nonzero(which)
@@ -315,7 +315,7 @@ def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, 
                    fast: bool = False) -> np.ndarray:
     """H by a mesh estimator on the window's implicit triangulation (values at open posts unused)."""
     from tankcd_cli.io.terrain_readers import grid_faces
-    from tankcd_cli.terrain.curvature import mean_curvature, OpenVertices
+    from tankcd_cli.terrain.curvature.mean import OpenVertices, mean_curvature
 
     south = z[::-1]  # the mesh layout numbers posts from the south row
     valid = np.isfinite(south)

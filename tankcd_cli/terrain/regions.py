@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tankcd_cli.terrain.mesh import twice_face_areas
+from tankcd_cli.terrain.mesh.clean import twice_face_areas
 from tankcd_cli.vehicle import Vehicle
 
 from tankcd_cli.names import CLASS_NAMES, FLAT, GENERAL, NO_CLASS, UNEVEN  # noqa: F401 (shared names)

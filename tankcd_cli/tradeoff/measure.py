@@ -125,7 +125,7 @@ def _pct(values: np.ndarray, q: float) -> float:
 
 def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
     from tankcd_cli.terrain import synthetic
-    from tankcd_cli.terrain.curvature import METHODS, mean_curvature
+    from tankcd_cli.terrain.curvature.mean import METHODS, mean_curvature
     from tankcd_cli.terrain.regions import (
         classify_values,
         default_thresholds,

@@ -1,15 +1,15 @@
-"""The compiled curvature passes: the former numba kernels' arithmetic (run here as plain Python),
-the inputs they took, any thread count."""
+"""The compiled curvature passes (``curvature.one_ring``): their arithmetic written out as plain
+Python (the same IEEE operations in the same order), the inputs they take, any thread count."""
 
 import numpy as np
 import pytest
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
-from tankcd_cli.terrain import kernels as k
+from tankcd_cli.terrain.curvature import one_ring as k
 
 
 def cotan_accumulate_python(V, F):
-    """The numba kernel's body, line for line, as plain Python (the same IEEE operations)."""
+    """The face pass written out as plain Python, line for line (the same IEEE operations)."""
     n = V.shape[0]
     K, N, A = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
     e, cot, len2 = np.empty((3, 3)), np.empty(3), np.empty(3)
@@ -61,11 +61,11 @@ def _mesh(rows, cols, seed, holes=0.2):
     return V, F
 
 
-def test_cotan_accumulate_is_the_numba_arithmetic():
+def test_cotan_accumulate_is_the_plain_arithmetic():
     V, F = _mesh(9, 11, 3)
     for got, want in zip(k.cotan_accumulate(V, F.astype(np.int32)), cotan_accumulate_python(V, F)):
         np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
-    # float32 vertices: their differences taken in float32, as numba took them
+    # float32 vertices: their edge differences taken in float32
     V32 = V.astype(np.float32) - np.float32(512_000.0)
     for got, want in zip(k.cotan_accumulate(V32, F), cotan_accumulate_python(V32, F)):
         np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
@@ -73,9 +73,9 @@ def test_cotan_accumulate_is_the_numba_arithmetic():
 
 def test_cotan_accumulate_edge_cases():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0]])
-    with pytest.raises(ZeroDivisionError):  # numba's error model on a zero-area face
+    with pytest.raises(ZeroDivisionError):  # a zero-area face has no cotangents
         k.cotan_accumulate(V, np.array([[0, 1, 3], [0, 1, 2]]))
-    wrapped = k.cotan_accumulate(V, np.array([[0, 1, -1]]))  # numba wrapped negative indices
+    wrapped = k.cotan_accumulate(V, np.array([[0, 1, -1]]))  # a negative index counts from the end
     for a, b in zip(wrapped, k.cotan_accumulate(V, np.array([[0, 1, 3]]))):
         np.testing.assert_array_equal(a, b)
     with pytest.raises(IndexError):
@@ -107,7 +107,7 @@ def test_open_vertex_flags_any_thread_count_and_the_pieces_agree():
     near = k.grow_rings(F, start, face, boundary | nonmanifold, 2)
     np.testing.assert_array_equal(near, one[2])
     assert near.dtype == bool and (near >= (boundary | nonmanifold)).all()
-    # numba returned the seed's dtype: mark = seed.copy(); mark[u] = True
+    # the mask comes back in the seed's dtype: the seed with the grown vertices set
     seed = np.zeros(n, np.int64)
     seed[F[10, 0]] = 3
     grown = k.grow_rings(F, start, face, seed, 1)

@@ -1,13 +1,13 @@
-"""Compiled kernels of ``tankcd_cli.terrain.jet_kernels`` (see its docstring): the ``jet`` mean
+"""Compiled kernels of ``tankcd_cli.terrain.curvature.jet_fit`` (see its docstring): the ``jet`` mean
 curvature, neighbour search and per-vertex quartic fit, vertices in parallel.
 
-The numpy twins in ``curvature.py`` (``nearest_neighbours`` with cKDTree, ``_jet_chunk``) are the
+The numpy twins in ``curvature.jet`` (``nearest_neighbours`` with cKDTree, ``jet_fit_numpy``) are the
 oracle. The neighbour rule is theirs to the bit: squared distances summed x, y, z in that order on
 the pool's centred coordinates (cKDTree's arithmetic), the ``extra`` nearest (ties by index),
 keys ``rint(dist / dist_extra * 1e9)``, ties by vertex index, the vertex itself dropped, the first
 ``k`` kept. The search: a median-split kd-tree; queries in tree order, each bounded by the
 previous query's ``extra`` nearest, candidates gathered unsorted and chosen by a histogram of
-their distances (no sorting). The fit follows ``_jet_chunk`` formula by formula; its 3 x 3
+their distances (no sorting). The fit follows ``jet_fit_numpy`` formula by formula; its 3 x 3
 eigenproblem is solved in closed form with Newton polish (cyclic Jacobi where eigenvalues are
 close), the normal equations come from the distinct moments and are solved by Cholesky (LU with
 partial pivoting should a pivot fail), so H agrees with the oracle to rounding amplified by the
@@ -592,7 +592,7 @@ cdef void _eig_smallest(double* A, double* out) noexcept nogil:
 
 cdef double _fit(const double* V, int64_t ci, const int64_t* nb, int64_t k, const double* hint,
                  int degree, double* d, double* M) noexcept nogil:
-    """H at vertex ci from its k neighbours nb: ``_jet_chunk`` for one vertex.
+    """H at vertex ci from its k neighbours nb: ``jet_fit_numpy`` for one vertex.
     Scratch: d (3 k), M (NMON * NMON). The normal equations come from the 42 distinct moments
     sum u^p v^q (2 <= p + q <= 8) rather than 105 products of monomials; Cholesky solves them
     (LU with partial pivoting should a pivot fail)."""
@@ -694,7 +694,7 @@ cdef double _fit(const double* V, int64_t ci, const int64_t* nb, int64_t k, cons
         u = (x * t1[0] + y * t1[1] + z * t1[2]) * inv
         v = (x * t2[0] + y * t2[1] + z * t2[2]) * inv
         w = (x * n[0] + y * n[1] + z * n[2]) * inv
-        # the monomials as _jet_chunk forms them
+        # the monomials as jet_fit_numpy forms them
         B[0] = u
         B[1] = v
         B[2] = u * u
@@ -888,7 +888,7 @@ def _indices(x, n, name):
 
 def jet_fit(V, normal, centre, nbr, int degree=4):
     """H (c,) at the vertices ``centre`` (c,) from their neighbours ``nbr`` (c, k): the compiled
-    ``curvature._jet_chunk``. V, normal: (n, 3) float64 (normal: the orientation hint)."""
+    ``curvature.jet.jet_fit_numpy``. V, normal: (n, 3) float64 (normal: the orientation hint)."""
     Va = _vertices(V)
     Na = _vertices(normal, "normal")
     cdef Py_ssize_t n = Va.shape[0]

@@ -1,8 +1,9 @@
-"""Compiled kernels of ``tankcd_cli.terrain.kernels`` (see its docstring): the per-face and
-per-vertex passes of the curvature estimators.
+"""Compiled kernels of ``tankcd_cli.terrain.curvature.one_ring`` (see its docstring): the
+per-face and per-vertex passes of the curvature estimators.
 
-The arithmetic and its order are those of the former numba kernels (results are bit-identical,
-float32 vertices included: their differences are taken in float32 as numba took them).
+``cotan_accumulate`` adds the faces' terms in face order, so its sums are those of the numpy
+pass in ``curvature.cotan`` to rounding; float32 vertices keep their edge differences in
+float32 (the rest in float64).
 """
 
 import numpy as np
@@ -18,7 +19,7 @@ ctypedef fused real_t:
     double
 
 
-# --- argument checks (numba read out of bounds where these raise) ------------------------
+# --- argument checks (the loops below trust them: no bounds checks) ------------------------
 
 def _faces(F):
     """(m, 3) int64, C-contiguous."""
@@ -84,8 +85,8 @@ cdef int _check_csr(const int64_t[::1] start, const int64_t[::1] face, Py_ssize_
 # --- cotan_accumulate --------------------------------------------------------------------
 
 cdef int _cotan(const real_t[:, ::1] V, const int64_t[:, ::1] F, double* K, double* N, double* A) noexcept nogil:
-    """The face pass; returns the first face with a zero double area + 1 (numba raised
-    ZeroDivisionError there), or 0."""
+    """The face pass; returns 1 + the first face with a zero double area (its cotangents would
+    divide by zero: the caller raises ZeroDivisionError), or 0."""
     cdef Py_ssize_t f
     cdef int a, b, d, c
     cdef int64_t idx[3]
@@ -103,7 +104,7 @@ cdef int _cotan(const real_t[:, ::1] V, const int64_t[:, ::1] F, double* K, doub
         idx[1] = j
         idx[2] = k
         for c in range(3):
-            e[0][c] = V[k, c] - V[j, c]  # opposite corner 0 (in real_t, as numba)
+            e[0][c] = V[k, c] - V[j, c]  # opposite corner 0 (in the vertices' precision)
             e[1][c] = V[i, c] - V[k, c]  # opposite corner 1
             e[2][c] = V[j, c] - V[i, c]  # opposite corner 2
         # normal = (X_j - X_i) x (X_k - X_i) = e2 x (-e1)
@@ -166,7 +167,7 @@ def cotan_accumulate(V, F):
     cdef const int64_t[:, ::1] Fv = Fa
     _face_range(Fv, -n, n)
     if Fa.shape[0] and Fa.min() < 0:
-        Fa = np.where(Fa < 0, Fa + n, Fa)  # numba wrapped negative indices
+        Fa = np.where(Fa < 0, Fa + n, Fa)  # a negative index counts from the end, as numpy's
         Fv = Fa
     K_arr = np.zeros((n, 3))
     N_arr = np.zeros((n, 3))
@@ -330,8 +331,8 @@ def boundary_flags(F, n, start, face):
 
 cdef Py_ssize_t _grow(const int64_t[:, ::1] F, const int64_t[::1] start, const int64_t[::1] face,
                       uint8_t* mark, Py_ssize_t n, Py_ssize_t rings, int64_t* cur, int64_t* nxt) noexcept nogil:
-    """Breadth-first growth from the marked vertices. numba's typed list of the next frontier is
-    the buffer ``nxt``: a vertex enters a frontier only when first marked, so n entries hold any."""
+    """Breadth-first growth from the marked vertices, ``rings`` frontiers deep. The frontiers live
+    in ``cur`` and ``nxt``: a vertex enters a frontier only when first marked, so n entries hold any."""
     cdef Py_ssize_t it, i, nc = 0, nn
     cdef int64_t v, s, f, u
     cdef int a
@@ -393,7 +394,7 @@ def grow_rings(F, start, face, seed, rings):
     mark = _grow_array(Fa, st, fc, sd, rings)
     if sd.dtype == np.bool_:
         return mark
-    out = sd.reshape(-1).copy()  # numba's mark = seed.copy(); mark[u] = True: the seed's dtype
+    out = sd.reshape(-1).copy()  # the mask in the seed's dtype: the seed with the grown vertices set
     out[mark & ~sd.reshape(-1).astype(np.bool_)] = True
     return out
 

@@ -4,7 +4,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tankcd_cli.terrain.mesh import clean_mesh, edge_topology
+from tankcd_cli.terrain.mesh.clean import clean_mesh
 
 
 def test_duplicate_vertices_are_merged_and_counted():
@@ -35,17 +35,6 @@ def test_utm_offsets_do_not_merge_neighbours():
     V = base + np.array([[0, 0, 0], [1e-3, 0, 0], [0, 1e-3, 0]])
     out = clean_mesh(V, np.array([[0, 1, 2]]))
     assert len(out.vertices) == 3 and out.counts["merged_vertices"] == 0
-
-
-def test_edge_topology_boundary_and_nonmanifold():
-    F = np.array([[0, 1, 2], [0, 2, 3], [0, 2, 4]])  # edge 0-2 shared by three faces
-    topo = edge_topology(F, 5)
-    assert (topo.face_count > 2).sum() == 1
-    assert topo.boundary_vertex.all()
-    # corner k of each face is opposite edge (f[k+1], f[k+2])
-    for f, fe in zip(F, topo.face_edge):
-        for k in range(3):
-            assert set(topo.edges[fe[k]]) == {f[(k + 1) % 3], f[(k + 2) % 3]}
 
 
 @settings(max_examples=40, deadline=None)

@@ -1,12 +1,13 @@
-"""The compiled jet curvature (``jet_kernels``) against its numpy oracle (``curvature.nearest_neighbours``
-with cKDTree, ``curvature._jet_chunk``): the same neighbours, the same H to rounding, any thread count."""
+"""The compiled jet curvature (``curvature.jet_fit``) against its numpy oracle (``jet.nearest_neighbours``
+with cKDTree, ``jet.jet_fit_numpy``): the same neighbours, the same H to rounding, any thread count."""
 
 import numpy as np
 import pytest
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
-from tankcd_cli.terrain import curvature as C
-from tankcd_cli.terrain import jet_kernels as J
+from tankcd_cli.terrain.curvature import jet as C
+from tankcd_cli.terrain.curvature import jet_fit as J
+from tankcd_cli.terrain.curvature import mean as M
 from tankcd_cli.terrain import synthetic as S
 
 UTM = (512_345.0, 4_123_456.0, 250.0)
@@ -18,7 +19,7 @@ FIELDS = {
 
 
 def _normals(V, F):
-    return C.vertex_normals(V, F)
+    return M.vertex_normals(V, F)
 
 
 def _both(V, normal, which, **kw):
@@ -37,7 +38,7 @@ def _agree(fast, slow):
 def test_jittered_meshes_agree_with_numpy(name, seed):
     V, F, _ = S.jittered_mesh(FIELDS[name], 12.0, 1.0, seed=seed, offset=UTM)
     normal = _normals(V, F)
-    open_verts = C.open_vertices(F, len(V))
+    open_verts = M.open_vertices(F, len(V))
     fast, slow = _both(V, normal, ~open_verts.mask)
     _agree(fast, slow)
     # the boundary's one-sided fits: 40 neighbours among the candidates near the boundary
@@ -68,7 +69,7 @@ def test_plane_is_flat_and_sphere_cap_has_its_curvature():
     R = 30.0
     V, F, xy = S.jittered_mesh(S.sphere_cap(R), 10.0, 0.5, seed=4, offset=UTM)
     normal = _normals(V, F)
-    which = ~C.open_vertices(F, len(V)).mask
+    which = ~M.open_vertices(F, len(V)).mask
     fast, slow = _both(V, normal, which)
     _agree(fast, slow)
     inner = which & (np.abs(xy).max(axis=1) < 8.0)
@@ -124,7 +125,7 @@ def test_fit_is_the_oracles_fit():
     sel = np.arange(len(V))
     nbr = C.nearest_neighbours(V, np.ones(len(V), bool), 20, fast=False)
     for degree in (3, 4):
-        _agree(J.jet_fit(V, normal, sel, nbr, degree), C._jet_chunk(V, normal, sel, nbr, degree))
+        _agree(J.jet_fit(V, normal, sel, nbr, degree), C.jet_fit_numpy(V, normal, sel, nbr, degree))
 
 
 def test_thread_count_does_not_change_the_bits():
@@ -147,9 +148,9 @@ def test_thread_count_does_not_change_the_bits():
 def test_mean_curvature_jet_uses_the_compiled_path_and_agrees():
     V, F, _ = S.jittered_mesh(FIELDS["gaussian_hill"], 12.0, 1.0, offset=UTM)
     normal = _normals(V, F)
-    H = C.mean_curvature(V, F, "jet")
-    open_verts = C.open_vertices(F, len(V))
-    expect = C.jet_curvature(V, C._unit_or_up(normal), ~open_verts.mask, fast=False)
+    H = M.mean_curvature(V, F, "jet")
+    open_verts = M.open_vertices(F, len(V))
+    expect = C.jet_curvature(V, M.unit_or_up(normal), ~open_verts.mask, fast=False)
     _agree(H[~open_verts.mask], expect[~open_verts.mask])
 
 
