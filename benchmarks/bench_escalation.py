@@ -46,7 +46,7 @@ def main():
     a = ap.parse_args()
     from tankcd_cli.matching.match import ESCALATED, OK, escalation_tolerance, match
     from tankcd_cli.terrain import synthetic as S
-    from tankcd_cli.terrain.classify import load_terrain
+    from tankcd_cli.terrain.mesh.classify import load_terrain
     from tankcd_cli.vehicle import vehicle_preset
 
     vehicle = vehicle_preset("t72")

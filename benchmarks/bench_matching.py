@@ -57,13 +57,13 @@ def main():
     size, n, repeats = (300, 20_000, 3) if args.quick else (1000, 100_000, 3)
 
     from tankcd_cli.matching.match import KEY_POINT_MATCHERS, MATCHERS, match
-    from tankcd_cli.terrain.classify import classify_terrain
-    from tankcd_cli.terrain.surface import TerrainSurface
+    from tankcd_cli.terrain.mesh.classify import classify_mesh
+    from tankcd_cli.terrain.mesh.surface import MeshSurface
     from tankcd_cli.vehicle import key_points, vehicle_preset, wheel_stations
 
     raw = terrain(size)
-    store = classify_terrain(raw)
-    surface = TerrainSurface.from_store(store)
+    store = classify_mesh(raw)
+    surface = MeshSurface.from_store(store)
     vehicle = vehicle_preset("t72")
     rng = np.random.default_rng(2)
     x = 500_000.0 + rng.uniform(10, size - 10, n)
@@ -99,7 +99,7 @@ def main():
     peer = timed(lambda: ray_heights(qx, qy), 1)
     lines += ["## Height and normal at 100 000 points" if not args.quick else "## Height and normal at 20 000 points", "",
               "| method | points/s | ratio |", "| --- | --- | --- |",
-              f"| tankcd TerrainSurface.height_normal | {n / ours[0]:,.0f} | {peer[0] / ours[0]:.1f}x |",
+              f"| tankcd MeshSurface.height_normal | {n / ours[0]:,.0f} | {peer[0] / ours[0]:.1f}x |",
               f"| trimesh vertical rays ({engine}) | {n / peer[0]:,.0f} | 1.0x |", ""]
 
     lines += ["## Matchers", "",

@@ -16,11 +16,11 @@ def describe_store(path: str) -> dict:
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.store import is_store, read_attrs
+    from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
     if not os.path.exists(path):
         raise InputError(path, "no such file")
-    if not is_store(path):
+    if not is_hdf5(path):
         if path.lower().endswith(".toml"):
             return describe_scene(path)
         raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
@@ -180,9 +180,9 @@ def _scene_terrain(sc) -> dict:
     """The kind and extent of a scene's terrain, read as replay reads it (a store's attributes,
     a DEM's grid, a mesh's vertices)."""
     path = sc.terrain_path
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
-    if is_store(path):
+    if is_hdf5(path):
         d = describe_store(path)
         if d.get("kind") != "terrain store":
             raise InputError(path, f"is a {d.get('kind')}, not a terrain", where="[terrain] path")
@@ -198,7 +198,7 @@ def _scene_terrain(sc) -> dict:
         dx, dy = float(i.spacing[0]), float(i.spacing[1])
         return {"kind": f"DEM ({i.format}, {i.rows} x {i.cols} posts, classified on the fly)", "crs": i.crs_name,
                 "extent_x": [x0, x0 + (i.cols - 1) * dx], "extent_y": [y0 - (i.rows - 1) * dy, y0]}
-    from tankcd_cli.terrain.classify import load_terrain
+    from tankcd_cli.terrain.mesh.classify import load_terrain
 
     raw = load_terrain(path, up=sc.terrain_up)
     lo, hi = raw.vertices.min(axis=0), raw.vertices.max(axis=0)

@@ -74,7 +74,7 @@ def envelope_png(vehicle, env, path: str) -> None:
 def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None, counts=None) -> None:
     """The replayed path over the class map, obstacles' footprints, and events marked by kind.
 
-    store : a mesh-layout TerrainStore, or the path of a grid store (drawn from its overview)
+    store : a MeshStore (the mesh layout), or the path of a grid store (drawn from its overview)
     path_xy : (N, 2) world x, y of the path; marks : [(kind, x, y)] events
     footprints : [(name, (k, 2) outline)] obstacles seen from above
     matcher : (N,) matcher codes to colour the path by (None: one colour)

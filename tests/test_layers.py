@@ -73,7 +73,7 @@ def test_every_import_points_down():
 def test_the_checker_sees_an_upward_import(tmp_path):
     # the test itself can fail: an io module importing the terrain layer is caught
     src = tmp_path / "m.py"
-    src.write_text("def f():\n    from tankcd_cli.terrain.store import read_store\n")
+    src.write_text("def f():\n    from tankcd_cli.terrain.mesh.store import read_mesh_store\n")
     targets = [t for t, _ in _imports(src)]
-    assert targets == ["tankcd_cli.terrain.store"]
-    assert layer_of("tankcd_cli.terrain.store") > layer_of("tankcd_cli.io.poses_csv")
+    assert targets == ["tankcd_cli.terrain.mesh.store"]
+    assert layer_of("tankcd_cli.terrain.mesh.store") > layer_of("tankcd_cli.io.poses_csv")

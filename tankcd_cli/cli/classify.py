@@ -54,9 +54,9 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     with the DEM. TERRAIN may be - for standard input (give --format).
     """
     from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.terrain.classify import classify_terrain, load_terrain
+    from tankcd_cli.terrain.mesh.classify import classify_mesh, load_terrain
     from tankcd_cli.terrain.regions import Thresholds
-    from tankcd_cli.terrain.store import write_store
+    from tankcd_cli.terrain.mesh.store import write_mesh_store
     from tankcd_cli.vehicle import vehicle_preset
 
     explicit = output is not None
@@ -97,11 +97,11 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
         raise click.UsageError("--method grid needs a DEM; meshes take cotan, sphere or jet")
     method = AUTO_METHODS["mesh"] if method == "auto" else method
     raw = load_terrain(terrain, up=up, fmt=fmt)
-    store = classify_terrain(raw, method=method, vehicle=vehicle_preset(vehicle_name),
-                             thresholds=user_thresholds, progress=step)
+    store = classify_mesh(raw, method=method, vehicle=vehicle_preset(vehicle_name),
+                          thresholds=user_thresholds, progress=step)
     step(f"writing {output}")
     with atomic_path(output, ".h5") as tmp:
-        write_store(tmp, store)
+        write_mesh_store(tmp, store)
     if png:
         from tankcd_cli.plots import class_map_png
 
@@ -148,11 +148,11 @@ def _refuse_clashes(terrain, output, png, explicit):
     -o names it (the new store is written beside it and replaces it when complete)."""
     from tankcd_cli.cli.options import refuse_clashes
     from tankcd_cli.io.files import same_path
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
     in_place = terrain != "-" and same_path(output, terrain)
-    if in_place and not (explicit and is_store(terrain)):
-        hint = " (to rewrite a store in place, name it with -o)" if is_store(terrain) else ""
+    if in_place and not (explicit and is_hdf5(terrain)):
+        hint = " (to rewrite a store in place, name it with -o)" if is_hdf5(terrain) else ""
         raise click.UsageError(f"-o/--output {output} is also TERRAIN {terrain}: give -o another path{hint}")
     refuse_clashes({} if in_place else {"TERRAIN": terrain}, {"-o/--output": output, "--png": png})
     if png is not None and same_path(png, terrain):

@@ -182,7 +182,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
     import subprocess
     import sys
 
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
     if world.scene:
         from tankcd_cli.scene import load_scene
@@ -191,7 +191,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
         terrain, up = scene.terrain_path, scene.terrain_up
     else:
         terrain, up = world.terrain, world.up
-    if terrain is None or is_store(terrain):
+    if terrain is None or is_hdf5(terrain):
         return world
     store = os.path.join(out_dir, ".fleet-terrain.h5")
     (progress or (lambda s: None))(f"classifying {terrain} once for the fleet")

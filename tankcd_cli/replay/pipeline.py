@@ -61,43 +61,43 @@ def load_terrain_surface(path: str, up: str | None = None, fmt: str | None = Non
     """
     import os
 
-    from tankcd_cli.terrain.store import is_store, read_attrs
+    from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
     say = progress or (lambda s: None)
-    if path != "-" and is_store(path):
+    if path != "-" and is_hdf5(path):
         if read_attrs(path).get("layout") == "grid":  # the common case: import nothing else
             from tankcd_cli.terrain.grid_store import open_grid
 
             say(f"opening grid store {path}")
             return open_grid(path), None
-        from tankcd_cli.terrain.store import read_store
-        from tankcd_cli.terrain.surface import TerrainSurface
+        from tankcd_cli.terrain.mesh.store import read_mesh_store
+        from tankcd_cli.terrain.mesh.surface import MeshSurface
 
         say(f"reading terrain store {path}")
-        return TerrainSurface.from_store(read_store(path)), None
-    from tankcd_cli.terrain.classify import classify_terrain, load_terrain
+        return MeshSurface.from_store(read_mesh_store(path)), None
+    from tankcd_cli.terrain.mesh.classify import classify_mesh, load_terrain
     from tankcd_cli.terrain.dem_sources import open_dem
-    from tankcd_cli.terrain.store import read_store, write_store
-    from tankcd_cli.terrain.surface import TerrainSurface
+    from tankcd_cli.terrain.mesh.store import read_mesh_store, write_mesh_store
+    from tankcd_cli.terrain.mesh.surface import MeshSurface
 
     cached = os.path.splitext(path)[0] + ".h5"
     dem = open_dem(path, fmt=fmt)
     if dem is not None:
         return _dem_surface(dem, cached if cache else None, vehicle, say), None
     raw = load_terrain(path, up=up, fmt=fmt)
-    if cache and os.path.exists(cached) and is_store(cached):
+    if cache and os.path.exists(cached) and is_hdf5(cached):
         if read_attrs(cached).get("source_sha256") == raw.sha256:
             say(f"reading cached store {cached}")
-            return TerrainSurface.from_store(read_store(cached)), None
+            return MeshSurface.from_store(read_mesh_store(cached)), None
     say(f"classifying {path} on the fly")
-    store = classify_terrain(raw, vehicle=vehicle, progress=say)
+    store = classify_mesh(raw, vehicle=vehicle, progress=say)
     if cache:
         from tankcd_cli.io.atomic import atomic_path
 
         with atomic_path(cached, ".h5") as tmp:
-            write_store(tmp, store)
+            write_mesh_store(tmp, store)
         say(f"cached the store as {cached}")
-    return TerrainSurface.from_store(store), store
+    return MeshSurface.from_store(store), store
 
 
 def _dem_surface(dem, cached: str | None, vehicle, say):
@@ -108,10 +108,10 @@ def _dem_surface(dem, cached: str | None, vehicle, say):
 
     from tankcd_cli.terrain.dem_classify import classify_dem
     from tankcd_cli.terrain.grid_store import open_grid
-    from tankcd_cli.terrain.store import is_store, read_attrs
+    from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
     with dem:
-        if cached and os.path.exists(cached) and is_store(cached):
+        if cached and os.path.exists(cached) and is_hdf5(cached):
             a = read_attrs(cached)
             if a.get("layout") == "grid" and a.get("source_sha256") == dem.info.sha256:
                 say(f"reading cached store {cached}")

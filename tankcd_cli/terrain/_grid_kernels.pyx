@@ -12,7 +12,7 @@ import numpy as np
 
 from tankcd_cli.geometry.arrays import f64 as _f64, pair as _pair
 
-from tankcd_cli.terrain._grid_kernels cimport cell_from_posts, full_cell_c, ifloor
+from tankcd_cli.terrain._post_cell cimport cell_from_posts, full_cell_c, ifloor
 
 BARY_EPS = 1e-9  # as the mesh locator: points this close (barycentric units) to an edge count as inside
 cdef double _BARY_EPS = 1e-9

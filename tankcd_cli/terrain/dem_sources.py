@@ -117,12 +117,12 @@ ASC_OWN_MAX_BYTES = 4 << 20  # about 500k posts: below it our parser beats impor
 def dem_kind(path: str, fmt: str | None = None) -> str | None:
     """'asc', 'raster' or 'store' (a grid store) when ``path`` is a DEM input, else None (a mesh)."""
     from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
-    from tankcd_cli.terrain.store import is_store, read_attrs
+    from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
     f = (fmt or "").lower()
     if f in ASC_SUFFIXES:
         return "asc"
-    if f == "h5" or (not f and path != "-" and is_store(path)):
+    if f == "h5" or (not f and path != "-" and is_hdf5(path)):
         return "store" if read_attrs(path).get("layout") == "grid" else None
     if f:
         return "raster" if f in RASTER_SUFFIXES else None

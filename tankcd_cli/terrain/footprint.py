@@ -28,7 +28,7 @@ from tankcd_cli.terrain._footprint import MAX_POLY, footprint_batch  # noqa: F40
 
 
 class MeshGround(NamedTuple):
-    """A mesh's faces and the locator the pass finds them by (``terrain.surface.TerrainSurface``)."""
+    """A mesh's faces and the locator the pass finds them by (``mesh.surface.MeshSurface``)."""
 
     vertices: np.ndarray  # (n, 3) local
     faces: np.ndarray  # (m, 3)

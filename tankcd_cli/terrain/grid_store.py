@@ -132,11 +132,11 @@ def open_grid(path: str, cache_bytes: int | None = None):
     """The :class:`~tankcd_cli.terrain.grid_surface.GridSurface` of a grid store (reads no raster)."""
     from tankcd_cli.io.h5 import read_errors
     from tankcd_cli.terrain.grid_surface import GridSurface
-    from tankcd_cli.terrain.store import _open
+    from tankcd_cli.terrain.store import open_store
     from tankcd_cli.terrain.tiles import DEFAULT_CACHE_BYTES, TileReader
 
     what = "tankcd terrain store"
-    h5 = _open(path)
+    h5 = open_store(path)
     with h5, read_errors(path, what):
         h = h5["grid/height"]
         rows, cols = h.shape

@@ -1,7 +1,7 @@
 """Height, slope, region classes and the exact footprint on a DEM held as posts.
 
 A :class:`GridSurface` answers the same questions as the mesh layout's
-:class:`~tankcd_cli.terrain.surface.TerrainSurface`, on the grid layout's
+:class:`~tankcd_cli.terrain.mesh.surface.MeshSurface`, on the grid layout's
 implicit surface (each cell split along its SW-NE diagonal; a cell with three
 valid posts carries the triangle of those three), with no vertex, face or
 plane arrays: every query is arithmetic on posts.

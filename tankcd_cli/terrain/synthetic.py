@@ -178,11 +178,11 @@ def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh"):
 
 
 def surface_of(raw, vehicle=None):
-    """Classify a RawTerrain and build its TerrainSurface (for tests and benchmarks)."""
-    from tankcd_cli.terrain.classify import classify_terrain
-    from tankcd_cli.terrain.surface import TerrainSurface
+    """Classify a RawTerrain and build its MeshSurface (for tests and benchmarks)."""
+    from tankcd_cli.terrain.mesh.classify import classify_mesh
+    from tankcd_cli.terrain.mesh.surface import MeshSurface
 
-    return TerrainSurface.from_store(classify_terrain(raw, vehicle=vehicle))
+    return MeshSurface.from_store(classify_mesh(raw, vehicle=vehicle))
 
 
 def obstacle_course(spacing: float = 0.5, seed: int = 0) -> Array:

@@ -126,12 +126,8 @@ def _pct(values: np.ndarray, q: float) -> float:
 def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
     from tankcd_cli.terrain import synthetic
     from tankcd_cli.terrain.curvature.mean import METHODS, mean_curvature
-    from tankcd_cli.terrain.regions import (
-        classify_values,
-        default_thresholds,
-        footprint_curvature,
-        vertex_areas,
-    )
+    from tankcd_cli.terrain.mesh.footprint_average import footprint_curvature, vertex_areas
+    from tankcd_cli.terrain.regions import classify_values, default_thresholds
 
     truth = "closed-form H of the analytic surface"
     res.axes["curvature"] = ("vertex", "median |H - H_true| / median |H_true|")

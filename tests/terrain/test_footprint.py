@@ -133,44 +133,6 @@ def test_non_finite_and_huge_poses_find_no_ground():
         np.testing.assert_allclose(a[0][-1], b[0][-1], rtol=0, atol=1e-9)
 
 
-@pytest.mark.parametrize("layout", ["dem mesh", "tin", "grid"])
-def test_both_queries_from_one_pass_are_the_two_passes(layout):
-    """Mode 2 (the certificate's pass): the support plane of mode 0 (started from the given planes,
-    as mode 2 starts) and the height of mode 1, bit for bit, on every surface kind, and the plane
-    of a level start to rounding; no ground under the patches: NaN height and status 1."""
-    from scipy.spatial import Delaunay
-
-    from tankcd_cli.terrain.grid_surface import GridSurface
-
-    rng = np.random.default_rng(3)
-    z = 100 + np.cumsum(rng.normal(0, 0.1, (40, 40)), axis=0)
-    if layout == "grid":
-        surface = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (UTM[0], UTM[1] + 39.0), (1.0, 1.0))
-    elif layout == "tin":
-        xy = rng.uniform(0, 39, (1500, 2))
-        surface = S.surface_of(S.mesh_terrain(np.column_stack([xy + UTM, 100 + np.sin(xy[:, 0] / 3) * xy[:, 1] / 20]),
-                                              Delaunay(xy).simplices.astype(np.int64)))
-    else:
-        surface = S.surface_of(S.dem_terrain(z, origin=UTM))
-    n = 300
-    x = UTM[0] + np.append(rng.uniform(4, 35, n - 1), -50.0)  # the last one off the terrain
-    y = UTM[1] + np.append(rng.uniform(4, 35, n - 1), 0.0)
-    yaw = rng.uniform(-np.pi, np.pi, n)
-    quads = np.ascontiguousarray(patch_quads(T72, rng.normal(0, 0.1, n), rng.normal(0, 0.1, n)))
-    planes = np.column_stack([rng.normal(100, 1, n), rng.normal(0, 0.1, n), rng.normal(0, 0.1, n)])
-    lowest, covered0, status0 = surface.support_plane_under(x, y, yaw, quads, start=planes)
-    level_start, _, _ = surface.support_plane_under(x, y, yaw, quads)
-    high, covered1, _ = surface.highest_over_patches(x, y, yaw, quads, planes)
-    both, high2, covered2, status2 = surface.support_and_highest(x, y, yaw, quads, planes)
-    np.testing.assert_array_equal(both, lowest)
-    np.testing.assert_allclose(both, level_start, rtol=0, atol=1e-9)
-    np.testing.assert_array_equal(status2, status0)
-    np.testing.assert_array_equal(covered2, covered0)
-    np.testing.assert_array_equal(covered2, covered1)
-    np.testing.assert_array_equal(high2[:-1], high[:-1])
-    assert np.isnan(high2[-1]) and status2[-1] == 1 and (status2[:-1] == 0).all()
-
-
 @settings(max_examples=400, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(3, 40), st.floats(-2, 2), st.floats(-2, 2), st.booleans())
 def test_a_walk_from_any_start_finds_the_level_walks_plane(seed, k, b0, c0, lattice):

@@ -8,9 +8,9 @@ import pytest
 from tankcd_cli.terrain.dem_sources import ArrayDem, DemInfo
 from tankcd_cli.terrain import grid_classify as gc
 from tankcd_cli.terrain import synthetic
-from tankcd_cli.terrain.classify import classify_terrain
+from tankcd_cli.terrain.mesh.classify import classify_mesh
 from tankcd_cli.terrain.regions import default_thresholds
-from tankcd_cli.terrain.surface import TerrainSurface
+from tankcd_cli.terrain.mesh.surface import MeshSurface
 from tankcd_cli.vehicle import vehicle_preset
 
 T72 = vehicle_preset("t72")
@@ -141,7 +141,7 @@ def mesh_store(z):
 def test_mesh_estimators_equal_the_mesh_layout(method):
     z = rough_dem(45, 52, seed=5)
     raw = mesh_store(z)
-    store = classify_terrain(raw, method=method)
+    store = classify_mesh(raw, method=method)
     Hm = np.full(z.shape, np.nan)
     v = raw.grid.vertex[::-1]
     Hm[v >= 0] = store.mean_curvature[v[v >= 0]]
@@ -151,18 +151,18 @@ def test_mesh_estimators_equal_the_mesh_layout(method):
 
 
 def grid_and_mesh_surfaces(z):
-    """The same DEM as a GridSurface (posts only) and a mesh-layout TerrainSurface, with the
+    """The same DEM as a GridSurface (posts only) and a mesh-layout MeshSurface, with the
     mesh's classes on both so that every matcher choice is the same."""
     from tankcd_cli.terrain.grid_surface import GridSurface
 
     raw = mesh_store(z)
-    store = classify_terrain(raw)
+    store = classify_mesh(raw)
     classes = np.full(z.shape, 255, np.uint8)
     v = raw.grid.vertex[::-1]
     classes[v >= 0] = store.vertex_class[v[v >= 0]]
     rows = z.shape[0]
     grid = GridSurface.from_arrays(z.copy(), classes, (X0, Y0 + (rows - 1) * 1.0), (1.0, 1.0))
-    mesh = TerrainSurface.from_store(store)
+    mesh = MeshSurface.from_store(store)
     # the mesh layout's class raster replaced by the posts' classes (cells centred on the posts)
     mesh = dataclasses.replace(mesh, class_raster=np.ascontiguousarray(classes[::-1]),
                                class_origin=np.array([X0, Y0]) - mesh.origin, class_cell=1.0)
@@ -289,7 +289,7 @@ def test_classes_close_to_the_mesh_layout():
 
     z = rough_dem(150, 150, seed=10, holes=False) * 3
     raw = mesh_store(z)
-    store = classify_terrain(raw, method="cotan")
+    store = classify_mesh(raw, method="cotan")
     grid = classify_arrays(z, "cotan")
     vm = np.full(z.shape, np.nan)
     v = raw.grid.vertex[::-1]

@@ -1,6 +1,9 @@
-"""Point location for :mod:`tankcd_cli.terrain.surface`, compiled ahead of time (Cython).
+"""Compiled kernels of ``tankcd_cli.terrain.mesh.point_queries`` (see its docstring).
 
-The arithmetic and its order are those of the former numba kernels (results are bit-identical).
+A point's face: the triangles listed in its locator cell (then the 8 neighbouring cells, for a
+point on a cell's border) that hold it to ``BARY_EPS`` in barycentric coordinates, the highest
+of them on overhangs, vertical faces skipped. Its height and slope: a DEM's full cell from the
+four posts (``_post_cell.full_cell_c``), else the face's plane; NaN over no face.
 """
 
 from cython.parallel cimport prange
@@ -11,7 +14,7 @@ import numpy as np
 
 from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64, pair as _pair
 
-from tankcd_cli.terrain._grid_kernels cimport full_cell_c, ifloor
+from tankcd_cli.terrain._post_cell cimport full_cell_c, ifloor
 
 BARY_EPS = 1e-9  # points this close (in barycentric units) to a triangle's edge count as inside
 cdef double _BARY_EPS = 1e-9

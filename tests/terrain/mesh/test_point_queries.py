@@ -1,10 +1,10 @@
-"""The compiled mesh-layout kernels (``_surface_kernels.pyx``): paths agree, threads, inputs, a numpy twin."""
+"""The compiled mesh-layout queries (``mesh.point_queries``): paths agree, threads, inputs, a numpy twin."""
 
 import numpy as np
 import pytest
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
-from tankcd_cli.terrain import surface_kernels as K
+from tankcd_cli.terrain.mesh import point_queries as K
 from tankcd_cli.terrain import synthetic as S
 
 

@@ -1,4 +1,5 @@
-# Shared cdef helpers of the grid kernels (see _grid_kernels.pyx), inlined where cimported.
+# The arithmetic of a cell of posts that both layouts' kernels share (the grid's
+# ``grid/_post_queries.pyx``, a DEM mesh's ``mesh/_point_queries.pyx``), inlined where cimported.
 
 from cpython.pyport cimport PY_SSIZE_T_MIN
 from libc.math cimport isfinite, NAN
@@ -6,7 +7,7 @@ from libc.math cimport isfinite, NAN
 
 cdef inline Py_ssize_t ifloor(double x) noexcept nogil:
     """``<Py_ssize_t>floor(x)`` without libm's floor (x86-64's baseline instruction set has no
-    rounding instruction, so gcc calls it; numba compiled for the host CPU had one). Equal to it
+    rounding instruction, so gcc would call the library for every point). Equal to it
     for every finite x in the int64 range; NaN and values outside it give the conversion's
     'indefinite' value PY_SSIZE_T_MIN, as ``<Py_ssize_t>floor(x)`` does."""
     cdef Py_ssize_t i = <Py_ssize_t>x  # truncation toward zero

@@ -1,4 +1,5 @@
-"""The classify pipeline: a read terrain in, a complete terrain store out."""
+"""Classify a terrain read as a mesh (an irregular mesh, or a DEM's posts as triangles): clean-up,
+mean curvature, footprint-averaged classes and the point-location index, into a mesh-layout store."""
 
 from __future__ import annotations
 
@@ -11,18 +12,18 @@ from tankcd_cli import __version__
 from tankcd_cli.io.terrain_readers import RawTerrain
 from tankcd_cli.names import AUTO_METHODS
 from tankcd_cli.terrain.curvature.mean import mean_curvature, open_vertices
-from tankcd_cli.terrain.locate import build_buckets
 from tankcd_cli.terrain.mesh.clean import CleanMesh, clean_mesh
-from tankcd_cli.terrain.regions import (NO_CLASS, Thresholds, class_shares, classify_values, default_thresholds,
-                                        footprint_curvature, vertex_areas)
-from tankcd_cli.terrain.store import TerrainStore
+from tankcd_cli.terrain.mesh.footprint_average import class_shares, footprint_curvature, vertex_areas
+from tankcd_cli.terrain.mesh.locate import build_buckets
+from tankcd_cli.terrain.mesh.store import MeshStore
+from tankcd_cli.terrain.regions import NO_CLASS, Thresholds, classify_values, default_thresholds
 from tankcd_cli.tolerances import DEFAULT, Tolerances
 from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
 
-def classify_terrain(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | None = None,
-                     thresholds: Thresholds | None = None, tol: Tolerances = DEFAULT,
-                     progress: Callable[[str], None] | None = None) -> TerrainStore:
+def classify_mesh(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | None = None,
+                  thresholds: Thresholds | None = None, tol: Tolerances = DEFAULT,
+                  progress: Callable[[str], None] | None = None) -> MeshStore:
     """Clean a terrain, compute mean curvature and region classes, and build the query indexes.
 
     method : one of ``CURVATURE_METHODS``, or "auto" (``AUTO_METHODS``: jet on a mesh, cotan on a
@@ -94,17 +95,18 @@ def classify_terrain(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | N
     }
     for key, value in mesh.counts.items():
         attrs[key] = value
-    return TerrainStore(vertices, faces, H, averaged, classes, class_raster, raster.values.astype(np.float32),
+    return MeshStore(vertices, faces, H, averaged, classes, class_raster, raster.values.astype(np.float32),
                         raster.origin, raster.cell, buckets, grid, attrs)
 
 
 def load_terrain(path: str, up: str | None = None, fmt: str | None = None) -> RawTerrain:
     """Any terrain input: a mesh, a DEM, or a store written by classify (its cleaned mesh)."""
     from tankcd_cli.io.terrain_readers import read_terrain
-    from tankcd_cli.terrain.store import is_store, read_store
+    from tankcd_cli.terrain.mesh.store import read_mesh_store
+    from tankcd_cli.terrain.store import is_hdf5
 
-    if path != "-" and (fmt == "h5" or (fmt is None and is_store(path))):
-        store = read_store(path)
+    if path != "-" and (fmt == "h5" or (fmt is None and is_hdf5(path))):
+        store = read_mesh_store(path)
         return RawTerrain(store.vertices, store.faces, store.grid, store.attrs.get("source", path),
                           store.attrs.get("source_sha256", ""), store.attrs.get("source_format", "h5"),
                           store.attrs.get("source_up_axis", "z"))

@@ -1,6 +1,6 @@
-"""Height and upward normal anywhere on a terrain, in one vectorized call.
+"""Height and upward normal anywhere on a mesh-layout terrain, in one vectorized call.
 
-A :class:`TerrainSurface` is built once from a terrain store. Points are
+A :class:`MeshSurface` is built once from a mesh-layout store (``mesh/store.py``). Points are
 located in a uniform grid of cells that lists the triangles overlapping each
 cell: for a DEM the cells are the DEM's own cells (two triangles each, found
 by arithmetic: O(1) per point); for an irregular mesh they are the store's
@@ -22,7 +22,7 @@ from tankcd_cli.terrain.patches import PatchQueries
 
 
 @dataclass(frozen=True)
-class TerrainSurface(PatchQueries):
+class MeshSurface(PatchQueries):
     """Arrays for point location and heights (all in local x, y; z absolute).
 
     origin : (2,) world x, y of the local origin, m
@@ -53,8 +53,8 @@ class TerrainSurface(PatchQueries):
     post_size: np.ndarray
 
     @classmethod
-    def from_store(cls, store) -> "TerrainSurface":
-        """Build from a :class:`~tankcd_cli.terrain.store.TerrainStore`."""
+    def from_store(cls, store) -> "MeshSurface":
+        """Build from a :class:`~tankcd_cli.terrain.mesh.store.MeshStore`."""
         origin = store.vertices[:, :2].min(axis=0)
         local = np.column_stack([store.vertices[:, :2] - origin, store.vertices[:, 2]])
         faces = np.ascontiguousarray(store.faces, dtype=np.int64)
@@ -83,7 +83,7 @@ class TerrainSurface(PatchQueries):
 
     def locate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Face under each world point (N,), -1 where off the terrain (the highest face on overhangs)."""
-        from tankcd_cli.terrain.surface_kernels import locate_faces
+        from tankcd_cli.terrain.mesh.point_queries import locate_faces
 
         lx, ly = self.to_local(x, y)
         return locate_faces(np.ravel(lx), np.ravel(ly), self.vertices, self.faces, self.plane, self.cell_origin,
@@ -92,7 +92,7 @@ class TerrainSurface(PatchQueries):
 
     def height_slope(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m and gradient dz/dx, dz/dy (N,) at world points; NaN off the terrain."""
-        from tankcd_cli.terrain.surface_kernels import heights_slopes
+        from tankcd_cli.terrain.mesh.point_queries import heights_slopes
 
         lx, ly = self.to_local(x, y)
         shape = np.shape(lx)
@@ -104,7 +104,7 @@ class TerrainSurface(PatchQueries):
     def ground_above(self, rotation: np.ndarray, position: np.ndarray, points: np.ndarray) -> np.ndarray:
         """How far the ground rises above body points (k, 3) placed at poses (rotation (N, 3, 3),
         world position (N, 3)), m (N,): the largest ground - z over the points on terrain (-inf if none)."""
-        from tankcd_cli.terrain.surface_kernels import highest_above
+        from tankcd_cli.terrain.mesh.point_queries import highest_above
 
         local = np.asarray(position, dtype=float) - [self.origin[0], self.origin[1], 0.0]
         return highest_above(np.ascontiguousarray(rotation, dtype=float), np.ascontiguousarray(local),

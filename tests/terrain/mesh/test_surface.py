@@ -101,32 +101,3 @@ def test_ground_above_body_points_matches_height_queries():
     ground, _, _ = surface.height_normal(world[..., 0], world[..., 1])
     want = np.nan_to_num(ground - world[..., 2], nan=-np.inf).max(axis=1)
     np.testing.assert_allclose(got, want, atol=1e-9)
-
-
-def test_heights_at_heading_frame_points_are_the_heights_of_those_points():
-    """``heights_at`` (one kernel on the grid layout, not forming the points) against
-    ``height_slope`` at the same points formed in world coordinates; off the terrain NaN."""
-    from tankcd_cli.terrain import synthetic as S
-    from tankcd_cli.terrain.grid_surface import GridSurface
-
-    rng = np.random.default_rng(11)
-    z = 100 + np.cumsum(rng.normal(0, 0.2, (50, 60)), axis=1)
-    x0, y0 = 500_000.0, 4_500_000.0
-    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (x0, y0 + 49.0), (1.0, 1.0))
-    mesh = S.surface_of(S.dem_terrain(z[::-1], origin=(x0, y0)))
-    n = 400
-    x, y = x0 + rng.uniform(-3, 62, n), y0 + rng.uniform(-3, 52, n)  # some footprints over the edge
-    yaw = rng.uniform(-4, 4, n)
-    pts = rng.uniform(-3, 3, (9, 2))
-    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-    px, py = x[:, None] + c * pts[:, 0] - s * pts[:, 1], y[:, None] + s * pts[:, 0] + c * pts[:, 1]
-    for surface in (grid, mesh):
-        want = surface.height_slope(px, py)[0]
-        got = surface.heights_at(x, y, yaw, pts)
-        assert got.shape == (n, 9)
-        # the points formed at UTM magnitude carry ~1e-10 m of rounding each; heights_at forms them
-        # from local centres, so the two agree to within that times the ground's slope
-        np.testing.assert_allclose(got, want, rtol=0, atol=1e-8)
-        np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
-        assert np.isnan(got).any() and np.isfinite(got).any()
-    assert grid.heights_at(x[:0], y[:0], yaw[:0], pts).shape == (0, 9)

@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tankcd_cli.terrain import synthetic as S
-from tankcd_cli.terrain.locate import build_buckets
+from tankcd_cli.terrain.mesh.locate import build_buckets
 
 
 def containing_triangles_brute_force(V, F, p):
