@@ -138,10 +138,10 @@ def grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, mesh_surface):
     """The same DEM in the grid layout, read by window from a store on disk, against the mesh layout."""
     import tempfile
 
-    from tankcd_cli.terrain.dem_sources import ArrayDem, DemInfo
+    from tankcd_cli.terrain.grid.sources import ArrayDem, DemInfo
     from tankcd_cli.matching.match import MATCHERS, match
-    from tankcd_cli.terrain.dem_classify import classify_dem
-    from tankcd_cli.terrain.grid_store import open_grid
+    from tankcd_cli.terrain.grid.classify import classify_dem
+    from tankcd_cli.terrain.grid.store import open_grid
 
     v = raw.grid.vertex
     heights = np.full(v.shape, np.nan)

@@ -188,7 +188,7 @@ def _scene_terrain(sc) -> dict:
             raise InputError(path, f"is a {d.get('kind')}, not a terrain", where="[terrain] path")
         return {"kind": f"terrain store ({d['layout']} layout)", "crs": d.get("crs"),
                 "extent_x": d["extent_x"], "extent_y": d["extent_y"], "extent_z": d["extent_z"]}
-    from tankcd_cli.terrain.dem_sources import open_dem
+    from tankcd_cli.terrain.grid.sources import open_dem
 
     dem = open_dem(path)
     if dem is not None:

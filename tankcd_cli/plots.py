@@ -90,7 +90,7 @@ def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None
     cmap = ListedColormap(["#dcedc8", "#fff3c4", "#ffcdd2"])
     norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3)
     if isinstance(store, str):
-        from tankcd_cli.terrain.grid_store import read_overview
+        from tankcd_cli.terrain.grid.store import read_overview
 
         ov = read_overview(store)
         origin, extent = _overview_extent(ov)
@@ -169,7 +169,7 @@ def grid_map_png(store_path: str, path: str, title: str | None = None) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
-    from tankcd_cli.terrain.grid_store import read_overview
+    from tankcd_cli.terrain.grid.store import read_overview
 
     ov = read_overview(store_path)
     a = ov["attrs"]

@@ -74,7 +74,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     report.kernels()
     step = report.progress("classify")
     step(f"reading {terrain}")
-    from tankcd_cli.terrain.dem_sources import open_dem
+    from tankcd_cli.terrain.grid.sources import open_dem
 
     dem = open_dem(terrain, fmt=fmt, band=band, crs=crs)
     if dem is not None:
@@ -118,7 +118,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
 
 def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, png, scheduler=None, spec=None):
     from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.terrain.dem_classify import classify_dem
+    from tankcd_cli.terrain.grid.classify import classify_dem
 
     info = dem.info
     report.detail(f"classify: {info.source}: {info.rows:,} x {info.cols:,} posts at {info.spacing[0]:g} x "

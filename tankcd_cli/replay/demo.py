@@ -23,9 +23,9 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.replay.pipeline import prepare, replay_chunks
     from tankcd_cli.sample import write_sample
     from tankcd_cli.scene import load_scene
-    from tankcd_cli.terrain.dem_classify import classify_dem
-    from tankcd_cli.terrain.dem_sources import ascii_dem
-    from tankcd_cli.terrain.grid_store import open_grid
+    from tankcd_cli.terrain.grid.classify import classify_dem
+    from tankcd_cli.terrain.grid.sources import ascii_dem
+    from tankcd_cli.terrain.grid.store import open_grid
 
     say = progress or (lambda s: None)
     os.makedirs(out_dir, exist_ok=True)

@@ -66,7 +66,7 @@ def load_terrain_surface(path: str, up: str | None = None, fmt: str | None = Non
     say = progress or (lambda s: None)
     if path != "-" and is_hdf5(path):
         if read_attrs(path).get("layout") == "grid":  # the common case: import nothing else
-            from tankcd_cli.terrain.grid_store import open_grid
+            from tankcd_cli.terrain.grid.store import open_grid
 
             say(f"opening grid store {path}")
             return open_grid(path), None
@@ -76,7 +76,7 @@ def load_terrain_surface(path: str, up: str | None = None, fmt: str | None = Non
         say(f"reading terrain store {path}")
         return MeshSurface.from_store(read_mesh_store(path)), None
     from tankcd_cli.terrain.mesh.classify import classify_mesh, load_terrain
-    from tankcd_cli.terrain.dem_sources import open_dem
+    from tankcd_cli.terrain.grid.sources import open_dem
     from tankcd_cli.terrain.mesh.store import read_mesh_store, write_mesh_store
     from tankcd_cli.terrain.mesh.surface import MeshSurface
 
@@ -106,8 +106,8 @@ def _dem_surface(dem, cached: str | None, vehicle, say):
     import os
     import tempfile
 
-    from tankcd_cli.terrain.dem_classify import classify_dem
-    from tankcd_cli.terrain.grid_store import open_grid
+    from tankcd_cli.terrain.grid.classify import classify_dem
+    from tankcd_cli.terrain.grid.store import open_grid
     from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
     with dem:

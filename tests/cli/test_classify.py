@@ -186,7 +186,7 @@ def test_internal_error_is_exit_4(run, tmp_path, monkeypatch):
 
     def boom(*a, **k):
         raise RuntimeError("simulated bug")
-    monkeypatch.setattr("tankcd_cli.terrain.dem_classify.classify_dem", boom)
+    monkeypatch.setattr("tankcd_cli.terrain.grid.classify.classify_dem", boom)
     result = run("classify", src)
     assert result.exit_code == 4
     assert "internal error" in result.stderr and "please report" in result.stderr

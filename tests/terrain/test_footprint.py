@@ -114,7 +114,7 @@ def test_many_points_per_patch_grow_the_scratch_and_threads_change_nothing(arith
 def test_non_finite_and_huge_poses_find_no_ground():
     """Poses at NaN, infinite or beyond-int64 coordinates: no ground under them (numba's grid
     path could crash there)."""
-    from tankcd_cli.terrain.grid_surface import GridSurface
+    from tankcd_cli.terrain.grid.surface import GridSurface
 
     rng = np.random.default_rng(2)
     z = 100 + rng.normal(0, 0.1, (30, 30))

@@ -15,7 +15,7 @@ UTM = (500_000.0, 4_500_000.0)
 def test_heights_at_heading_frame_points_are_the_heights_of_those_points():
     """``heights_at`` (one kernel on the grid layout, not forming the points) against
     ``height_slope`` at the same points formed in world coordinates; off the terrain NaN."""
-    from tankcd_cli.terrain.grid_surface import GridSurface
+    from tankcd_cli.terrain.grid.surface import GridSurface
 
     rng = np.random.default_rng(11)
     z = 100 + np.cumsum(rng.normal(0, 0.2, (50, 60)), axis=1)
@@ -47,7 +47,7 @@ def test_both_queries_from_one_pass_are_the_two_passes(layout):
     of a level start to rounding; no ground under the patches: NaN height and status 1."""
     from scipy.spatial import Delaunay
 
-    from tankcd_cli.terrain.grid_surface import GridSurface
+    from tankcd_cli.terrain.grid.surface import GridSurface
 
     rng = np.random.default_rng(3)
     z = 100 + np.cumsum(rng.normal(0, 0.1, (40, 40)), axis=0)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from tankcd_cli.terrain import synthetic as S
-from tankcd_cli.terrain.grid_surface import GridSurface
+from tankcd_cli.terrain.grid.surface import GridSurface
 from tankcd_cli.terrain.surface import Surface
 
 PACKAGE = Path(__file__).resolve().parents[2] / "tankcd_cli"

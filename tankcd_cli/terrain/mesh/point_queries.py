@@ -17,4 +17,4 @@ from tankcd_cli.terrain.mesh._point_queries import (  # noqa: F401
     locate_faces,
     locate_one,
 )
-from tankcd_cli.terrain.grid_kernels import full_cell  # noqa: F401  (a DEM cell's arithmetic, shared)
+from tankcd_cli.terrain.grid.post_queries import full_cell  # noqa: F401  (a DEM cell's arithmetic, shared)

@@ -165,7 +165,7 @@ class MeshSurface(PatchQueries):
         The rectangle (length along the heading, width across, centred on x, y)
         is sampled at the class raster's resolution, corners included.
         """
-        from tankcd_cli.terrain.grid_kernels import grid_worst_class
+        from tankcd_cli.terrain.grid.post_queries import grid_worst_class
 
         nu = max(2, int(np.ceil(length / self.class_cell)) + 1)
         nv = max(2, int(np.ceil(width / self.class_cell)) + 1)

@@ -6,7 +6,6 @@ import pytest
 
 from tankcd_cli.io.terrain_readers import RawTerrain
 from tankcd_cli.terrain import synthetic as S
-from tankcd_cli.terrain.curvature.mean import mean_curvature
 from tankcd_cli.terrain.mesh.classify import classify_mesh
 from tankcd_cli.terrain.mesh.footprint_average import Raster, footprint_curvature, vertex_areas
 from tankcd_cli.terrain.regions import FLAT, UNEVEN

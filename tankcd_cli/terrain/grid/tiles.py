@@ -44,11 +44,10 @@ class TileReader:
         if self.arrays is not None:
             return self.arrays[name]
         if self._h5 is None or self._pid != os.getpid():
-            from tankcd_cli.io.h5 import open_h5
-            from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION
+            from tankcd_cli.terrain.store import open_store
 
-            self._h5 = open_h5(self.path, FORMAT, FORMAT_VERSION, "tankcd terrain store", "run classify again",
-                               rdcc_nbytes=0)  # HDF5's own chunk cache off: whole tiles are read once into ours
+            # HDF5's own chunk cache off: whole tiles are read once into ours
+            self._h5 = open_store(self.path, rdcc_nbytes=0)
             self._pid = os.getpid()
         return self._h5[name]
 

@@ -1,9 +1,9 @@
-"""Compiled twins of the per-post passes of ``grid_classify`` (see
-:mod:`tankcd_cli.terrain.grid_classify_kernels`), compiled ahead of time (Cython).
+"""Compiled twins of the per-post passes of ``grid.tiled_classify`` (see
+:mod:`tankcd_cli.terrain.grid.post_passes`), compiled ahead of time (Cython).
 
-The operations and their order are the numpy twins' (and the former numba kernels'): the same
-bits. Both passes run without the GIL (``grid_classify`` calls them from worker threads) and
-serially (those threads are the parallelism).
+The operations and their order are the numpy twins': the same bits. Both passes run without
+the GIL (``tiled_classify`` calls them from worker threads) and serially (those threads are the
+parallelism).
 """
 
 import numpy as np
@@ -16,7 +16,7 @@ ctypedef fused real_t:
 
 
 def _heights(z):
-    """float32 stays float32 (numba took its differences in float32); anything else float64."""
+    """float32 stays float32 (its first differences are taken in float32); anything else float64."""
     a = np.asarray(z)
     if a.ndim != 2:
         raise ValueError(f"z must be 2-D (rows, cols), got {a.ndim}-D")
@@ -39,9 +39,9 @@ cdef void _fd(const real_t[:, ::1] z, double hx, double hy, double ixx, double i
             s = z[r + 1, c]
             e = z[r, c + 1]
             w = z[r, c - 1]
-            fx = (e - w) * hx  # e - w in the heights' precision, as numba
+            fx = (e - w) * hx  # e - w in the heights' precision
             fy = (n - s) * hy
-            fxx = (<double>e - 2.0 * <double>cc + <double>w) * ixx  # 2 * cc: numba's int * real is float64
+            fxx = (<double>e - 2.0 * <double>cc + <double>w) * ixx  # second differences in float64
             fyy = (<double>n - 2.0 * <double>cc + <double>s) * iyy
             fxy = ((z[r - 1, c + 1] - z[r - 1, c - 1]) - (z[r + 1, c + 1] - z[r + 1, c - 1])) * ixy
             fx2 = fx * fx
@@ -51,11 +51,11 @@ cdef void _fd(const real_t[:, ::1] z, double hx, double hy, double ixx, double i
 
 
 def fd_mean_curvature(z, double dx, double dy):
-    """``grid_mean_curvature_fd``: H by central differences (NaN on the border and where a
+    """``tiled_classify.grid_mean_curvature_fd``: H by central differences (NaN on the border and where a
     neighbour is missing); z (rows, cols) row 0 north."""
     za = _heights(z)
     H_arr = np.full(za.shape, np.nan)
-    # numba raised ZeroDivisionError on a zero divisor
+    # a zero spacing (or one whose square underflows) has no differences: ZeroDivisionError
     if dx == 0.0 or dy == 0.0 or dx * dx == 0.0 or dy * dy == 0.0 or dx * dy == 0.0:
         raise ZeroDivisionError("division by zero")
     cdef double hx = 0.5 / dx
@@ -165,13 +165,13 @@ cdef void _post_areas(const double[:, ::1] z, double dx, double dy, double[:, ::
 
 
 def post_areas(z, double dx, double dy):
-    """``grid_classify.post_areas``: a third of the 3-D area of each triangle at every post."""
+    """``tiled_classify.post_areas``: a third of the 3-D area of each triangle at every post."""
     za = np.asarray(z)
     if za.ndim != 2:
         raise ValueError(f"z must be 2-D (rows, cols), got {za.ndim}-D")
-    cdef const double[:, ::1] zv = np.ascontiguousarray(za, dtype=np.float64)  # exact: numba converted too
+    cdef const double[:, ::1] zv = np.ascontiguousarray(za, dtype=np.float64)  # exact for any float input
     if zv.shape[0] < 1 or zv.shape[1] < 1:
-        raise ValueError("negative dimensions not allowed")  # numba's share array (4, rows - 1, cols - 1)
+        raise ValueError("negative dimensions not allowed")  # an empty raster has no cells (rows - 1 < 0)
     a_arr = np.zeros((zv.shape[0], zv.shape[1]))
     cdef double[:, ::1] a = a_arr
     with nogil:

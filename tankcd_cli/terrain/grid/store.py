@@ -69,7 +69,7 @@ class GridStoreWriter:
         self.zmin, self.zmax = np.inf, -np.inf
 
     def write(self, t) -> None:
-        """Store one :class:`~tankcd_cli.terrain.grid_classify.TileResult`."""
+        """Store one :class:`~tankcd_cli.terrain.grid.tiled_classify.TileResult`."""
         r0, c0 = t.r0, t.c0
         r1, c1 = r0 + t.height.shape[0], c0 + t.height.shape[1]
         self.height[r0:r1, c0:c1] = t.height.astype(self.height.dtype)
@@ -121,21 +121,14 @@ class GridStoreWriter:
             pass
 
 
-def store_layout(path: str) -> str:
-    """'grid' or 'mesh' for a terrain store (its root attribute ``layout``)."""
-    from tankcd_cli.terrain.store import read_attrs
-
-    return str(read_attrs(path).get("layout", "mesh"))
-
-
 def open_grid(path: str, cache_bytes: int | None = None):
-    """The :class:`~tankcd_cli.terrain.grid_surface.GridSurface` of a grid store (reads no raster)."""
+    """The :class:`~tankcd_cli.terrain.grid.surface.GridSurface` of a grid store (reads no raster)."""
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.grid_surface import GridSurface
-    from tankcd_cli.terrain.store import open_store
-    from tankcd_cli.terrain.tiles import DEFAULT_CACHE_BYTES, TileReader
+    from tankcd_cli.terrain.grid.surface import GridSurface
+    from tankcd_cli.terrain.grid.tiles import DEFAULT_CACHE_BYTES, TileReader
+    from tankcd_cli.terrain.store import WHAT, open_store
 
-    what = "tankcd terrain store"
+    what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):
         h = h5["grid/height"]
@@ -162,10 +155,10 @@ def read_overview(path: str) -> dict:
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.store import read_attrs
+    from tankcd_cli.terrain.store import WHAT, read_attrs
 
     attrs = read_attrs(path)
-    with read_errors(path, "tankcd terrain store"), h5py.File(path, "r") as h5:
+    with read_errors(path, WHAT), h5py.File(path, "r") as h5:
         h = h5["grid/height"]
         return {"classes": h5["overview/classes"][()], "curvature": h5["overview/curvature"][()],
                 "step": int(h5["overview/classes"].attrs["step"]), "rows": h.shape[0], "cols": h.shape[1],

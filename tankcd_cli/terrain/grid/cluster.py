@@ -20,7 +20,7 @@ _LOCK = threading.Lock()
 
 
 def _source(spec: tuple):
-    from tankcd_cli.terrain.dem_sources import open_dem
+    from tankcd_cli.terrain.grid.sources import open_dem
 
     with _LOCK:
         if spec not in _SOURCES:
@@ -31,9 +31,9 @@ def _source(spec: tuple):
 
 
 def tile_task(spec: tuple, core: tuple, geometry, method: str, track_length: float, thresholds):
-    """Classify one tile on a worker (see ``grid_classify.classify_tile``)."""
-    from tankcd_cli.terrain.dem_classify import checked_read
-    from tankcd_cli.terrain.grid_classify import classify_tile, stencils, use_compiled
+    """Classify one tile on a worker (see ``tiled_classify.classify_tile``)."""
+    from tankcd_cli.terrain.grid.sources import checked_read
+    from tankcd_cli.terrain.grid.tiled_classify import classify_tile, stencils, use_compiled
 
     st = stencils(geometry, track_length)
     source = _source(spec)
@@ -51,7 +51,7 @@ def classify_tiles_on_dask(scheduler: str, spec: tuple, geometry, method: str, t
     import os
     import time
 
-    from tankcd_cli.terrain.grid_classify import tiles_of
+    from tankcd_cli.terrain.grid.tiled_classify import tiles_of
 
     try:
         from distributed import Client

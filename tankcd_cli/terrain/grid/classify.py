@@ -1,4 +1,5 @@
-"""The classify pipeline for DEMs: a windowed DEM source in, a grid-layout store out, tile by tile."""
+"""Classify a DEM: a windowed DEM source (``sources.py``) in, a grid-layout store out, tile by tile
+(``tiled_classify.py``), in this process's threads or on a Dask cluster (``cluster.py``)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ import numpy as np
 
 from tankcd_cli import __version__
 from tankcd_cli.errors import InputError
-from tankcd_cli.io.terrain_readers import MAX_COORDINATE
-from tankcd_cli.terrain.grid_classify import DEFAULT_TILE, GridGeometry, classify_grid_tiles
+from tankcd_cli.terrain.grid.sources import checked_read
+from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, GridGeometry, classify_grid_tiles
 from tankcd_cli.terrain.regions import Thresholds, default_thresholds
 from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
@@ -25,7 +26,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
                  thresholds: Thresholds | None = None, tile=DEFAULT_TILE, jobs: int | None = None,
                  progress: Callable[[int, int, int, float], None] | None = None, scheduler: str | None = None,
                  spec: tuple | None = None) -> dict:
-    """Classify every post of ``source`` (see ``terrain.dem_sources``) into a grid store at ``out_path``.
+    """Classify every post of ``source`` (see ``grid.sources``) into a grid store at ``out_path``.
 
     progress(tiles_done, tiles_total, posts_done, seconds) after each tile.
     scheduler : a Dask scheduler's address: the tiles run there as tasks, each worker reading
@@ -33,7 +34,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
         worker sees); this process writes the store, in the same tile order as a local run.
     Returns the store's root attributes.
     """
-    from tankcd_cli.terrain.grid_store import GridStoreWriter
+    from tankcd_cli.terrain.grid.store import GridStoreWriter
 
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
@@ -51,7 +52,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
 
     try:
         if scheduler:
-            from tankcd_cli.terrain.grid_cluster import classify_tiles_on_dask
+            from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
 
             classify_tiles_on_dask(scheduler, spec, geometry, method, vehicle.track_length, thresholds, tile,
                                    writer.write, progress_of(progress, started))
@@ -98,19 +99,6 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
         writer.abort()
         raise
     return attrs
-
-
-def checked_read(source, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-    """A window of heights, refusing numbers no terrain has (a unit or parse error, and they
-    would overflow the fits)."""
-    z = source.read(r0, r1, c0, c1)
-    with np.errstate(invalid="ignore"):
-        huge = np.abs(z) > MAX_COORDINATE
-    if huge.any():
-        r, c = np.argwhere(huge)[0]
-        raise InputError(source.info.source, f"height beyond {MAX_COORDINATE:.0e} m: {z[r, c]!r}",
-                         where=f"row {r0 + r + 1} column {c0 + c + 1}")
-    return z
 
 
 def progress_of(progress, started: float):

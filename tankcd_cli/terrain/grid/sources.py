@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.terrain_readers import MAX_COORDINATE
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ class StoreDem:
     """The heights of a grid store, read by tile."""
 
     def __init__(self, path: str):
-        from tankcd_cli.terrain.grid_store import open_grid
+        from tankcd_cli.terrain.grid.store import open_grid
         from tankcd_cli.terrain.store import read_attrs
 
         self.surface = open_grid(path)
@@ -175,3 +176,16 @@ def ascii_dem(path: str) -> ArrayDem:
     info = DemInfo(name, "asc", rows, cols, (x0, y0 + (rows - 1) * dy), (dx, dy),
                    sha256=hashlib.sha256(data).hexdigest())
     return ArrayDem(heights, info)
+
+
+def checked_read(source, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    """A window of heights, refusing numbers no terrain has (a unit or parse error, and they
+    would overflow the fits)."""
+    z = source.read(r0, r1, c0, c1)
+    with np.errstate(invalid="ignore"):
+        huge = np.abs(z) > MAX_COORDINATE
+    if huge.any():
+        r, c = np.argwhere(huge)[0]
+        raise InputError(source.info.source, f"height beyond {MAX_COORDINATE:.0e} m: {z[r, c]!r}",
+                         where=f"row {r0 + r + 1} column {c0 + c + 1}")
+    return z

@@ -1,7 +1,8 @@
 """Height and class queries on a DEM held only as posts, compiled ahead of time (Cython).
 
-See :mod:`tankcd_cli.terrain.grid_kernels` for the surface and the window convention. The
-arithmetic and its order are those of the former numba kernels (results are bit-identical).
+See :mod:`tankcd_cli.terrain.grid.post_queries` for the surface and the window convention; a
+full cell's height and slope come from ``_post_cell.pxd``, the arithmetic the mesh layout's
+kernels use on a DEM's cells, so both layouts give the same bits there.
 """
 
 from cython.parallel cimport prange

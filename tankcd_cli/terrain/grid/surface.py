@@ -1,7 +1,7 @@
 """Height, slope, region classes and the exact footprint on a DEM held as posts.
 
-A :class:`GridSurface` answers the same questions as the mesh layout's
-:class:`~tankcd_cli.terrain.mesh.surface.MeshSurface`, on the grid layout's
+A :class:`GridSurface` answers the same questions (``terrain.surface.Surface``) as the mesh
+layout's :class:`~tankcd_cli.terrain.mesh.surface.MeshSurface`, on the grid layout's
 implicit surface (each cell split along its SW-NE diagonal; a cell with three
 valid posts carries the triangle of those three), with no vertex, face or
 plane arrays: every query is arithmetic on posts.
@@ -17,7 +17,7 @@ and memory depend on the work asked for, not on the size of the terrain.
 Local coordinates: x, y relative to the grid's south-west post, so UTM
 coordinates lose nothing; post (row from the south i, column c) lies at
 (c dx, i dy). Kernels compute cell indices in the whole grid's indices (see
-``grid_kernels``): a result does not depend on the window it came through.
+``post_queries``): a result does not depend on the window it came through.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ WINDOW_BYTES = 64 << 20  # assembled windows kept, at most (the newest always)
 class GridSurface(PatchQueries):
     """A DEM's surface read by window.
 
-    tiles : a :class:`~tankcd_cli.terrain.tiles.TileReader` over ``grid/height`` and ``classes/grid``
+    tiles : a :class:`~tankcd_cli.terrain.grid.tiles.TileReader` over ``grid/height`` and ``classes/grid``
     rows, cols : posts
     origin_nw : (2,) world x, y of post [0, 0], the north-west one (the store's origin_x, origin_y)
     spacing : (2,) dx, dy, m
@@ -58,16 +58,9 @@ class GridSurface(PatchQueries):
     # --- construction -----------------------------------------------------------------
 
     @classmethod
-    def open(cls, path: str, cache_bytes: int | None = None) -> "GridSurface":
-        """A grid store's surface (see ``grid_store.open_grid``)."""
-        from tankcd_cli.terrain.grid_store import open_grid
-
-        return open_grid(path, cache_bytes=cache_bytes)
-
-    @classmethod
     def from_arrays(cls, height: np.ndarray, classes: np.ndarray, origin_nw, spacing, crs: str = "") -> "GridSurface":
-        """From rasters in memory (row 0 north; NaN / 255 at NODATA)."""
-        from tankcd_cli.terrain.tiles import TileReader
+        """From rasters in memory (row 0 north; NaN / 255 at NODATA); a store's: ``grid.store.open_grid``."""
+        from tankcd_cli.terrain.grid.tiles import TileReader
 
         tiles = TileReader(arrays={"grid/height": height, "classes/grid": classes})
         return cls(tiles, height.shape[0], height.shape[1], origin_nw, spacing, crs)
@@ -147,7 +140,7 @@ class GridSurface(PatchQueries):
 
     def height_slope(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m and gradient dz/dx, dz/dy (N,) at world points; NaN off the terrain."""
-        from tankcd_cli.terrain.grid_kernels import grid_heights_slopes
+        from tankcd_cli.terrain.grid.post_queries import grid_heights_slopes
 
         lx, ly = self.to_local(x, y)
         shape = np.shape(lx)
@@ -163,7 +156,7 @@ class GridSurface(PatchQueries):
     def heights_at(self, x, y, yaw, points) -> np.ndarray:
         """Ground heights (N, k) m at points (k, 2) in each pose's heading frame; NaN off the
         terrain (``height_slope`` at those points, by one kernel that does not form them)."""
-        from tankcd_cli.terrain.grid_kernels import grid_heights_at_offsets
+        from tankcd_cli.terrain.grid.post_queries import grid_heights_at_offsets
 
         lx, ly = self.to_local(x, y)
         lx, ly = np.ravel(lx), np.ravel(ly)
@@ -193,7 +186,7 @@ class GridSurface(PatchQueries):
         The rectangle (length along the heading, width across, centred on x, y) is
         sampled at the post spacing, corners included; each sample takes its nearest post's class.
         """
-        from tankcd_cli.terrain.grid_kernels import grid_worst_class
+        from tankcd_cli.terrain.grid.post_queries import grid_worst_class
 
         step = float(self.spacing.min())
         nu = max(2, int(np.ceil(length / step)) + 1)
@@ -216,7 +209,7 @@ class GridSurface(PatchQueries):
         polygons ``quads`` (N, ..., 2) in the heading frame (planes (N, 3): a + b u + c v); -inf
         where no ground is under them. Costs a pass over the posts of their bounding box, a
         fraction of the exact footprint pass: poses it clears need no exact pass."""
-        from tankcd_cli.terrain.grid_kernels import grid_highest_above_plane_bound
+        from tankcd_cli.terrain.grid.post_queries import grid_highest_above_plane_bound
 
         lx, ly = self.to_local(x, y)
         lx, ly = np.ravel(lx), np.ravel(ly)

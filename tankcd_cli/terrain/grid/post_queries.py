@@ -11,11 +11,11 @@ whole grid's post [0, 0]. Cell indices and in-cell fractions are computed in
 the whole grid's indices, so a result never depends on the window it was read
 through (a replay split into parts gives the same bytes as one run).
 
-The kernels live in ``_grid_kernels.pyx``; its ``_grid_kernels.pxd`` shares ``full_cell``'s
-arithmetic (``full_cell_c``) with the mesh layout's kernels.
+The kernels live in ``_post_queries.pyx``; ``full_cell``'s arithmetic (``full_cell_c``) is
+``terrain/_post_cell.pxd``, which the mesh layout's kernels share.
 """
 
-from tankcd_cli.terrain._grid_kernels import (  # noqa: F401
+from tankcd_cli.terrain.grid._post_queries import (  # noqa: F401
     BARY_EPS,
     full_cell,
     grid_height_one,

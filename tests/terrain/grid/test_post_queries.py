@@ -1,10 +1,10 @@
-"""The compiled grid kernels (``_grid_kernels.pyx``): inputs they accept, windows, threads, a numpy twin."""
+"""The compiled grid queries (``grid.post_queries``): inputs they accept, windows, threads, a numpy twin."""
 
 import numpy as np
 import pytest
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
-from tankcd_cli.terrain import grid_kernels as G
+from tankcd_cli.terrain.grid import post_queries as G
 
 
 def _dem(rows=25, cols=31, seed=0, holes=0.1):

@@ -11,7 +11,7 @@ Per post (row 0 north, NaN at NODATA; x = column dx, y = -row dy):
 - **Mean curvature H**, 1/m, by ``method``:
   ``grid`` (the default for DEMs) central differences over the 3 x 3 posts
   around it, put in the formula of docs/formats.md (second order, as GIS tools do it);
-  ``cotan``, ``sphere``, ``jet`` the mesh estimators (``curvature.py``) on the
+  ``cotan``, ``sphere``, ``jet`` the mesh estimators (``terrain/curvature/``) on the
   implicit triangulation, exactly as the mesh layout computes them.
   Posts without the neighbours a formula needs (the DEM's edges, NODATA
   borders; ``open_posts``) get the one-sided treatment the mesh layout gives
@@ -52,9 +52,9 @@ def use_compiled(geometry) -> bool:
 def _passes(fast: bool):
     """(central differences, post areas, disk sum): the compiled twins or the numpy ones."""
     if fast:
-        from tankcd_cli.terrain import grid_classify_kernels as k
+        from tankcd_cli.terrain.grid import post_passes
 
-        return k.fd_mean_curvature, k.post_areas, _disk_sum
+        return post_passes.fd_mean_curvature, post_passes.post_areas, _disk_sum
     return grid_mean_curvature_fd, post_areas, _disk_sum
 
 
