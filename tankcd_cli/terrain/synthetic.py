@@ -122,7 +122,7 @@ def grid_mesh(field: HeightField, half_extent: float, spacing: float,
     Returns vertices (n, 3) float64 m (shifted by ``offset``), faces (m, 3) int64,
     and the local x, y (n, 2) at which the field was sampled.
     """
-    from tankcd_cli.io.terrain_readers import grid_faces
+    from tankcd_cli.geometry.post_grid import grid_faces
 
     count = int(round(2 * half_extent / spacing)) + 1
     xs = -half_extent + spacing * np.arange(count)
@@ -158,7 +158,8 @@ def _lift(field: HeightField, xy: Array, offset) -> Array:
 
 def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: str = "dem"):
     """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south; NaN = NODATA)."""
-    from tankcd_cli.io.terrain_readers import Grid, RawTerrain, grid_faces
+    from tankcd_cli.geometry.post_grid import Grid, grid_faces
+    from tankcd_cli.io.terrain_readers import RawTerrain
 
     heights = np.asarray(heights, dtype=float)
     valid = np.isfinite(heights)

@@ -28,7 +28,7 @@ from rasterio.warp import transform as warp_points, transform_bounds  # noqa: E4
 
 from tankcd_cli.errors import InputError  # noqa: E402
 from tankcd_cli.io.rasters import GridInfo, RASTER_SUFFIXES, is_raster, open_raster  # noqa: E402
-from tankcd_cli.io.terrain_readers import parse_esri_ascii  # noqa: E402
+from tankcd_cli.io.esri_ascii import parse_esri_ascii  # noqa: E402
 
 # --- one ground, many formats ---------------------------------------------------
 

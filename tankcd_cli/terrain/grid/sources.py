@@ -164,10 +164,11 @@ def ascii_dem(path: str) -> ArrayDem:
     """An ESRI ASCII grid through tankcd's own parser."""
     import hashlib
 
-    from tankcd_cli.io.terrain_readers import _read_bytes, esri_ascii_posts
+    from tankcd_cli.io.esri_ascii import esri_ascii_posts
+    from tankcd_cli.io.files import read_bytes
 
     name = "<stdin>" if path == "-" else path
-    data = _read_bytes(path, name)
+    data = read_bytes(path, name)
     if not data.strip():
         raise InputError(name, "file is empty")
     z, valid, (x0, y0), (dx, dy) = esri_ascii_posts(data, name)

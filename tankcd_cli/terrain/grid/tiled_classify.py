@@ -314,7 +314,7 @@ def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: fl
 def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, dy: float,
                    fast: bool = False) -> np.ndarray:
     """H by a mesh estimator on the window's implicit triangulation (values at open posts unused)."""
-    from tankcd_cli.io.terrain_readers import grid_faces
+    from tankcd_cli.geometry.post_grid import grid_faces
     from tankcd_cli.terrain.curvature.mean import OpenVertices, mean_curvature
 
     south = z[::-1]  # the mesh layout numbers posts from the south row

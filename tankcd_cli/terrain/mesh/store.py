@@ -42,7 +42,7 @@ class MeshStore:
     raster_origin: np.ndarray
     raster_cell: float
     buckets: TriangleBuckets | None  # for irregular meshes
-    grid: object | None  # io.terrain_readers.Grid
+    grid: object | None  # geometry.post_grid.Grid
     attrs: dict = field(default_factory=dict)
 
 
@@ -86,7 +86,7 @@ def write_mesh_store(path: str, store: MeshStore) -> None:
 def read_mesh_store(path: str) -> MeshStore:
     """Read a whole mesh-layout store into memory (a grid-layout one is an InputError)."""
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.io.terrain_readers import Grid
+    from tankcd_cli.geometry.post_grid import Grid
     what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):

@@ -46,7 +46,7 @@ def test_crater_is_uneven_plain_around_is_flat():
     X, Y = np.meshgrid(x, x)
     r = np.hypot(X, Y)
     Z = np.where(r < 5, -1.5 * (1 - (r / 5) ** 2) ** 2, 0) + 0.4 * np.exp(-((r - 5) / 1.5) ** 2)
-    from tankcd_cli.io.terrain_readers import grid_faces
+    from tankcd_cli.geometry.post_grid import grid_faces
 
     V = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
     F = grid_faces(np.arange(V.shape[0]).reshape(X.shape))

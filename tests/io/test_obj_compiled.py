@@ -1,5 +1,6 @@
-"""The compiled OBJ reader (obj_kernels.scan_obj, used first by _read_obj): against the Python fast
-path (_simple_obj) and the full reader (parse_obj), bit for bit, and the files it must decline."""
+"""The compiled OBJ reader (obj.scan_obj through obj.compiled_obj, used first by obj.read_obj):
+against the Python fast path (simple_obj) and the full reader (parse_obj), bit for bit, and the
+files it must decline."""
 
 import numpy as np
 import pytest
@@ -7,23 +8,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.io.obj_kernels import _POW10, scan_obj
-from tankcd_cli.io.terrain_readers import (
-    _compiled_obj,
-    _read_obj,
-    _simple_obj,
-    parse_obj,
-    read_terrain,
-)
+from tankcd_cli.io._obj import scan_obj
+from tankcd_cli.io.obj import POW10, compiled_obj, parse_obj, read_obj, simple_obj
+from tankcd_cli.io.terrain_readers import read_terrain
 
 GRID_V = "".join(f"v {x} {y} {(x + y) / 4}\n" for y in range(3) for x in range(3))  # 9 vertices
 
 
 def _old_read_obj(data: bytes):
-    """_read_obj as it was before the compiled reader: the Python fast path, else the full reader."""
+    """read_obj as it was before the compiled reader: the Python fast path, else the full reader."""
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
-    simple = _simple_obj(data)
+    simple = simple_obj(data)
     return simple if simple is not None else parse_obj(data, "m.obj")
 
 
@@ -50,21 +46,21 @@ def assert_same_mesh(a, b):
 
 def assert_compiled_is_both(data: bytes):
     """The compiled reader takes the file and gives what both Python readers give."""
-    fast = _compiled_obj(data)
+    fast = compiled_obj(data)
     assert fast is not None
-    simple = _simple_obj(data)
+    simple = simple_obj(data)
     assert simple is not None
     assert_same_mesh(fast, simple)
     assert_same_mesh(fast, parse_obj(data, "m.obj"))
-    assert_same_mesh(_read_obj(data, "m.obj"), fast)
+    assert_same_mesh(read_obj(data, "m.obj"), fast)
     return fast
 
 
 def assert_declined_unchanged(data: bytes):
-    """The compiled reader declines; _read_obj gives what it gave before (a mesh or the same error)."""
+    """The compiled reader declines; read_obj gives what it gave before (a mesh or the same error)."""
     body = data[3:] if data.startswith(b"\xef\xbb\xbf") else data
-    assert scan_obj(body, _POW10) is None
-    new, old = _outcome(lambda d: _read_obj(d, "m.obj"), data), _outcome(_old_read_obj, data)
+    assert scan_obj(body, POW10) is None
+    new, old = _outcome(lambda d: read_obj(d, "m.obj"), data), _outcome(_old_read_obj, data)
     if isinstance(old, str):
         assert new == old
     else:
@@ -111,7 +107,7 @@ def test_seventeen_digit_floats_are_declined_and_still_read_exactly():
     rng = np.random.default_rng(3)
     vertices, faces = random_mesh(rng)
     data = obj_text(vertices, faces, fmt=repr).encode()
-    assert scan_obj(data, _POW10) is None
+    assert scan_obj(data, POW10) is None
     mesh = assert_declined_unchanged(data)
     assert mesh.vertices.view(np.uint64).tolist() == vertices.view(np.uint64).tolist()  # repr round-trips
     assert_same_mesh(mesh, parse_obj(data, "m.obj"))
@@ -180,13 +176,13 @@ def test_non_ascii_in_comments_and_names_only():
 
 def test_bom_and_the_inputs_it_takes():
     data = obj_text(*random_mesh(np.random.default_rng(2), n=10, m=10)).encode()
-    base = scan_obj(data, _POW10)
+    base = scan_obj(data, POW10)
     assert base is not None
     for buf in (bytearray(data), memoryview(data), np.frombuffer(data, np.uint8), list(data)):
-        other = scan_obj(buf, list(_POW10))
+        other = scan_obj(buf, list(POW10))
         assert other is not None and np.array_equal(other[0], base[0]) and np.array_equal(other[1], base[1])
-    assert scan_obj(b"", _POW10) is None
-    assert_same_mesh(_read_obj(b"\xef\xbb\xbf" + data, "m.obj"), _compiled_obj(data))
+    assert scan_obj(b"", POW10) is None
+    assert_same_mesh(read_obj(b"\xef\xbb\xbf" + data, "m.obj"), compiled_obj(data))
 
 
 def test_number_forms_are_float_bits():
@@ -195,7 +191,7 @@ def test_number_forms_are_float_bits():
              "0" * 40 + "1.5", "0.000000000000000000001", "-.75e+3"]
     for cell in cells:
         data = f"v {cell} {cell} 1\nf 1 1 1\n".encode()
-        scanned = scan_obj(data, _POW10)
+        scanned = scan_obj(data, POW10)
         if cell == "0e999":  # an exponent past 400 even on a zero (as the CSV parser)
             assert scanned is None
             continue
@@ -210,7 +206,7 @@ def test_number_forms_are_float_bits():
 def test_fast_path_numbers_are_float_bits_or_declined(value, fmt):
     cell = repr(value) if fmt == "%r" else fmt % value
     data = f"v {cell} 1 2\nf 1 1 1\n".encode()
-    scanned = scan_obj(data, _POW10)
+    scanned = scan_obj(data, POW10)
     if scanned is None:
         digits = cell.lower().split("e")[0].lstrip("+-").replace(".", "").lstrip("0")
         assert len(digits) > 15 or "e" in cell.lower()
@@ -218,7 +214,7 @@ def test_fast_path_numbers_are_float_bits_or_declined(value, fmt):
     assert scanned[0][0, 0].view(np.uint64) == np.float64(float(cell)).view(np.uint64)
 
 
-# --- what it declines: _read_obj as before ------------------------------------------------
+# --- what it declines: read_obj as before ------------------------------------------------
 
 DECLINED = [
     "f 1 2 5 4",  # a quad
@@ -228,7 +224,7 @@ DECLINED = [
     "f 1 x 3",
     "f +1 2 3",
     "f 1.0 2 3",
-    "f 1 2 3/3",  # slashes after a first face line without them (as _simple_obj)
+    "f 1 2 3/3",  # slashes after a first face line without them (as simple_obj)
     "v 1 2 3 1",  # a weight
     "v 1 2 3 0.5 0.5 0.5",  # colours
     "v 1 2",
@@ -309,8 +305,8 @@ def test_index_past_the_last_vertex_is_declined(tmp_path):
 
 
 def test_digits_of_huge_indices_do_not_overflow():
-    assert scan_obj((GRID_V + "f 1 2 " + "9" * 30 + "\n").encode(), _POW10) is None
-    assert scan_obj((GRID_V + "f 1 2 18446744073709551617\n").encode(), _POW10) is None
+    assert scan_obj((GRID_V + "f 1 2 " + "9" * 30 + "\n").encode(), POW10) is None
+    assert scan_obj((GRID_V + "f 1 2 18446744073709551617\n").encode(), POW10) is None
 
 
 # --- random files: taken means the same as both readers, declined means as before --------
@@ -332,7 +328,7 @@ STATEMENT = st.one_of(
 @given(st.lists(STATEMENT, max_size=30), st.sampled_from(["\n", "\r\n"]), st.booleans())
 def test_random_files_taken_alike_or_declined_alike(statements, eol, final_eol):
     data = (eol.join(GRID_V.splitlines() + statements) + (eol if final_eol else "")).encode()
-    fast = _compiled_obj(data)
+    fast = compiled_obj(data)
     if fast is None:
         assert_declined_unchanged(data)
     else:
