@@ -138,17 +138,16 @@ def grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, mesh_surface):
     """The same DEM in the grid layout, read by window from a store on disk, against the mesh layout."""
     import tempfile
 
-    from tankcd_cli.terrain.grid.sources import ArrayDem, DemInfo
+    from tankcd_cli.io.dem_source import DemSourceInfo
     from tankcd_cli.matching.match import MATCHERS, match
+    from tankcd_cli.terrain.grid.sources import ArrayDem
     from tankcd_cli.terrain.grid.classify import classify_dem
     from tankcd_cli.terrain.grid.store import open_grid
 
-    v = raw.grid.vertex
+    v = raw.grid.vertex  # row 0 north, as the grid layout's heights
     heights = np.full(v.shape, np.nan)
     heights[v >= 0] = raw.vertices[v[v >= 0], 2]
-    heights = heights[::-1].copy()  # row 0 north
-    ox, oy = raw.grid.origin
-    info = DemInfo("bench", "asc", size, size, (ox, oy + (size - 1) * 1.0), (1.0, 1.0))
+    grid, info = raw.grid.geometry, DemSourceInfo("bench", "asc")
     n = len(x)
     out = ["", "## The same DEM in the grid layout", "",
            "Posts only, read by window through the tile cache from a store on disk (classified by "
@@ -157,7 +156,7 @@ def grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, mesh_surface):
            "| --- | --- | --- | --- | --- |"]
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "grid.h5")
-        classify_dem(ArrayDem(heights, info), path)
+        classify_dem(ArrayDem(heights, grid, info), path)
         grid = open_grid(path)
         for m in MATCHERS + ("auto",):
             rows = []

@@ -193,11 +193,11 @@ def _scene_terrain(sc) -> dict:
     dem = open_dem(path)
     if dem is not None:
         with dem:
-            i = dem.info
-        x0, y0 = float(i.origin[0]), float(i.origin[1])
-        dx, dy = float(i.spacing[0]), float(i.spacing[1])
-        return {"kind": f"DEM ({i.format}, {i.rows} x {i.cols} posts, classified on the fly)", "crs": i.crs_name,
-                "extent_x": [x0, x0 + (i.cols - 1) * dx], "extent_y": [y0 - (i.rows - 1) * dy, y0]}
+            g, i = dem.grid, dem.info
+        x0, y0 = float(g.origin_x), float(g.origin_y)
+        dx, dy = float(g.dx), float(g.dy)
+        return {"kind": f"DEM ({i.format}, {g.rows} x {g.cols} posts, classified on the fly)", "crs": g.crs_name,
+                "extent_x": [x0, x0 + (g.cols - 1) * dx], "extent_y": [y0 - (g.rows - 1) * dy, y0]}
     from tankcd_cli.terrain.mesh.classify import load_terrain
 
     raw = load_terrain(path, up=sc.terrain_up)

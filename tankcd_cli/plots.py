@@ -152,10 +152,10 @@ def _relative_axes(ax, origin) -> None:
 
 def _overview_extent(ov: dict):
     """The south-west post (world x, y) and the imshow extent, in metres from it, of an overview."""
-    ox, oy = ov["origin"]
-    top = (ov["rows"] - 1) * ov["spacing"][1]
-    origin = np.array([ox, oy - top])
-    dx, dy = ov["spacing"] * ov["step"]
+    g = ov["grid"]
+    top = (g.rows - 1) * g.dy
+    origin = np.array([g.origin_x, g.origin_y - top])
+    dx, dy = g.dx * ov["step"], g.dy * ov["step"]
     h, w = ov["classes"].shape
     return origin, (-dx / 2, (w - 0.5) * dx, top - (h - 0.5) * dy, top + dy / 2)
 

@@ -120,9 +120,9 @@ def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, 
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.terrain.grid.classify import classify_dem
 
-    info = dem.info
-    report.detail(f"classify: {info.source}: {info.rows:,} x {info.cols:,} posts at {info.spacing[0]:g} x "
-                  f"{info.spacing[1]:g} m, {info.crs_name}"
+    grid, info = dem.grid, dem.info
+    report.detail(f"classify: {info.source}: {grid.rows:,} x {grid.cols:,} posts at {grid.dx:g} x "
+                  f"{grid.dy:g} m, {grid.crs_name}"
                   + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
 
     def progress(done, total, posts, seconds):
@@ -137,7 +137,7 @@ def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, 
 
             with atomic_path(png, ".png") as tmp_png:
                 grid_map_png(tmp, tmp_png, title=info.source)
-    report.info(f"classify: {info.source} -> {output}: {info.rows:,} x {info.cols:,} posts "
+    report.info(f"classify: {info.source} -> {output}: {grid.rows:,} x {grid.cols:,} posts "
                 f"({a['valid_posts']:,} with data), H by {method}; flat {a['share_flat']:.0%}, "
                 f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
                 f"({report.elapsed():.2f} s)")

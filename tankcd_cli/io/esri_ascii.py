@@ -12,36 +12,37 @@ from __future__ import annotations
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.geometry.post_grid import Grid, grid_faces
+from tankcd_cli.geometry.post_grid import PostGrid, PostVertices, grid_faces
 
 SUFFIXES = ("asc",)
 
 _HEADER_KEYS = {"ncols", "nrows", "xllcorner", "yllcorner", "xllcenter", "yllcenter", "cellsize", "dx", "dy", "nodata_value"}
 
 
-def parse_esri_ascii(data: bytes, name: str) -> tuple[np.ndarray, np.ndarray, Grid]:
-    """Parse an ESRI ASCII grid into posts, triangles and the grid structure.
+def parse_esri_ascii(data: bytes, name: str) -> tuple[np.ndarray, np.ndarray, PostVertices]:
+    """Parse an ESRI ASCII grid into vertices (n, 3), triangles (m, 3) and the grid structure.
 
-    Posts sit at cell centres. A quad of four valid posts gives two triangles;
-    a quad with exactly three valid posts gives the one triangle they span;
-    NODATA posts are left out of the mesh.
+    Posts sit at cell centres; the vertices are the valid posts, the south row first. A quad of
+    four valid posts gives two triangles; a quad with exactly three valid posts gives the one
+    triangle they span; NODATA posts are left out of the mesh.
     """
     z, valid, (x0, y0), (dx, dy) = esri_ascii_posts(data, name)
     nrows, ncols = z.shape
-    vertex = np.full((nrows, ncols), -1, dtype=np.int64)
+    vertex = np.full((nrows, ncols), -1, dtype=np.int64)  # south row first, as the vertices
     vertex[valid] = np.arange(int(valid.sum()))
     yy, xx = np.nonzero(valid)
     vertices = np.column_stack([x0 + xx * dx, y0 + yy * dy, z[valid]])
-    faces = grid_faces(vertex)
+    north = np.ascontiguousarray(vertex[::-1])
+    faces = grid_faces(north)
     if len(faces) == 0:
         raise InputError(name, "no cell has three valid posts: nothing to triangulate")
-    grid = Grid(origin=np.array([x0, y0]), spacing=np.array([dx, dy]), vertex=vertex)
-    return vertices, faces, grid
+    return vertices, faces, PostVertices(PostGrid.from_south_west(nrows, ncols, x0, y0, dx, dy), north)
 
 
 def esri_ascii_posts(data: bytes, name: str) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
-    """Heights (rows, cols) float64 with row 0 SOUTH, the valid mask, the world x, y of the
-    south-west post and the spacing (dx, dy) of an ESRI ASCII grid."""
+    """The posts of an ESRI ASCII grid as its header describes them: heights (rows, cols) float64
+    in the order the vertices of ``parse_esri_ascii`` take (row 0 SOUTH), the valid mask, the
+    world x, y of the south-west post and the spacing (dx, dy)."""
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.geometry.post_grid import Grid
+from tankcd_cli.geometry.post_grid import PostVertices
 from tankcd_cli.io import esri_ascii, gltf, meshio_formats, trimesh_formats
 from tankcd_cli.io.file_mesh import FileMesh
 from tankcd_cli.io.files import read_bytes
@@ -50,7 +50,7 @@ class RawTerrain:
 
     vertices : (n, 3) float64, m, world frame (z up, whatever the file's convention)
     faces : (m, 3) int64 -- triangles; polygons are split into fans from their first vertex
-    grid : Grid or None -- the raster structure of a DEM
+    grid : PostVertices or None -- the raster structure of a DEM: its PostGrid and the vertex of each post
     source, sha256, format : the file's name as given, the SHA-256 of its bytes (of the
         .gltf itself, not of its external buffers), the format read (the suffix or ``fmt``)
     up : "z" or "y" -- the up axis actually applied: a y-up file was turned +90 deg about x
@@ -72,7 +72,7 @@ class RawTerrain:
 
     vertices: np.ndarray
     faces: np.ndarray
-    grid: Grid | None
+    grid: PostVertices | None
     source: str
     sha256: str
     format: str

@@ -128,7 +128,7 @@ def grid_mesh(field: HeightField, half_extent: float, spacing: float,
     xs = -half_extent + spacing * np.arange(count)
     X, Y = np.meshgrid(xs, xs)
     xy = np.column_stack([X.ravel(), Y.ravel()])
-    faces = grid_faces(np.arange(count * count).reshape(count, count))
+    faces = grid_faces(np.arange(count * count).reshape(count, count)[::-1])  # vertex rows run south to north
     return _lift(field, xy, offset), faces, xy
 
 
@@ -157,8 +157,9 @@ def _lift(field: HeightField, xy: Array, offset) -> Array:
 
 
 def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: str = "dem"):
-    """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south; NaN = NODATA)."""
-    from tankcd_cli.geometry.post_grid import Grid, grid_faces
+    """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south, as a
+    mesh numbers its vertices; NaN = NODATA) whose south-west post is at ``origin``."""
+    from tankcd_cli.geometry.post_grid import PostGrid, PostVertices, grid_faces
     from tankcd_cli.io.terrain_readers import RawTerrain
 
     heights = np.asarray(heights, dtype=float)
@@ -167,8 +168,9 @@ def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: s
     vertex[valid] = np.arange(int(valid.sum()))
     rr, cc = np.nonzero(valid)
     vertices = np.column_stack([origin[0] + cc * spacing, origin[1] + rr * spacing, heights[valid]])
-    grid = Grid(np.array(origin, dtype=float), np.array([spacing, spacing]), vertex)
-    return RawTerrain(vertices, grid_faces(vertex), grid, name, "0" * 64, "asc")
+    north = np.ascontiguousarray(vertex[::-1])
+    grid = PostVertices(PostGrid.from_south_west(*heights.shape, origin[0], origin[1], spacing, spacing), north)
+    return RawTerrain(vertices, grid_faces(north), grid, name, "0" * 64, "asc")
 
 
 def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh"):

@@ -15,9 +15,11 @@ def test_asc_posts_rows_and_corner_convention(tmp_path):
     path = write_asc(tmp_path / "g.asc", z, cellsize=2.0, xll=100.0, yll=200.0, corner=True)
     raw = read_terrain(str(path))
     grid = raw.grid
-    np.testing.assert_allclose(grid.origin, [101.0, 201.0])  # corner + half a cell
-    # row 0 of the grid is the south row: heights 1 2 3
-    south = raw.vertices[grid.vertex[0]]
+    np.testing.assert_allclose(grid.geometry.south_west, [101.0, 201.0])  # corner + half a cell
+    assert grid.geometry.origin == (101.0, 205.0) and grid.geometry.spacing == (2.0, 2.0)  # the north-west post
+    # row 0 of the grid is the north row (heights 7 8 9), the last the south row: heights 1 2 3
+    np.testing.assert_allclose(raw.vertices[grid.vertex[0]], [[101, 205, 7], [103, 205, 8], [105, 205, 9]])
+    south = raw.vertices[grid.vertex[-1]]
     np.testing.assert_allclose(south, [[101, 201, 1], [103, 201, 2], [105, 201, 3]])
     assert len(raw.faces) == 8
     # triangles are counter-clockwise seen from above

@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force, support_planes_fixed
 from tankcd_cli.terrain.footprint import footprint_batch
 from tankcd_cli.matching.match import EPS_XY, patch_quads
@@ -118,7 +119,7 @@ def test_non_finite_and_huge_poses_find_no_ground():
 
     rng = np.random.default_rng(2)
     z = 100 + rng.normal(0, 0.1, (30, 30))
-    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (UTM[0], UTM[1] + 29.0), (1.0, 1.0))
+    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), PostGrid(*z.shape, UTM[0], UTM[1] + 29.0))
     mesh = S.surface_of(S.dem_terrain(z[::-1], origin=UTM))
     x = UTM[0] + np.array([np.nan, np.inf, -np.inf, 1e19, 9.3e18, 0.0, 0.0, 15.0])
     y = UTM[1] + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1e300, -np.inf, 15.0])

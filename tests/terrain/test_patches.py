@@ -4,6 +4,7 @@ heading frame, and the two footprint queries answered by one pass, on every surf
 import numpy as np
 import pytest
 
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.matching.match import patch_quads
 from tankcd_cli.terrain import synthetic as S
 from tankcd_cli.vehicle import vehicle_preset
@@ -20,7 +21,7 @@ def test_heights_at_heading_frame_points_are_the_heights_of_those_points():
     rng = np.random.default_rng(11)
     z = 100 + np.cumsum(rng.normal(0, 0.2, (50, 60)), axis=1)
     x0, y0 = 500_000.0, 4_500_000.0
-    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (x0, y0 + 49.0), (1.0, 1.0))
+    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), PostGrid(*z.shape, x0, y0 + 49.0))
     mesh = S.surface_of(S.dem_terrain(z[::-1], origin=(x0, y0)))
     n = 400
     x, y = x0 + rng.uniform(-3, 62, n), y0 + rng.uniform(-3, 52, n)  # some footprints over the edge
@@ -52,7 +53,7 @@ def test_both_queries_from_one_pass_are_the_two_passes(layout):
     rng = np.random.default_rng(3)
     z = 100 + np.cumsum(rng.normal(0, 0.1, (40, 40)), axis=0)
     if layout == "grid":
-        surface = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (UTM[0], UTM[1] + 39.0), (1.0, 1.0))
+        surface = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), PostGrid(*z.shape, UTM[0], UTM[1] + 39.0))
     elif layout == "tin":
         xy = rng.uniform(0, 39, (1500, 2))
         surface = S.surface_of(S.mesh_terrain(np.column_stack([xy + UTM, 100 + np.sin(xy[:, 0] / 3) * xy[:, 1] / 20]),

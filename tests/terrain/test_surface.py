@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain import synthetic as S
 from tankcd_cli.terrain.grid.surface import GridSurface
 from tankcd_cli.terrain.surface import Surface
@@ -21,7 +22,7 @@ def _protocol_methods():
 def test_both_layouts_are_surfaces_with_the_protocols_parameters():
     z = np.add.outer(np.arange(6.0), np.arange(7.0)) * 0.1
     mesh = S.surface_of(S.dem_terrain(z))
-    grid = GridSurface.from_arrays(z[::-1].copy(), np.zeros(z.shape, np.uint8), (0.0, 5.0), (1.0, 1.0))
+    grid = GridSurface.from_arrays(z[::-1].copy(), np.zeros(z.shape, np.uint8), PostGrid(*z.shape, 0.0, 5.0))
     for surface in (mesh, grid):
         assert isinstance(surface, Surface)
         for name in _protocol_methods():

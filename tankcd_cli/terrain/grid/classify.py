@@ -13,7 +13,7 @@ import numpy as np
 from tankcd_cli import __version__
 from tankcd_cli.errors import InputError
 from tankcd_cli.terrain.grid.sources import checked_read
-from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, GridGeometry, classify_grid_tiles
+from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, classify_grid_tiles
 from tankcd_cli.terrain.regions import Thresholds, default_thresholds
 from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
@@ -38,14 +38,12 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
 
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
-    info = source.info
-    if info.rows < 2 or info.cols < 2:
-        raise InputError(info.source, f"a {info.rows} x {info.cols} grid has no cells (needs at least 2 x 2 posts)")
-    dx, dy = (float(s) for s in info.spacing)
-    geometry = GridGeometry(int(info.rows), int(info.cols), dx, dy)
+    grid, info = source.grid, source.info
+    if grid.rows < 2 or grid.cols < 2:
+        raise InputError(info.source, f"a {grid.rows} x {grid.cols} grid has no cells (needs at least 2 x 2 posts)")
+    dx, dy = float(grid.dx), float(grid.dy)
     started = time.perf_counter()
-    writer = GridStoreWriter(out_path, geometry.rows, geometry.cols, info.origin, (dx, dy), info.crs_wkt,
-                             info.crs_name, info.height_dtype)
+    writer = GridStoreWriter(out_path, grid, info.height_dtype)
 
     def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         return checked_read(source, r0, r1, c0, c1)
@@ -54,19 +52,19 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
         if scheduler:
             from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
 
-            classify_tiles_on_dask(scheduler, spec, geometry, method, vehicle.track_length, thresholds, tile,
+            classify_tiles_on_dask(scheduler, spec, grid, method, vehicle.track_length, thresholds, tile,
                                    writer.write, progress_of(progress, started))
         else:
-            classify_grid_tiles(read, geometry, method, vehicle.track_length, thresholds, tile=tile,
+            classify_grid_tiles(read, grid, method, vehicle.track_length, thresholds, tile=tile,
                                 jobs=jobs or default_jobs(), on_tile=writer.write,
                                 progress=progress_of(progress, started))
         if writer.valid == 0:
             raise InputError(info.source, "every post is NODATA")
         total = writer.by_class.sum()
         shares = writer.by_class / total if total > 0 else writer.by_class
-        nw = np.asarray(info.origin, dtype=float)
-        lo = [nw[0], nw[1] - (geometry.rows - 1) * dy, writer.zmin]
-        hi = [nw[0] + (geometry.cols - 1) * dx, nw[1], writer.zmax]
+        nw = np.asarray(grid.origin, dtype=float)
+        lo = [nw[0], nw[1] - (grid.rows - 1) * dy, writer.zmin]
+        hi = [nw[0] + (grid.cols - 1) * dx, nw[1], writer.zmax]
         attrs = {
             "tankcd_version": __version__,
             "created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -74,12 +72,12 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
             "source_sha256": info.sha256,
             "source_format": info.format,
             "source_up_axis": "z",
-            "source_crs_name": info.source_crs_name or info.crs_name,
+            "source_crs_name": info.source_crs_name or grid.crs_name,
             "reprojected": bool(info.reprojected),
-            "crs_name": info.crs_name,
+            "crs_name": grid.crs_name,
             "diagonal": "SW-NE",
-            "rows": geometry.rows, "cols": geometry.cols,
-            "valid_posts": writer.valid, "nodata_posts": geometry.rows * geometry.cols - writer.valid,
+            "rows": grid.rows, "cols": grid.cols,
+            "valid_posts": writer.valid, "nodata_posts": grid.rows * grid.cols - writer.valid,
             "curvature_method": method,
             "boundary_treatment": "one-sided quartic fit over the 40 nearest valid posts (within 12 posts)",
             "threshold_flat": thresholds.flat,

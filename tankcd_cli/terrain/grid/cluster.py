@@ -30,21 +30,21 @@ def _source(spec: tuple):
         return _SOURCES[spec]
 
 
-def tile_task(spec: tuple, core: tuple, geometry, method: str, track_length: float, thresholds):
+def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, thresholds):
     """Classify one tile on a worker (see ``tiled_classify.classify_tile``)."""
     from tankcd_cli.terrain.grid.sources import checked_read
     from tankcd_cli.terrain.grid.tiled_classify import classify_tile, stencils, use_compiled
 
-    st = stencils(geometry, track_length)
+    st = stencils(grid, track_length)
     source = _source(spec)
     r0, r1, c0, c1 = core
     wr, wc = r0 - st.halo_rows, c0 - st.halo_cols
     with _LOCK:  # one reader per DEM handle
         z = checked_read(source, wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
-    return classify_tile(z, core, (wr, wc), geometry, st, method, thresholds, use_compiled(geometry))
+    return classify_tile(z, core, (wr, wc), grid, st, method, thresholds, use_compiled(grid))
 
 
-def classify_tiles_on_dask(scheduler: str, spec: tuple, geometry, method: str, track_length: float, thresholds,
+def classify_tiles_on_dask(scheduler: str, spec: tuple, grid, method: str, track_length: float, thresholds,
                            tile, on_tile: Callable, progress: Callable | None = None) -> None:
     """Run every tile as a task on the cluster at ``scheduler``; ``on_tile`` gets the results in
     row-major tile order (a result that arrives early waits on the cluster, not here)."""
@@ -61,10 +61,10 @@ def classify_tiles_on_dask(scheduler: str, spec: tuple, geometry, method: str, t
         client = Client(scheduler, timeout="20s")
     except (OSError, TimeoutError) as exc:
         raise InputError(scheduler, f"cannot reach the Dask scheduler: {exc}") from None
-    cores = list(tiles_of(geometry, tile))
+    cores = list(tiles_of(grid, tile))
     stamp = time.time_ns()
     with client:
-        futures = client.map(tile_task, [spec] * len(cores), cores, [geometry] * len(cores),
+        futures = client.map(tile_task, [spec] * len(cores), cores, [grid] * len(cores),
                              [method] * len(cores), [track_length] * len(cores), [thresholds] * len(cores),
                              pure=False, retries=2,
                              key=[f"tankcd-tile-{os.getpid()}-{stamp}-{k}" for k in range(len(cores))])

@@ -1,6 +1,7 @@
-"""DEM inputs as windowed sources: ``info`` (the grid's geometry) and ``read(r0, r1, c0, c1)``.
+"""DEM inputs as windowed sources: ``grid`` (the geometry, a ``PostGrid``), ``info`` (where the
+posts come from, a ``DemSourceInfo``) and ``read(r0, r1, c0, c1)``.
 
-Three kinds serve the same interface:
+Three kinds serve the same interface (and ``ArrayDem``, heights in memory, for tests):
 
 - rasters GDAL reads (GeoTIFF, COG, DTED, SRTM HGT, VRT mosaics, folders of
   tiles, ...): :mod:`tankcd_cli.io.rasters`, through rasterio;
@@ -19,38 +20,23 @@ grid, so a window may reach past any edge.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.io.dem_source import DemSourceInfo
 from tankcd_cli.io.terrain_readers import MAX_COORDINATE
 
 
-@dataclass(frozen=True)
-class DemInfo:
-    """The grid a DEM source serves (the same fields as ``rasters.GridInfo`` that classify uses)."""
-
-    source: str
-    format: str
-    rows: int
-    cols: int
-    origin: tuple  # world x, y of post [0, 0], the north-west one, m
-    spacing: tuple  # dx, dy > 0, m
-    crs_wkt: str = ""
-    crs_name: str = "local grid (no CRS)"
-    source_crs_name: str = ""
-    reprojected: bool = False
-    sha256: str = ""
-    height_dtype: str = "float64"
-
-
 class ArrayDem:
-    """A DEM held in memory: heights (rows, cols) row 0 north, NaN at NODATA."""
+    """A DEM held in memory: heights (rows, cols) row 0 north, NaN at NODATA; ``grid`` its
+    geometry (default: a local grid of 1 m posts), ``info`` its provenance."""
 
-    def __init__(self, heights: np.ndarray, info: DemInfo):
+    def __init__(self, heights: np.ndarray, grid: PostGrid | None = None, info: DemSourceInfo | None = None):
         self.heights = heights
-        self.info = info
+        self.grid = grid or PostGrid(*np.shape(heights))
+        self.info = info or DemSourceInfo("<array>", "array")
 
     def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         rows, cols = self.heights.shape
@@ -78,15 +64,12 @@ class StoreDem:
         from tankcd_cli.terrain.store import read_attrs
 
         self.surface = open_grid(path)
+        self.grid = self.surface.grid
         a = read_attrs(path)
-        h = self.surface
         with _h5(path) as f:
-            ds = f["grid/height"]
-            crs_name = ds.attrs.get("crs_name", "")
-            dtype = ds.dtype.name
-        self.info = DemInfo(a.get("source", path), a.get("source_format", "h5"), h.rows, h.cols, tuple(h.origin_nw),
-                            tuple(h.spacing), h.crs, _text(crs_name), a.get("source_crs_name", ""),
-                            bool(a.get("reprojected", False)), a.get("source_sha256", ""), dtype)
+            dtype = f["grid/height"].dtype.name
+        self.info = DemSourceInfo(a.get("source", path), a.get("source_format", "h5"), a.get("source_sha256", ""),
+                                  a.get("source_crs_name", ""), bool(a.get("reprojected", False)), dtype)
 
     def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         return self.surface.tiles.window("grid/height", r0, r1, c0, c1, np.nan, np.float64)
@@ -105,10 +88,6 @@ def _h5(path):
     import h5py
 
     return h5py.File(path, "r")
-
-
-def _text(v) -> str:
-    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
 
 
 ASC_SUFFIXES = ("asc",)
@@ -174,9 +153,8 @@ def ascii_dem(path: str) -> ArrayDem:
     z, valid, (x0, y0), (dx, dy) = esri_ascii_posts(data, name)
     heights = np.where(valid, z, np.nan)[::-1].copy()  # row 0 north
     rows, cols = heights.shape
-    info = DemInfo(name, "asc", rows, cols, (x0, y0 + (rows - 1) * dy), (dx, dy),
-                   sha256=hashlib.sha256(data).hexdigest())
-    return ArrayDem(heights, info)
+    return ArrayDem(heights, PostGrid(rows, cols, x0, y0 + (rows - 1) * dy, dx, dy),
+                    DemSourceInfo(name, "asc", sha256=hashlib.sha256(data).hexdigest()))
 
 
 def checked_read(source, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:

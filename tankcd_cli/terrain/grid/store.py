@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.post_grid import PostGrid
 
 TILE = 256
 OVERVIEW_MAX = 1024  # posts of the overview's longer side at most
@@ -33,12 +34,12 @@ OVERVIEW_MAX = 1024  # posts of the overview's longer side at most
 class GridStoreWriter:
     """Create a grid store at ``path`` and fill it with classified tiles (``write``)."""
 
-    def __init__(self, path: str, rows: int, cols: int, origin_nw, spacing, crs_wkt: str, crs_name: str,
-                 height_dtype: str = "float64"):
+    def __init__(self, path: str, grid: PostGrid, height_dtype: str = "float64"):
         import h5py
 
         from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION
 
+        rows, cols = grid.rows, grid.cols
         self.rows, self.cols = rows, cols
         self.h5 = h5py.File(path, "w")
         self.h5.attrs["format"] = FORMAT
@@ -49,11 +50,11 @@ class GridStoreWriter:
         tiles = {"chunks": chunk, "fletcher32": True}
         h = self.h5.create_dataset("grid/height", (rows, cols), dtype=np.dtype(height_dtype), fillvalue=np.nan,
                                    **tiles)
-        h.attrs["origin_x"] = float(origin_nw[0])
-        h.attrs["origin_y"] = float(origin_nw[1])
-        h.attrs["spacing"] = np.asarray(spacing, dtype=float)
-        h.attrs["crs"] = crs_wkt
-        h.attrs["crs_name"] = crs_name
+        h.attrs["origin_x"] = float(grid.origin_x)
+        h.attrs["origin_y"] = float(grid.origin_y)
+        h.attrs["spacing"] = np.asarray(grid.spacing, dtype=float)
+        h.attrs["crs"] = grid.crs_wkt
+        h.attrs["crs_name"] = grid.crs_name
         self.height = h
         self.mean = self.h5.create_dataset("curvature/mean", (rows, cols), dtype=np.float32, fillvalue=np.nan,
                                            **tiles)
@@ -138,8 +139,7 @@ def open_grid(path: str, cache_bytes: int | None = None):
                 raise InputError(path, f"damaged {what}: {name} is {h5[name].shape}, the grid {rows} x {cols}")
         spacing = np.asarray(h.attrs["spacing"], dtype=float)
         origin = (float(h.attrs["origin_x"]), float(h.attrs["origin_y"]))
-        crs = h.attrs.get("crs", "")
-        crs = crs.decode("utf-8", "replace") if isinstance(crs, bytes) else str(crs)
+        crs, crs_name = (_text(h.attrs.get(key, "")) for key in ("crs", "crs_name"))
         chunk = h.chunks[0] if h.chunks else TILE
         if h.chunks is None or h5["classes/grid"].chunks != h.chunks:
             raise InputError(path, f"damaged {what}: grid rasters are not chunked in tiles")
@@ -147,11 +147,13 @@ def open_grid(path: str, cache_bytes: int | None = None):
             or not np.isfinite(origin).all() or rows < 2 or cols < 2:
         raise InputError(path, f"damaged {what}: bad grid geometry")
     tiles = TileReader(path=path, tile=chunk, max_bytes=cache_bytes or DEFAULT_CACHE_BYTES)
-    return GridSurface(tiles, rows, cols, origin, spacing, crs)
+    grid = PostGrid(int(rows), int(cols), origin[0], origin[1], float(spacing[0]), float(spacing[1]), crs, crs_name)
+    return GridSurface(tiles, grid)
 
 
 def read_overview(path: str) -> dict:
-    """The overview rasters and the grid's geometry (for maps)."""
+    """The overview rasters (``classes``, ``curvature``, one value per block of ``step`` x ``step``
+    posts), the grid's geometry (``grid``, a PostGrid) and the root attributes (for maps)."""
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
@@ -160,7 +162,12 @@ def read_overview(path: str) -> dict:
     attrs = read_attrs(path)
     with read_errors(path, WHAT), h5py.File(path, "r") as h5:
         h = h5["grid/height"]
+        dx, dy = (float(v) for v in h.attrs["spacing"])
+        grid = PostGrid(h.shape[0], h.shape[1], float(h.attrs["origin_x"]), float(h.attrs["origin_y"]), dx, dy,
+                        _text(h.attrs.get("crs", "")), _text(h.attrs.get("crs_name", "")))
         return {"classes": h5["overview/classes"][()], "curvature": h5["overview/curvature"][()],
-                "step": int(h5["overview/classes"].attrs["step"]), "rows": h.shape[0], "cols": h.shape[1],
-                "origin": (float(h.attrs["origin_x"]), float(h.attrs["origin_y"])),
-                "spacing": np.asarray(h.attrs["spacing"], dtype=float), "attrs": attrs}
+                "step": int(h5["overview/classes"].attrs["step"]), "grid": grid, "attrs": attrs}
+
+
+def _text(value) -> str:
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)

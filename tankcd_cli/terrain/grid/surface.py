@@ -27,6 +27,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain.patches import PatchQueries
 from tankcd_cli.terrain.regions import NO_CLASS, UNEVEN
 
@@ -39,31 +40,35 @@ class GridSurface(PatchQueries):
     """A DEM's surface read by window.
 
     tiles : a :class:`~tankcd_cli.terrain.grid.tiles.TileReader` over ``grid/height`` and ``classes/grid``
-    rows, cols : posts
-    origin_nw : (2,) world x, y of post [0, 0], the north-west one (the store's origin_x, origin_y)
-    spacing : (2,) dx, dy, m
+    grid : the :class:`~tankcd_cli.geometry.post_grid.PostGrid` of the posts; ``rows``, ``cols``,
+        ``origin_nw`` (2,) (the north-west post), ``spacing`` (2,) and ``crs`` (WKT) repeat it
+        as the kernels take it
     """
 
-    def __init__(self, tiles, rows: int, cols: int, origin_nw, spacing, crs: str = ""):
+    def __init__(self, tiles, grid: PostGrid):
         self.tiles = tiles
-        self.rows, self.cols = int(rows), int(cols)
-        self.spacing = np.asarray(spacing, dtype=float)
-        self.origin_nw = np.asarray(origin_nw, dtype=float)
+        self.grid = grid
+        self.rows, self.cols = int(grid.rows), int(grid.cols)
+        self.spacing = np.asarray(grid.spacing, dtype=float)
+        self.origin_nw = np.asarray(grid.origin, dtype=float)
         # local origin: the south-west post
         self.origin = np.array([self.origin_nw[0], self.origin_nw[1] - (self.rows - 1) * self.spacing[1]])
         self.post_origin = np.zeros(2)
-        self.crs = crs
+        self.crs = grid.crs_wkt
         self._windows: OrderedDict = OrderedDict()
 
     # --- construction -----------------------------------------------------------------
 
     @classmethod
-    def from_arrays(cls, height: np.ndarray, classes: np.ndarray, origin_nw, spacing, crs: str = "") -> "GridSurface":
-        """From rasters in memory (row 0 north; NaN / 255 at NODATA); a store's: ``grid.store.open_grid``."""
+    def from_arrays(cls, height: np.ndarray, classes: np.ndarray, grid: PostGrid) -> "GridSurface":
+        """From rasters (rows, cols) in memory (row 0 north; NaN / 255 at NODATA) over ``grid``;
+        a store's surface: ``grid.store.open_grid``."""
         from tankcd_cli.terrain.grid.tiles import TileReader
 
+        if np.shape(height) != (grid.rows, grid.cols) or np.shape(classes) != (grid.rows, grid.cols):
+            raise ValueError(f"rasters {np.shape(height)} and {np.shape(classes)} for a {grid.rows} x {grid.cols} grid")
         tiles = TileReader(arrays={"grid/height": height, "classes/grid": classes})
-        return cls(tiles, height.shape[0], height.shape[1], origin_nw, spacing, crs)
+        return cls(tiles, grid)
 
     # --- geometry ---------------------------------------------------------------------
 

@@ -34,6 +34,7 @@ from typing import Callable
 
 import numpy as np
 
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, JET_DEGREE
 from tankcd_cli.terrain.regions import NO_CLASS, Thresholds, classify_values
 
@@ -44,9 +45,9 @@ DEFAULT_TILE = 512
 FAST_MIN_POSTS = 0  # compiled ahead of time, the passes cost nothing to load: every DEM takes them
 
 
-def use_compiled(geometry) -> bool:
+def use_compiled(grid: PostGrid) -> bool:
     """Whether to run the compiled twins (the same bits as the numpy passes, which are their oracle)."""
-    return geometry.rows * geometry.cols >= FAST_MIN_POSTS
+    return grid.rows * grid.cols >= FAST_MIN_POSTS
 
 
 def _passes(fast: bool):
@@ -56,14 +57,6 @@ def _passes(fast: bool):
 
         return post_passes.fd_mean_curvature, post_passes.post_areas, _disk_sum
     return grid_mean_curvature_fd, post_areas, _disk_sum
-
-
-@dataclass(frozen=True)
-class GridGeometry:
-    rows: int
-    cols: int
-    dx: float
-    dy: float
 
 
 @dataclass(frozen=True)
@@ -98,8 +91,8 @@ def fit_offsets(dx: float, dy: float) -> np.ndarray:
     return off[order]
 
 
-def stencils(geometry: GridGeometry, track_length: float) -> Stencils:
-    dx, dy = geometry.dx, geometry.dy
+def stencils(grid: PostGrid, track_length: float) -> Stencils:
+    dx, dy = grid.dx, grid.dy
     track = disk_offsets(track_length / 4.0, dx, dy)
     foot = disk_offsets(track_length / 2.0, dx, dy)
     fit = fit_offsets(dx, dy)
@@ -325,7 +318,7 @@ def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, 
     s_idx, c_idx = np.nonzero(valid)
     # x, y from whole-grid indices (north row r = rows - 1 - s), so the result does not depend on the window
     verts = np.column_stack([(c_idx + col0) * dx, -((rows - 1 - s_idx) + row0) * dy, south[valid]])
-    faces = grid_faces(vertex)
+    faces = grid_faces(vertex[::-1])
     H = np.zeros(z.shape)
     if len(faces) == 0:
         return H
@@ -337,13 +330,13 @@ def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, 
     return out[::-1]
 
 
-def window_fields(z: np.ndarray, row0: int, col0: int, geometry: GridGeometry, st: Stencils, method: str,
+def window_fields(z: np.ndarray, row0: int, col0: int, grid: PostGrid, st: Stencils, method: str,
                   band: tuple[int, int] = (0, 0), fast: bool = False):
     """H, post area and footprint-averaged |H| over a window (row0, col0: its first post in the
     grid). Values are final only at least ``halo`` posts inside the window's edges (or at the
     grid's own edges, where the window holds NaN beyond). ``band`` (rows, cols): the outer
     posts whose H no final value reads (no fit is spent on them). ``fast``: the compiled twins."""
-    dx, dy = geometry.dx, geometry.dy
+    dx, dy = grid.dx, grid.dy
     fd, areas, disk = _passes(fast)
     valid = np.isfinite(z)
     if method == "grid":
@@ -386,7 +379,7 @@ class TileResult:
 
 
 def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_origin: tuple[int, int],
-                  geometry: GridGeometry, st: Stencils, method: str, thresholds: Thresholds,
+                  grid: PostGrid, st: Stencils, method: str, thresholds: Thresholds,
                   fast: bool = False) -> TileResult:
     """Fields and classes of the core rows r0..r1-1, cols c0..c1-1 from a window of heights
     whose first post is window_origin (row, col) in the grid."""
@@ -394,7 +387,7 @@ def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_
     wr, wc = window_origin
     # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read
     band = (max(r0 - wr - st.reach_rows, 0), max(c0 - wc - st.reach_cols, 0))
-    H, area, field = window_fields(z_window, wr, wc, geometry, st, method, band, fast)
+    H, area, field = window_fields(z_window, wr, wc, grid, st, method, band, fast)
     sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
     z, H, area, field = z_window[sl], H[sl], area[sl], field[sl]
     valid = np.isfinite(z)
@@ -403,15 +396,15 @@ def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_
     return TileResult(r0, c0, z, H, field, classes, by_class, int(valid.sum()))
 
 
-def tiles_of(geometry: GridGeometry, tile):
+def tiles_of(grid: PostGrid, tile):
     """Core windows (r0, r1, c0, c1) in row-major order; ``tile`` a side or (rows, cols)."""
     th, tw = (tile, tile) if np.isscalar(tile) else tile
-    for r0 in range(0, geometry.rows, th):
-        for c0 in range(0, geometry.cols, tw):
-            yield r0, min(r0 + th, geometry.rows), c0, min(c0 + tw, geometry.cols)
+    for r0 in range(0, grid.rows, th):
+        for c0 in range(0, grid.cols, tw):
+            yield r0, min(r0 + th, grid.rows), c0, min(c0 + tw, grid.cols)
 
 
-def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], geometry: GridGeometry, method: str,
+def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: PostGrid, method: str,
                         track_length: float, thresholds: Thresholds, tile=DEFAULT_TILE, jobs: int = 1,
                         on_tile: Callable[[TileResult], None] | None = None,
                         progress: Callable[[int, int, int], None] | None = None) -> None:
@@ -424,12 +417,12 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], geomet
     """
     if method not in GRID_METHODS:
         raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(GRID_METHODS)}")
-    st = stencils(geometry, track_length)
-    cores = list(tiles_of(geometry, tile))
-    fast = use_compiled(geometry)
+    st = stencils(grid, track_length)
+    cores = list(tiles_of(grid, tile))
+    fast = use_compiled(grid)
 
     def work(core, z, origin):
-        return classify_tile(z, core, origin, geometry, st, method, thresholds, fast)
+        return classify_tile(z, core, origin, grid, st, method, thresholds, fast)
 
     def fetch(core):
         r0, r1, c0, c1 = core

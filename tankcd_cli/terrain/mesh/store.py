@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.post_grid import PostVertices
 from tankcd_cli.terrain.mesh.locate import TriangleBuckets
 from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION, WHAT, open_store, plain_value
 
@@ -42,7 +43,7 @@ class MeshStore:
     raster_origin: np.ndarray
     raster_cell: float
     buckets: TriangleBuckets | None  # for irregular meshes
-    grid: object | None  # geometry.post_grid.Grid
+    grid: PostVertices | None  # for a DEM read as a mesh: the vertex of each post
     attrs: dict = field(default_factory=dict)
 
 
@@ -77,16 +78,16 @@ def write_mesh_store(path: str, store: MeshStore) -> None:
             grp.attrs["shape"] = np.asarray(b.shape)
             grp["start"] = b.start
             grp["face"] = b.face
-        if store.grid is not None:
-            g = h5.create_dataset("grid/vertex", data=store.grid.vertex)
-            g.attrs["origin"] = store.grid.origin
-            g.attrs["spacing"] = store.grid.spacing
+        if store.grid is not None:  # south row first, from the south-west post (format version 2)
+            g = h5.create_dataset("grid/vertex", data=store.grid.vertex[::-1])
+            g.attrs["origin"] = np.array(store.grid.geometry.south_west, dtype=float)
+            g.attrs["spacing"] = np.array(store.grid.geometry.spacing, dtype=float)
 
 
 def read_mesh_store(path: str) -> MeshStore:
     """Read a whole mesh-layout store into memory (a grid-layout one is an InputError)."""
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.geometry.post_grid import Grid
+    from tankcd_cli.geometry.post_grid import PostGrid
     what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):
@@ -103,7 +104,9 @@ def read_mesh_store(path: str) -> MeshStore:
         grid = None
         if "grid/vertex" in h5:
             g = h5["grid/vertex"]
-            grid = Grid(np.asarray(g.attrs["origin"]), np.asarray(g.attrs["spacing"]), g[()])
+            south = g[()]
+            (x0, y0), (dx, dy) = (np.asarray(g.attrs[k], dtype=float) for k in ("origin", "spacing"))
+            grid = PostVertices(PostGrid.from_south_west(*south.shape, x0, y0, dx, dy), south[::-1])
         raster = h5["classes/raster"]
         store = MeshStore(
             vertices=h5["mesh/vertices"][()], faces=h5["mesh/faces"][()].astype(np.int64),

@@ -65,7 +65,7 @@ class MeshSurface(PatchQueries):
         if store.grid is not None:
             cell_origin, cell_size, shape, start, cell_face = _grid_cells(store.grid, faces, len(local))
             cell_origin = cell_origin - origin
-            post = store.grid.vertex
+            post = store.grid.vertex[::-1]  # the kernels take the posts south row first
             post_z = np.where(post >= 0, local[np.maximum(post, 0), 2], np.nan)
             post_origin, post_size = cell_origin, cell_size
         else:
@@ -193,17 +193,20 @@ def face_planes(local: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.column_stack([p0, p1, p2])
 
 
-def _grid_cells(grid, faces: np.ndarray, n: int):
-    """The DEM's cells as locator cells: each lists its one or two triangles."""
-    rows, cols = grid.vertex.shape
+def _grid_cells(posts, faces: np.ndarray, n: int):
+    """A DEM's cells (``posts``, its PostVertices) as locator cells, south row first from its
+    south-west post: each lists its one or two triangles."""
+    vertex = posts.vertex[::-1]
+    rows, cols = vertex.shape
     post_row = np.empty(n, dtype=np.int64)
     post_col = np.empty(n, dtype=np.int64)
-    valid = grid.vertex >= 0
+    valid = vertex >= 0
     rr, cc = np.nonzero(valid)
-    post_row[grid.vertex[valid]] = rr
-    post_col[grid.vertex[valid]] = cc
+    post_row[vertex[valid]] = rr
+    post_col[vertex[valid]] = cc
     cell = post_row[faces].min(axis=1) * (cols - 1) + post_col[faces].min(axis=1)
     order = np.argsort(cell, kind="stable")
     start = np.zeros((rows - 1) * (cols - 1) + 1, dtype=np.int64)
     np.cumsum(np.bincount(cell, minlength=(rows - 1) * (cols - 1)), out=start[1:])
-    return np.asarray(grid.origin, dtype=float), np.asarray(grid.spacing, dtype=float), (rows - 1, cols - 1), start, order
+    g = posts.geometry
+    return np.asarray(g.south_west, dtype=float), np.asarray(g.spacing, dtype=float), (rows - 1, cols - 1), start, order

@@ -5,6 +5,7 @@ import dataclasses
 
 import numpy as np
 
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain import synthetic
 from tankcd_cli.terrain.grid import tiled_classify as gc
 from tankcd_cli.terrain.grid.sources import ArrayDem
@@ -43,7 +44,7 @@ def classify_arrays(z, method="grid", tile=gc.DEFAULT_TILE, jobs=1, dx=1.0, dy=1
     def read(r0, r1, c0, c1):
         return ArrayDem(z, None).read(r0, r1, c0, c1)
 
-    gc.classify_grid_tiles(read, gc.GridGeometry(rows, cols, dx, dy), method, T72.track_length, THRESHOLDS,
+    gc.classify_grid_tiles(read, PostGrid(rows, cols, dx=dx, dy=dy), method, T72.track_length, THRESHOLDS,
                            tile=tile, jobs=jobs, on_tile=keep)
     return out
 
@@ -61,10 +62,10 @@ def grid_and_mesh_surfaces(z):
     raw = dem_as_mesh(z)
     store = classify_mesh(raw)
     classes = np.full(z.shape, 255, np.uint8)
-    v = raw.grid.vertex[::-1]
+    v = raw.grid.vertex  # row 0 north, as the grid's
     classes[v >= 0] = store.vertex_class[v[v >= 0]]
     rows = z.shape[0]
-    grid = GridSurface.from_arrays(z.copy(), classes, (X0, Y0 + (rows - 1) * 1.0), (1.0, 1.0))
+    grid = GridSurface.from_arrays(z.copy(), classes, PostGrid(rows, z.shape[1], X0, Y0 + (rows - 1) * 1.0))
     mesh = MeshSurface.from_store(store)
     # the mesh layout's class raster replaced by the posts' classes (cells centred on the posts)
     mesh = dataclasses.replace(mesh, class_raster=np.ascontiguousarray(classes[::-1]),

@@ -4,6 +4,7 @@ forms, the mesh estimators and classes against the mesh layout, the compiled pas
 import numpy as np
 import pytest
 
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain import synthetic
 from tankcd_cli.terrain.grid import tiled_classify as gc
 from tankcd_cli.terrain.mesh.classify import classify_mesh
@@ -35,7 +36,7 @@ def test_tiled_equals_whole_raster_mesh_estimators(method):
 def test_crop_interior_equals_whole():
     """A crop's posts farther than the halo from the cut equal the whole DEM's."""
     z = rough_dem(90, 110, seed=3)
-    st = gc.stencils(gc.GridGeometry(90, 110, 1.0, 1.0), T72.track_length)
+    st = gc.stencils(PostGrid(90, 110), T72.track_length)
     whole = classify_arrays(z)
     r0, r1, c0, c1 = 20, 75, 30, 100
     crop = classify_arrays(z[r0:r1, c0:c1].copy(), tile=17)
@@ -100,7 +101,7 @@ def test_mesh_estimators_equal_the_mesh_layout(method):
     raw = dem_as_mesh(z)
     store = classify_mesh(raw, method=method)
     Hm = np.full(z.shape, np.nan)
-    v = raw.grid.vertex[::-1]
+    v = raw.grid.vertex  # row 0 north, as the grid's
     Hm[v >= 0] = store.mean_curvature[v[v >= 0]]
     Hg = classify_arrays(z, method, tile=11)["mean"]
     scale = np.nanmax(np.abs(Hm))
@@ -117,7 +118,7 @@ def test_classes_close_to_the_mesh_layout():
     store = classify_mesh(raw, method="cotan")
     grid = classify_arrays(z, "cotan")
     vm = np.full(z.shape, np.nan)
-    v = raw.grid.vertex[::-1]
+    v = raw.grid.vertex
     vm[v >= 0] = store.footprint_curvature[v[v >= 0]]
     agree = grid["classes"] == classify_values(vm, THRESHOLDS)
     assert agree.mean() > 0.97
