@@ -188,7 +188,7 @@ def _scene_terrain(sc) -> dict:
             raise InputError(path, f"is a {d.get('kind')}, not a terrain", where="[terrain] path")
         return {"kind": f"terrain store ({d['layout']} layout)", "crs": d.get("crs"),
                 "extent_x": d["extent_x"], "extent_y": d["extent_y"], "extent_z": d["extent_z"]}
-    from tankcd_cli.terrain.grid.sources import open_dem
+    from tankcd_cli.terrain.open import open_dem
 
     dem = open_dem(path)
     if dem is not None:
@@ -198,9 +198,9 @@ def _scene_terrain(sc) -> dict:
         dx, dy = float(g.dx), float(g.dy)
         return {"kind": f"DEM ({i.format}, {g.rows} x {g.cols} posts, classified on the fly)", "crs": g.crs_name,
                 "extent_x": [x0, x0 + (g.cols - 1) * dx], "extent_y": [y0 - (g.rows - 1) * dy, y0]}
-    from tankcd_cli.terrain.mesh.classify import load_terrain
+    from tankcd_cli.terrain.mesh.classify import read_mesh
 
-    raw = load_terrain(path, up=sc.terrain_up)
+    raw = read_mesh(path, up=sc.terrain_up)
     lo, hi = raw.vertices.min(axis=0), raw.vertices.max(axis=0)
     return {"kind": f"mesh ({raw.format}, {len(raw.faces):,} triangles, classified on the fly)",
             "up_applied": getattr(raw, "up", None) or sc.terrain_up_axis,

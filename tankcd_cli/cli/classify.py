@@ -7,7 +7,7 @@ import os
 import click
 
 from tankcd_cli.cli.options import output_option, vehicle_option, verbosity_options
-from tankcd_cli.names import AUTO_METHODS, CURVATURE_METHODS, UP_AXES
+from tankcd_cli.names import CURVATURE_METHODS, UP_AXES
 
 METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet on a mesh), grid (DEMs only: "
                "central differences over the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, "
@@ -53,10 +53,8 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     classified tile by tile into the grid layout, in memory that does not grow
     with the DEM. TERRAIN may be - for standard input (give --format).
     """
-    from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.terrain.mesh.classify import classify_mesh, load_terrain
+    from tankcd_cli.terrain.open import OptionError, classify_file
     from tankcd_cli.terrain.regions import Thresholds
-    from tankcd_cli.terrain.mesh.store import write_mesh_store
     from tankcd_cli.vehicle import vehicle_preset
 
     explicit = output is not None
@@ -74,73 +72,53 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     report.kernels()
     step = report.progress("classify")
     step(f"reading {terrain}")
-    from tankcd_cli.terrain.grid.sources import open_dem
 
-    dem = open_dem(terrain, fmt=fmt, band=band, crs=crs)
-    if dem is not None:
-        if up not in (None, "z"):
-            raise click.UsageError("--up y makes no sense for a DEM (grids are z-up)")
-        spec = None
-        if scheduler:
-            if terrain == "-":
-                raise click.UsageError("--scheduler needs a DEM path the workers can read, not standard input")
-            spec = (os.path.abspath(terrain), fmt, band, crs)
-        method = AUTO_METHODS["dem"] if method == "auto" else method
-        _classify_dem(report, dem, output, method, vehicle_preset(vehicle_name), user_thresholds, tile, jobs, png,
-                      scheduler, spec)
+    def on_grid(grid, info):
+        report.detail(f"classify: {info.source}: {grid.rows:,} x {grid.cols:,} posts at {grid.dx:g} x "
+                      f"{grid.dy:g} m, {grid.crs_name}"
+                      + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
+
+    def tile_progress(done, total, posts, seconds):
+        report.bar(f"classify: tile {done}/{total}, {posts / max(seconds, 1e-9) / 1e6:.1f} M posts/s")
+
+    def before_commit(tmp, done):
+        if done.layout != "grid":
+            return
+        report.bar(None)
+        if png:  # drawn from the store before it is renamed: a map that fails takes the store with it
+            from tankcd_cli.io.atomic import atomic_path
+            from tankcd_cli.plots import grid_map_png
+
+            with atomic_path(png, ".png") as tmp_png:
+                grid_map_png(tmp, tmp_png, title=done.source)
+
+    try:
+        done = classify_file(terrain, output, method=method, up=up, fmt=fmt, vehicle=vehicle_preset(vehicle_name),
+                             thresholds=user_thresholds, crs=crs, band=band, tile=tile, jobs=jobs, scheduler=scheduler,
+                             progress=step, tile_progress=tile_progress, on_grid=on_grid, before_commit=before_commit)
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
+    a = done.attrs
+    if done.layout == "grid":
+        g = done.grid
+        report.info(f"classify: {done.source} -> {output}: {g.rows:,} x {g.cols:,} posts "
+                    f"({a['valid_posts']:,} with data), H by {done.method}; flat {a['share_flat']:.0%}, "
+                    f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
+                    f"({report.elapsed():.2f} s)")
         return
-    if scheduler:
-        raise click.UsageError("--scheduler applies to DEMs; a mesh is classified in this process")
-    if crs or band:
-        raise click.UsageError("--crs and --band apply to DEM rasters; meshes keep their coordinates")
-    if method == "grid":
-        raise click.UsageError("--method grid needs a DEM; meshes take cotan, sphere or jet")
-    method = AUTO_METHODS["mesh"] if method == "auto" else method
-    raw = load_terrain(terrain, up=up, fmt=fmt)
-    store = classify_mesh(raw, method=method, vehicle=vehicle_preset(vehicle_name),
-                          thresholds=user_thresholds, progress=step)
-    step(f"writing {output}")
-    with atomic_path(output, ".h5") as tmp:
-        write_mesh_store(tmp, store)
+    store = done.mesh_store
     if png:
+        from tankcd_cli.io.atomic import atomic_path
         from tankcd_cli.plots import class_map_png
 
         with atomic_path(png, ".png") as tmp:
             class_map_png(store, tmp)
-    a = store.attrs
     for key in ("merged_vertices", "unreferenced_vertices", "degenerate_faces", "repeated_faces"):
         report.detail(f"classify: {key.replace('_', ' ')}: {a[key]}")
     report.detail(f"classify: boundary vertices: {a['boundary_vertices']}, non-manifold vertices: {a['nonmanifold_vertices']}")
-    report.info(f"classify: {raw.source} -> {output}: {len(store.vertices):,} vertices, {len(store.faces):,} faces, "
-                f"H by {method}; flat {a['share_flat']:.0%}, general {a['share_general']:.0%}, "
+    report.info(f"classify: {done.source} -> {output}: {len(store.vertices):,} vertices, {len(store.faces):,} faces, "
+                f"H by {done.method}; flat {a['share_flat']:.0%}, general {a['share_general']:.0%}, "
                 f"uneven {a['share_uneven']:.0%} of the area ({report.elapsed():.2f} s)")
-
-
-def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, png, scheduler=None, spec=None):
-    from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.terrain.grid.classify import classify_dem
-
-    grid, info = dem.grid, dem.info
-    report.detail(f"classify: {info.source}: {grid.rows:,} x {grid.cols:,} posts at {grid.dx:g} x "
-                  f"{grid.dy:g} m, {grid.crs_name}"
-                  + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
-
-    def progress(done, total, posts, seconds):
-        report.bar(f"classify: tile {done}/{total}, {posts / max(seconds, 1e-9) / 1e6:.1f} M posts/s")
-
-    with dem, atomic_path(output, ".h5") as tmp:
-        a = classify_dem(dem, tmp, method=method, vehicle=vehicle, thresholds=thresholds, tile=tile, jobs=jobs,
-                         progress=progress, scheduler=scheduler, spec=spec)
-        report.bar(None)
-        if png:
-            from tankcd_cli.plots import grid_map_png
-
-            with atomic_path(png, ".png") as tmp_png:
-                grid_map_png(tmp, tmp_png, title=info.source)
-    report.info(f"classify: {info.source} -> {output}: {grid.rows:,} x {grid.cols:,} posts "
-                f"({a['valid_posts']:,} with data), H by {method}; flat {a['share_flat']:.0%}, "
-                f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
-                f"({report.elapsed():.2f} s)")
 
 
 def _refuse_clashes(terrain, output, png, explicit):

@@ -145,7 +145,7 @@ def load_world(world: World, progress: Callable[[str], None] | None = None):
 
 def _load_world_locked(world: World, progress):
     if world not in _LOADED:
-        from tankcd_cli.replay.pipeline import load_terrain_surface
+        from tankcd_cli.terrain.open import open_terrain
         from tankcd_cli.vehicle import vehicle_preset
 
         scene = None
@@ -156,7 +156,7 @@ def _load_world_locked(world: World, progress):
             vehicle, terrain, up = scene.vehicle, scene.required_terrain(), scene.terrain_up
         else:
             vehicle, terrain, up = vehicle_preset(world.vehicle), world.terrain, world.up
-        surface, _ = load_terrain_surface(world.store or terrain, up=up, vehicle=vehicle, progress=progress)
+        surface = open_terrain(world.store or terrain, up=up, vehicle=vehicle, progress=progress).surface
         _LOADED.clear()  # one world per process: a new one replaces the old
         _LOADED[world] = (surface, vehicle, scene, _setups(surface, vehicle, scene, world.escalate, world.tolerance))
     return _LOADED[world]

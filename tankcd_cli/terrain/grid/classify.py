@@ -30,8 +30,9 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
 
     progress(tiles_done, tiles_total, posts_done, seconds) after each tile.
     scheduler : a Dask scheduler's address: the tiles run there as tasks, each worker reading
-        its windows of the DEM named by ``spec`` ((path, format, band, crs): a path every
-        worker sees); this process writes the store, in the same tile order as a local run.
+        its windows of the DEM named by ``spec`` ((kind, path, format, band, crs), the arguments
+        of ``sources.open_source`` with a path every worker sees); this process writes the store,
+        in the same tile order as a local run.
     Returns the store's root attributes.
     """
     from tankcd_cli.terrain.grid.store import GridStoreWriter

@@ -20,13 +20,13 @@ _LOCK = threading.Lock()
 
 
 def _source(spec: tuple):
-    from tankcd_cli.terrain.grid.sources import open_dem
+    from tankcd_cli.terrain.grid.sources import open_source
 
     with _LOCK:
         if spec not in _SOURCES:
-            path, fmt, band, crs = spec
+            kind, path, fmt, band, crs = spec
             _SOURCES.clear()  # one DEM at a time per worker
-            _SOURCES[spec] = open_dem(path, fmt=fmt, band=band, crs=crs)
+            _SOURCES[spec] = open_source(kind, path, fmt=fmt, band=band, crs=crs)
         return _SOURCES[spec]
 
 

@@ -90,42 +90,21 @@ def _h5(path):
     return h5py.File(path, "r")
 
 
-ASC_SUFFIXES = ("asc",)
 ASC_OWN_MAX_BYTES = 4 << 20  # about 500k posts: below it our parser beats importing rasterio
+SOURCE_KINDS = ("grid_store", "esri_ascii", "raster")  # what ``terrain.open.terrain_kind`` calls a DEM
 
 
-def dem_kind(path: str, fmt: str | None = None) -> str | None:
-    """'asc', 'raster' or 'store' (a grid store) when ``path`` is a DEM input, else None (a mesh)."""
-    from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
-    from tankcd_cli.terrain.store import is_hdf5, read_attrs
-
-    f = (fmt or "").lower()
-    if f in ASC_SUFFIXES:
-        return "asc"
-    if f == "h5" or (not f and path != "-" and is_hdf5(path)):
-        return "store" if read_attrs(path).get("layout") == "grid" else None
-    if f:
-        return "raster" if f in RASTER_SUFFIXES else None
-    if path == "-":
-        return None
-    suffix = os.path.splitext(path)[1].lower().lstrip(".")
-    if suffix in ASC_SUFFIXES:
-        return "asc"
-    if os.path.isdir(path) or is_raster(path):
-        return "raster"
-    return None
-
-
-def open_dem(path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None):
-    """A DEM source (see the module doc), or None when ``path`` is not a DEM."""
-    kind = dem_kind(path, fmt)
-    if kind is None:
-        return None
-    if kind == "store":
+def open_source(kind: str, path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None):
+    """The DEM source (see the module doc) of ``path``, a DEM of ``kind`` (one of ``SOURCE_KINDS``,
+    as ``terrain.open.terrain_kind`` names it): a grid store's heights, an ESRI grid through our
+    parser when it is small and read as it is, any other raster through GDAL."""
+    if kind not in SOURCE_KINDS:
+        raise ValueError(f"not a DEM kind: {kind!r}; one of {', '.join(SOURCE_KINDS)}")
+    if kind == "grid_store":
         if crs:
             raise InputError(path, "--crs applies to rasters; a store keeps the CRS it was classified in")
         return StoreDem(path)
-    if kind == "asc" and crs is None and band in (None, 1) and (path == "-" or _size(path) < ASC_OWN_MAX_BYTES):
+    if kind == "esri_ascii" and crs is None and band in (None, 1) and (path == "-" or _size(path) < ASC_OWN_MAX_BYTES):
         return ascii_dem(path)
     from tankcd_cli.io.rasters import open_raster
 

@@ -96,24 +96,26 @@ def classify_mesh(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | None
     for key, value in mesh.counts.items():
         attrs[key] = value
     return MeshStore(vertices, faces, H, averaged, classes, class_raster, raster.values.astype(np.float32),
-                        raster.origin, raster.cell, buckets, grid, attrs)
+                     raster.origin, raster.cell, buckets, grid, attrs)
 
 
-def load_terrain(path: str, up: str | None = None, fmt: str | None = None) -> RawTerrain:
-    """Any terrain input: a mesh, a DEM, or a store written by classify (its cleaned mesh)."""
+def read_mesh(path: str, up: str | None = None, fmt: str | None = None) -> RawTerrain:
+    """A terrain file read as a mesh (``io.terrain_readers.read_terrain``); a mesh that does not
+    look like a terrain seen from above is a warning (``warn_if_not_a_height_field``)."""
     from tankcd_cli.io.terrain_readers import read_terrain
-    from tankcd_cli.terrain.mesh.store import read_mesh_store
-    from tankcd_cli.terrain.store import is_hdf5
 
-    if path != "-" and (fmt == "h5" or (fmt is None and is_hdf5(path))):
-        store = read_mesh_store(path)
-        return RawTerrain(store.vertices, store.faces, store.grid, store.attrs.get("source", path),
-                          store.attrs.get("source_sha256", ""), store.attrs.get("source_format", "h5"),
-                          store.attrs.get("source_up_axis", "z"))
     raw = read_terrain(path, up=up, fmt=fmt)
     if raw.grid is None:
         warn_if_not_a_height_field(raw)
     return raw
+
+
+def raw_terrain_of(store: MeshStore, path: str) -> RawTerrain:
+    """A mesh-layout store's cleaned mesh as a RawTerrain, to classify again; its provenance is the
+    store's source (``path`` where the store names none)."""
+    a = store.attrs
+    return RawTerrain(store.vertices, store.faces, store.grid, a.get("source", path), a.get("source_sha256", ""),
+                      a.get("source_format", "h5"), a.get("source_up_axis", "z"))
 
 
 def warn_if_not_a_height_field(raw: RawTerrain) -> None:
