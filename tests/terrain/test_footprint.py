@@ -1,5 +1,6 @@
-"""The compiled support-plane walk and footprint pass (Cython): what the numba kernels did at the
-edges of their inputs, and what per-thread scratch must not change."""
+"""The compiled support-plane walk and footprint pass (Cython): what they do at the edges of their
+inputs (zero divisors, any array layout, non-finite poses), and what per-thread scratch must not
+change."""
 
 import numpy as np
 import pytest
@@ -47,7 +48,7 @@ def test_support_plane_types_and_validation():
     assert empty.shape == (0, 3) and st0.shape == (0,)
 
 
-def test_zero_divisors_raise_as_numba_did():
+def test_zero_divisors_raise_zero_division_error():
     # a negative eps lets a point level with p (d == 0) into the division
     with pytest.raises(ZeroDivisionError):
         support_plane(np.array([1.0, 1.0]), np.array([0.0, 0.0]), np.array([1.0, 0.0]), 2, -1e-3)
@@ -113,8 +114,8 @@ def test_many_points_per_patch_grow_the_scratch_and_threads_change_nothing(arith
 
 
 def test_non_finite_and_huge_poses_find_no_ground():
-    """Poses at NaN, infinite or beyond-int64 coordinates: no ground under them (numba's grid
-    path could crash there)."""
+    """Poses at NaN, infinite or beyond-int64 coordinates: no ground under them (the grid path
+    finds no cell rather than reading out of bounds)."""
     from tankcd_cli.terrain.grid.surface import GridSurface
 
     rng = np.random.default_rng(2)
