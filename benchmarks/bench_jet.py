@@ -37,7 +37,7 @@ import json, os, resource, sys, time
 import numpy as np
 cores, path, fast, repeats, out = sys.argv[1:6]
 os.sched_setaffinity(0, list(range(int(cores))))
-from tankcd_cli._threads import set_num_threads
+from tankcd_cli.threads import set_num_threads
 set_num_threads(int(cores))
 from tankcd_cli.terrain.curvature import jet as C
 d = np.load(path)

@@ -2,8 +2,8 @@
 
 See :mod:`tankcd_cli.bvh.traverse` for the method. Poses run in OpenMP threads, handed out
 dynamically in chunks of ``POSE_CHUNK`` (a clear pose ends at the roots, a grazing one goes
-deep); within a pose the walk is sequential. The arithmetic and its order are those of the
-former numba kernels: results are bit-identical.
+deep); within a pose the walk is sequential, its arithmetic in one fixed order, so results
+do not depend on the thread count.
 """
 
 from cython.parallel cimport parallel, prange
@@ -15,7 +15,7 @@ import numpy as np
 
 from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64
 
-from tankcd_cli.geometry._triangles cimport _pymax, tri_tri_c
+from tankcd_cli.geometry._triangles cimport pymax, tri_tri_c
 
 FIRST, ALL = 0, 1
 cdef int64_t _FIRST = 0
@@ -233,7 +233,7 @@ def collide_batch(R, tv, D, W, a, b, mode, max_contacts):
     cdef Py_ssize_t i, p
     cdef double reach = 0.0  # the largest coordinate of either tree's bounds
     for i in range(3):
-        reach = _pymax(_pymax(_pymax(reach, fabs(a_centre_[0, 0, i]) + fabs(a_half_[0, 0, i])), fabs(b_lo_[0, i])),
+        reach = pymax(pymax(pymax(reach, fabs(a_centre_[0, 0, i]) + fabs(a_half_[0, 0, i])), fabs(b_lo_[0, i])),
                        fabs(b_hi_[0, i]))
     if n == 0:
         return found_arr, pairs_arr, points_arr, node_arr, tri_arr

@@ -376,7 +376,7 @@ def _lost(task: Task, exc: BaseException) -> dict:
 
 def _worker_threads(threads: int) -> None:
     """Each of N workers gets cores / N compiled-kernel threads: no oversubscription."""
-    from tankcd_cli._threads import set_num_threads
+    from tankcd_cli.threads import set_num_threads
 
     set_num_threads(threads)
 

@@ -93,7 +93,7 @@ def machine() -> dict:
     import scipy
 
     from tankcd_cli import __version__
-    from tankcd_cli._threads import get_num_threads, openmp_enabled
+    from tankcd_cli.threads import get_num_threads, openmp_enabled
 
     cpu = platform.processor() or platform.machine()
     try:

@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.bvh.build import build_tree
 from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch, collide_batch

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.geometry.cylinders import cylinders_distance_batch, cylinders_intersect, gjk_distance, projections_overlap
 
 # (cA, aA, hA, rA, cB, aB, hB, rB, plane normal, the distance pinned to the bit (float.hex), stop_apart off)

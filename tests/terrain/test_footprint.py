@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force, support_planes_fixed
 from tankcd_cli.terrain.footprint import footprint_batch

@@ -4,7 +4,7 @@ with cKDTree, ``jet.jet_fit_numpy``): the same neighbours, the same H to roundin
 import numpy as np
 import pytest
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.terrain.curvature import jet as C
 from tankcd_cli.terrain.curvature import jet_fit as J
 from tankcd_cli.terrain.curvature import mean as M

@@ -4,7 +4,7 @@ Python (the same IEEE operations in the same order), the inputs they take, any t
 import numpy as np
 import pytest
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.terrain.curvature import one_ring as k
 
 

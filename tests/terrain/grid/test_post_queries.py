@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.terrain.grid import post_queries as G
 
 

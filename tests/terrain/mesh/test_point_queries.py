@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.terrain.mesh import point_queries as K
 from tankcd_cli.terrain import synthetic as S
 
