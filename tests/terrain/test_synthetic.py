@@ -41,7 +41,8 @@ def test_sampled_meshes_and_dems():
     assert V.shape == (81, 3) and F.shape == (128, 3)
     np.testing.assert_array_equal(V[:, :2], xy + (500_000.0, 4_200_000.0))
     p = xy[F]
-    assert (np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) > 0).all()  # counter-clockwise from above
+    u, v = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    assert (u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] > 0).all()  # counter-clockwise from above
     Vj, Fj, xyj = S.jittered_mesh(S.plane(), 4.0, 1.0, seed=1)
     assert np.abs(xyj - xy).max() <= 1 / 3 + 1e-12 and len(Fj) > 0
     z = np.arange(12.0).reshape(3, 4)  # row 0 south
