@@ -22,7 +22,6 @@ if TYPE_CHECKING:
     from tankcd_cli.geometry.post_grid import PostGrid
     from tankcd_cli.terrain.mesh.store import MeshStore
 
-STORE_KINDS = ("grid_store", "mesh_store")
 DEM_KINDS = ("grid_store", "esri_ascii", "raster")  # read as DEM sources (grid/sources.py)
 KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "mesh")
 
@@ -51,7 +50,6 @@ def terrain_kind(path: str, fmt: str | None = None) -> str:
 
     if f in ASC_SUFFIXES:
         return "esri_ascii"
-
     if f:
         return "raster" if f in RASTER_SUFFIXES else "mesh"
     if path == "-":
