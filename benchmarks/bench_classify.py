@@ -66,7 +66,7 @@ def worker(method: str, size: int, repeats: int) -> dict:
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     sample = None
     if method.startswith("tankcd-"):
-        from tankcd_cli.terrain.curvature import mean_curvature
+        from tankcd_cli.terrain.curvature.mean import mean_curvature
 
         name = method.split("-", 1)[1]
         run = lambda: mean_curvature(V, F, name)  # noqa: E731

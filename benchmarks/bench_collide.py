@@ -66,7 +66,7 @@ def main():
     ap.add_argument("--quick", action="store_true", help="the 50k scene only, 500 poses")
     ap.add_argument("--out", default=os.path.join(HERE, "results", "collide.md"))
     args = ap.parse_args()
-    from tankcd_cli._threads import get_num_threads, set_num_threads
+    from tankcd_cli.threads import get_num_threads, set_num_threads
 
     from tankcd_cli.bvh.build import build_tree
     from tankcd_cli.bvh.query import collide

@@ -245,7 +245,7 @@ not read the articulated parts' values as the standard lays them out), in memory
 PDUs and 8 MiB reads, whatever the capture's size (opendis's figure includes the payloads it was handed).
 Target: at least 1,000,000 PDUs/s: {"met" if rate_ours >= 1e6 else "NOT met"}.
 
-Where tankcd's time goes (the best run): the compiled framing pass (`tankcd_cli/io/_pcap.pyx`: records,
+Where tankcd's time goes (the best run): the compiled framing pass (`tankcd_cli/io/_dis.pyx`: records,
 link, IP, UDP and PDU headers) {ours['framing']:.2f} s, the numpy decode {ours['decode']:.2f} s, reading the file
 and the rest {ours['seconds'] - ours['framing'] - ours['decode']:.2f} s. Why the framing pass is compiled: a bare
 Python loop over the same capture's record headers (one `struct.unpack_from` per record, nothing parsed)

@@ -46,11 +46,11 @@ def main():
     a = ap.parse_args()
     from tankcd_cli.matching.match import ESCALATED, OK, escalation_tolerance, match
     from tankcd_cli.terrain import synthetic as S
-    from tankcd_cli.terrain.classify import load_terrain
+    from tankcd_cli.terrain.mesh.classify import read_mesh
     from tankcd_cli.vehicle import vehicle_preset
 
     vehicle = vehicle_preset("t72")
-    surface = S.surface_of(load_terrain(os.path.join(SAMPLE, "battlefield.asc")), vehicle=vehicle)
+    surface = S.surface_of(read_mesh(os.path.join(SAMPLE, "battlefield.asc")), vehicle=vehicle)
     lines = ["# Benchmark: auto's escalation by certificate", "",
              f"T-72 on the sample battlefield; certificate tolerance {escalation_tolerance(vehicle) * 1000:.0f} mm "
              "at the footprint's corners. Errors against `reference` on the same poses (attitude: the angle "

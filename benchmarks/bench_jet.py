@@ -1,4 +1,4 @@
-"""Benchmark: the ``jet`` mean curvature, the numpy path (cKDTree + ``_jet_chunk``) against the compiled one.
+"""Benchmark: the ``jet`` mean curvature, the numpy path (cKDTree + ``jet_fit_numpy``) against the compiled one.
 
     python benchmarks/bench_jet.py [--sizes 100000,1000000] [--repeats 3] [--skip-numpy-1m]
                                    [--out benchmarks/results/jet.md]
@@ -37,9 +37,9 @@ import json, os, resource, sys, time
 import numpy as np
 cores, path, fast, repeats, out = sys.argv[1:6]
 os.sched_setaffinity(0, list(range(int(cores))))
-from tankcd_cli._threads import set_num_threads
+from tankcd_cli.threads import set_num_threads
 set_num_threads(int(cores))
-from tankcd_cli.terrain import curvature as C
+from tankcd_cli.terrain.curvature import jet as C
 d = np.load(path)
 V, normal, which = d["V"], d["normal"], d["which"]
 fast = fast == "1"
@@ -56,7 +56,7 @@ print(json.dumps({"seconds": min(times[1:]) if len(times) > 1 else times[0],
 
 def make_mesh(n_target: int, work: str) -> tuple[str, int, int]:
     from tankcd_cli.terrain import synthetic as S
-    from tankcd_cli.terrain.curvature import open_vertices, vertex_normals
+    from tankcd_cli.terrain.curvature.mean import open_vertices, vertex_normals
 
     side = int(round(np.sqrt(n_target)))
     half = (side - 1) / 2.0

@@ -57,13 +57,13 @@ def main():
     size, n, repeats = (300, 20_000, 3) if args.quick else (1000, 100_000, 3)
 
     from tankcd_cli.matching.match import KEY_POINT_MATCHERS, MATCHERS, match
-    from tankcd_cli.terrain.classify import classify_terrain
-    from tankcd_cli.terrain.surface import TerrainSurface
+    from tankcd_cli.terrain.mesh.classify import classify_mesh
+    from tankcd_cli.terrain.mesh.surface import MeshSurface
     from tankcd_cli.vehicle import key_points, vehicle_preset, wheel_stations
 
     raw = terrain(size)
-    store = classify_terrain(raw)
-    surface = TerrainSurface.from_store(store)
+    store = classify_mesh(raw)
+    surface = MeshSurface.from_store(store)
     vehicle = vehicle_preset("t72")
     rng = np.random.default_rng(2)
     x = 500_000.0 + rng.uniform(10, size - 10, n)
@@ -99,7 +99,7 @@ def main():
     peer = timed(lambda: ray_heights(qx, qy), 1)
     lines += ["## Height and normal at 100 000 points" if not args.quick else "## Height and normal at 20 000 points", "",
               "| method | points/s | ratio |", "| --- | --- | --- |",
-              f"| tankcd TerrainSurface.height_normal | {n / ours[0]:,.0f} | {peer[0] / ours[0]:.1f}x |",
+              f"| tankcd MeshSurface.height_normal | {n / ours[0]:,.0f} | {peer[0] / ours[0]:.1f}x |",
               f"| trimesh vertical rays ({engine}) | {n / peer[0]:,.0f} | 1.0x |", ""]
 
     lines += ["## Matchers", "",
@@ -138,17 +138,16 @@ def grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, mesh_surface):
     """The same DEM in the grid layout, read by window from a store on disk, against the mesh layout."""
     import tempfile
 
-    from tankcd_cli.terrain.dem_sources import ArrayDem, DemInfo
+    from tankcd_cli.io.dem_source import DemSourceInfo
     from tankcd_cli.matching.match import MATCHERS, match
-    from tankcd_cli.terrain.dem_classify import classify_dem
-    from tankcd_cli.terrain.grid_store import open_grid
+    from tankcd_cli.terrain.grid.sources import ArrayDem
+    from tankcd_cli.terrain.grid.classify import classify_dem
+    from tankcd_cli.terrain.grid.store import open_grid
 
-    v = raw.grid.vertex
+    v = raw.grid.vertex  # row 0 north, as the grid layout's heights
     heights = np.full(v.shape, np.nan)
     heights[v >= 0] = raw.vertices[v[v >= 0], 2]
-    heights = heights[::-1].copy()  # row 0 north
-    ox, oy = raw.grid.origin
-    info = DemInfo("bench", "asc", size, size, (ox, oy + (size - 1) * 1.0), (1.0, 1.0))
+    grid, info = raw.grid.geometry, DemSourceInfo("bench", "asc")
     n = len(x)
     out = ["", "## The same DEM in the grid layout", "",
            "Posts only, read by window through the tile cache from a store on disk (classified by "
@@ -157,7 +156,7 @@ def grid_layout_rows(raw, size, vehicle, x, y, yaw, repeats, mesh_surface):
            "| --- | --- | --- | --- | --- |"]
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "grid.h5")
-        classify_dem(ArrayDem(heights, info), path)
+        classify_dem(ArrayDem(heights, grid, info), path)
         grid = open_grid(path)
         for m in MATCHERS + ("auto",):
             rows = []

@@ -19,11 +19,11 @@ def describe_store(path: str) -> dict:
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.store import is_store, read_attrs
+    from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
     if not os.path.exists(path):
         raise InputError(path, "no such file")
-    if not is_store(path):
+    if not is_hdf5(path):
         if path.lower().endswith(".toml"):
             return describe_scene(path)
         raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
@@ -188,28 +188,27 @@ def _scene_terrain(sc) -> dict:
     """The kind and extent of a scene's terrain, read as replay reads it (a store's attributes,
     a DEM's grid, a mesh's vertices)."""
     path = sc.terrain_path
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
-    if is_store(path):
+    if is_hdf5(path):
         d = describe_store(path)
         if d.get("kind") != "terrain store":
             raise InputError(path, f"is a {d.get('kind')}, not a terrain", where="[terrain] path")
         return {"kind": f"terrain store ({d['layout']} layout)", "crs": d.get("crs"),
                 "extent_x": d["extent_x"], "extent_y": d["extent_y"], "extent_z": d["extent_z"]}
-    from tankcd_cli.terrain.dem_sources import open_dem
+    from tankcd_cli.terrain.open import open_dem
 
     dem = open_dem(path)
     if dem is not None:
         with dem:
-            i = dem.info
-        x0, y0 = float(i.origin[0]), float(i.origin[1])
-        dx, dy = float(i.spacing[0]), float(i.spacing[1])
-        return {"kind": f"DEM ({i.format}, {i.rows} rows x {i.cols} columns of posts, classified on the fly)",
-                "crs": i.crs_name,
-                "extent_x": [x0, x0 + (i.cols - 1) * dx], "extent_y": [y0 - (i.rows - 1) * dy, y0]}
-    from tankcd_cli.terrain.classify import load_terrain
+            g, i = dem.grid, dem.info
+        x0, y0 = float(g.origin_x), float(g.origin_y)
+        dx, dy = float(g.dx), float(g.dy)
+        return {"kind": f"DEM ({i.format}, {g.rows} rows x {g.cols} columns of posts, classified on the fly)", "crs": g.crs_name,
+                "extent_x": [x0, x0 + (g.cols - 1) * dx], "extent_y": [y0 - (g.rows - 1) * dy, y0]}
+    from tankcd_cli.terrain.mesh.classify import read_mesh
 
-    raw = load_terrain(path, up=sc.terrain_up)
+    raw = read_mesh(path, up=sc.terrain_up)
     lo, hi = raw.vertices.min(axis=0), raw.vertices.max(axis=0)
     return {"kind": f"mesh ({raw.format}, {len(raw.faces):,} triangles, classified on the fly)",
             "up_applied": getattr(raw, "up", None) or sc.terrain_up_axis,

@@ -77,7 +77,7 @@ def envelope_png(vehicle, env, path: str) -> None:
 def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None, counts=None) -> None:
     """The replayed path over the class map, obstacles' footprints, and events marked by kind.
 
-    store : a mesh-layout TerrainStore, or the path of a grid store (drawn from its overview)
+    store : a MeshStore (the mesh layout), or the path of a grid store (drawn from its overview)
     path_xy : (N, 2) world x, y of the path; marks : [(kind, x, y)] events
     footprints : [(name, (k, 2) outline)] obstacles seen from above
     matcher : (N,) matcher codes to colour the path by (None: one colour)
@@ -93,7 +93,7 @@ def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None
     cmap = ListedColormap(["#dcedc8", "#fff3c4", "#ffcdd2"])
     norm = BoundaryNorm([-0.5, 0.5, 1.5, 2.5], 3)
     if isinstance(store, str):
-        from tankcd_cli.terrain.grid_store import read_overview
+        from tankcd_cli.terrain.grid.store import read_overview
 
         ov = read_overview(store)
         origin, extent = _overview_extent(ov)
@@ -155,10 +155,10 @@ def _relative_axes(ax, origin) -> None:
 
 def _overview_extent(ov: dict):
     """The south-west post (world x, y) and the imshow extent, in metres from it, of an overview."""
-    ox, oy = ov["origin"]
-    top = (ov["rows"] - 1) * ov["spacing"][1]
-    origin = np.array([ox, oy - top])
-    dx, dy = ov["spacing"] * ov["step"]
+    g = ov["grid"]
+    top = (g.rows - 1) * g.dy
+    origin = np.array([g.origin_x, g.origin_y - top])
+    dx, dy = g.dx * ov["step"], g.dy * ov["step"]
     h, w = ov["classes"].shape
     return origin, (-dx / 2, (w - 0.5) * dx, top - (h - 0.5) * dy, top + dy / 2)
 
@@ -172,7 +172,7 @@ def grid_map_png(store_path: str, path: str, title: str | None = None) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
-    from tankcd_cli.terrain.grid_store import read_overview
+    from tankcd_cli.terrain.grid.store import read_overview
 
     ov = read_overview(store_path)
     a = ov["attrs"]

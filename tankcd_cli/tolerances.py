@@ -41,7 +41,7 @@ clipping (far below any post spacing, far above float64 rounding at UTM coordina
 BARY_EPS = 1e-9
 """Barycentric units. A point this close to a triangle's edge counts as inside it (point
 location on meshes and grids), so a point on a shared edge is never lost between two
-triangles. Compiled into ``terrain/_grid_kernels.pyx`` and ``terrain/_surface_kernels.pyx``
+triangles. Compiled into ``terrain/grid/_post_queries.pyx`` and ``terrain/mesh/_point_queries.pyx``
 (a test holds them to this value)."""
 
 TRIANGLE_REL_EPS = 1e-12

@@ -5,8 +5,8 @@ from tankcd_cli import tolerances as T
 
 def test_compiled_copies_equal_the_documented_values():
     from tankcd_cli.geometry._triangles import REL_EPS
-    from tankcd_cli.terrain._grid_kernels import BARY_EPS as GRID_BARY_EPS
-    from tankcd_cli.terrain._surface_kernels import BARY_EPS as MESH_BARY_EPS
+    from tankcd_cli.terrain.grid.post_queries import BARY_EPS as GRID_BARY_EPS
+    from tankcd_cli.terrain.mesh.point_queries import BARY_EPS as MESH_BARY_EPS
 
     assert REL_EPS == T.TRIANGLE_REL_EPS
     assert GRID_BARY_EPS == MESH_BARY_EPS == T.BARY_EPS

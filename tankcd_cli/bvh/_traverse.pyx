@@ -2,7 +2,8 @@
 
 See :mod:`tankcd_cli.bvh.traverse` for the method. Poses run in OpenMP threads, handed out
 dynamically in chunks of ``POSE_CHUNK`` (a clear pose ends at the roots, a grazing one goes
-deep); within a pose the walk is sequential.
+deep); within a pose the walk is sequential, its arithmetic in one fixed order, so results
+do not depend on the thread count.
 """
 
 cimport numpy as cnp
@@ -18,7 +19,7 @@ cnp.import_array()
 from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64
 
 from tankcd_cli.bvh._trees cimport Trees, fill_trees, tree_reach
-from tankcd_cli.geometry._triangles cimport _pymax, tri_tri_c
+from tankcd_cli.geometry._triangles cimport tri_tri_c
 
 FIRST, ALL = 0, 1
 cdef int64_t _FIRST = 0

@@ -47,6 +47,7 @@ import numpy as np
 
 from tankcd_cli.bvh.build import Tree
 from tankcd_cli.geometry import kdop
+from tankcd_cli.bvh._sweep import chain_placements  # noqa: F401 (the compiled chain, for the callers)
 from tankcd_cli.geometry.motion import axis_rotation, quaternion_matrix, quaternion_slerp
 
 MOTION_WIDTH = 30
@@ -95,9 +96,9 @@ def static_rows(n: int) -> tuple[np.ndarray, np.ndarray]:
     return motion_rows(q, z, q, z)
 
 
-def chain_placements(rows: np.ndarray, joints: np.ndarray, s) -> tuple[np.ndarray, np.ndarray]:
-    """(R (N, 3, 3), t (N, 3)) of motion rows at fractions s (N,), in numpy (the oracle of the
-    compiled chain: the same definition, written independently)."""
+def chain_placements_naive(rows: np.ndarray, joints: np.ndarray, s) -> tuple[np.ndarray, np.ndarray]:
+    """(R (N, 3, 3), t (N, 3)) of motion rows at fractions s (N,), in numpy: the oracle of the compiled
+    ``chain_placements`` (the same definition, written independently)."""
     rows = np.atleast_2d(rows)
     s = np.broadcast_to(np.asarray(s, dtype=float), (len(rows),))
     q = quaternion_slerp(rows[:, 0:4], rows[:, 7:11], s)
@@ -163,8 +164,8 @@ def first_contacts_sampled(moving_triangles: np.ndarray, other_triangles: np.nda
     for q in range(n):
         samples = int(np.ceil(rate[q] / step)) + 1 if rate[q] > 0 else 1
         s = np.linspace(0.0, 1.0, samples + 1)
-        Ra, ta = chain_placements(np.repeat(rows_a[q:q + 1], len(s), 0), np.repeat(joints_a[q:q + 1], len(s)), s)
-        Rb, tb = chain_placements(np.repeat(rows_b[q:q + 1], len(s), 0), np.repeat(joints_b[q:q + 1], len(s)), s)
+        Ra, ta = chain_placements_naive(np.repeat(rows_a[q:q + 1], len(s), 0), np.repeat(joints_a[q:q + 1], len(s)), s)
+        Rb, tb = chain_placements_naive(np.repeat(rows_b[q:q + 1], len(s), 0), np.repeat(joints_b[q:q + 1], len(s)), s)
         for i, si in enumerate(s):
             A = moving_triangles @ Ra[i].T + ta[i]
             B = other_triangles @ Rb[i].T + tb[i]

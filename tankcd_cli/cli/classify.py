@@ -6,8 +6,8 @@ import os
 
 import click
 
-from tankcd_cli.cli.options import given, option_label, output_option, vehicle_option, verbosity_options
-from tankcd_cli.names import AUTO_METHODS, CURVATURE_METHODS, UP_AXES
+from tankcd_cli.cli.options import given, output_option, vehicle_option, verbosity_options
+from tankcd_cli.names import CURVATURE_METHODS, UP_AXES
 
 METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet on a mesh), grid (DEMs only: "
                "central differences over the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, "
@@ -53,10 +53,8 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     classified tile by tile into the grid layout, in memory that does not grow
     with the DEM. TERRAIN may be - for standard input (give --format).
     """
-    from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.terrain.classify import classify_terrain, load_terrain
+    from tankcd_cli.terrain.open import OptionError, classify_file
     from tankcd_cli.terrain.regions import Thresholds
-    from tankcd_cli.terrain.store import write_store
     from tankcd_cli.vehicle import vehicle_preset
 
     if terrain != "-" and not os.path.exists(terrain):  # before -o's default is compared with it
@@ -78,78 +76,56 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     report.kernels()
     step = report.progress("classify")
     step(f"reading {terrain}")
-    from tankcd_cli.terrain.dem_sources import open_dem
 
-    dem = open_dem(terrain, fmt=fmt, band=band, crs=crs)
-    if dem is not None:
-        if up not in (None, "z"):
-            raise click.UsageError("--up y makes no sense for a DEM (grids are z-up)")
-        spec = None
-        if scheduler:
-            if terrain == "-":
-                raise click.UsageError("--scheduler needs a DEM path the workers can read, not standard input")
-            spec = (os.path.abspath(terrain), fmt, band, crs)
-        method = AUTO_METHODS["dem"] if method == "auto" else method
-        _classify_dem(report, dem, output, method, vehicle_preset(vehicle_name), user_thresholds, tile, jobs, png,
-                      scheduler, spec)
+    def on_grid(grid, info):
+        report.detail(f"classify: {info.source}: {grid.rows:,} rows x {grid.cols:,} columns of posts, "
+                      f"{grid.dx:g} m (x) x {grid.dy:g} m (y) apart, {grid.crs_name}"
+                      + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
+
+    def tile_progress(done, total, posts, seconds):
+        report.bar(f"classify: tile {done}/{total}, {posts / max(seconds, 1e-9) / 1e6:.1f} M posts/s")
+
+    def before_commit(tmp, done):
+        if done.layout != "grid":
+            return
+        report.bar(None)
+        if png:  # drawn from the store before it is renamed: a map that fails takes the store with it
+            from tankcd_cli.io.atomic import atomic_path
+            from tankcd_cli.plots import grid_map_png
+
+            with atomic_path(png, ".png") as tmp_png:
+                grid_map_png(tmp, tmp_png, title=done.source)
+
+    try:
+        ctx = click.get_current_context()
+        done = classify_file(terrain, output, method=method, up=up, fmt=fmt, vehicle=vehicle_preset(vehicle_name),
+                             thresholds=user_thresholds, crs=crs, band=band,
+                             tile=tile if given(ctx, "tile") else None, jobs=jobs if given(ctx, "jobs") else None,
+                             scheduler=scheduler,
+                             progress=step, tile_progress=tile_progress, on_grid=on_grid, before_commit=before_commit)
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
+    a = done.attrs
+    if done.layout == "grid":
+        g = done.grid
+        report.info(f"classify: {done.source} -> {output}: {g.rows:,} rows x {g.cols:,} columns of posts "
+                    f"({a['valid_posts']:,} with data), H by {done.method}; flat {a['share_flat']:.0%}, "
+                    f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
+                    f"({report.elapsed():.2f} s)")
         return
-    if scheduler:
-        raise click.UsageError("--scheduler applies to DEMs; a mesh is classified in this process")
-    if crs or band:
-        raise click.UsageError("--crs and --band apply to DEM rasters; meshes keep their coordinates")
-    ctx = click.get_current_context()
-    for name in ("tile", "jobs"):
-        if given(ctx, name):
-            raise click.UsageError(f"{option_label(ctx, name)} applies to DEM rasters, classified tile by tile; a "
-                                   "mesh is classified whole")
-    if method == "grid":
-        raise click.UsageError("--method grid needs a DEM; meshes take cotan, sphere or jet")
-    method = AUTO_METHODS["mesh"] if method == "auto" else method
-    raw = load_terrain(terrain, up=up, fmt=fmt)
-    store = classify_terrain(raw, method=method, vehicle=vehicle_preset(vehicle_name),
-                             thresholds=user_thresholds, progress=step)
-    step(f"writing {output}")
-    with atomic_path(output, ".h5") as tmp:
-        write_store(tmp, store)
+    store = done.mesh_store
     if png:
+        from tankcd_cli.io.atomic import atomic_path
         from tankcd_cli.plots import class_map_png
 
         with atomic_path(png, ".png") as tmp:
             class_map_png(store, tmp)
-    a = store.attrs
     for key in ("merged_vertices", "unreferenced_vertices", "degenerate_faces", "repeated_faces"):
         report.detail(f"classify: {key.replace('_', ' ')}: {a[key]}")
     report.detail(f"classify: boundary vertices: {a['boundary_vertices']}, non-manifold vertices: {a['nonmanifold_vertices']}")
-    report.info(f"classify: {raw.source} -> {output}: {len(store.vertices):,} vertices, {len(store.faces):,} faces, "
-                f"H by {method}; flat {a['share_flat']:.0%}, general {a['share_general']:.0%}, "
+    report.info(f"classify: {done.source} -> {output}: {len(store.vertices):,} vertices, {len(store.faces):,} faces, "
+                f"H by {done.method}; flat {a['share_flat']:.0%}, general {a['share_general']:.0%}, "
                 f"uneven {a['share_uneven']:.0%} of the area ({report.elapsed():.2f} s)")
-
-
-def _classify_dem(report, dem, output, method, vehicle, thresholds, tile, jobs, png, scheduler=None, spec=None):
-    from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.terrain.dem_classify import classify_dem
-
-    info = dem.info
-    report.detail(f"classify: {info.source}: {info.rows:,} rows x {info.cols:,} columns of posts, "
-                  f"{info.spacing[0]:g} m (x) x {info.spacing[1]:g} m (y) apart, {info.crs_name}"
-                  + (f" (reprojected from {info.source_crs_name})" if info.reprojected else ""))
-
-    def progress(done, total, posts, seconds):
-        report.bar(f"classify: tile {done}/{total}, {posts / max(seconds, 1e-9) / 1e6:.1f} M posts/s")
-
-    with dem, atomic_path(output, ".h5") as tmp:
-        a = classify_dem(dem, tmp, method=method, vehicle=vehicle, thresholds=thresholds, tile=tile, jobs=jobs,
-                         progress=progress, scheduler=scheduler, spec=spec)
-        report.bar(None)
-        if png:
-            from tankcd_cli.plots import grid_map_png
-
-            with atomic_path(png, ".png") as tmp_png:
-                grid_map_png(tmp, tmp_png, title=info.source)
-    report.info(f"classify: {info.source} -> {output}: {info.rows:,} rows x {info.cols:,} columns of posts "
-                f"({a['valid_posts']:,} with data), H by {method}; flat {a['share_flat']:.0%}, "
-                f"general {a['share_general']:.0%}, uneven {a['share_uneven']:.0%} of the area "
-                f"({report.elapsed():.2f} s)")
 
 
 def _refuse_clashes(terrain, output, png, explicit):
@@ -157,11 +133,11 @@ def _refuse_clashes(terrain, output, png, explicit):
     -o names it (the new store is written beside it and replaces it when complete)."""
     from tankcd_cli.cli.options import refuse_clashes
     from tankcd_cli.io.files import same_path
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
     in_place = terrain != "-" and same_path(output, terrain)
-    if in_place and not (explicit and is_store(terrain)):
-        hint = " (to rewrite a store in place, name it with -o)" if is_store(terrain) else ""
+    if in_place and not (explicit and is_hdf5(terrain)):
+        hint = " (to rewrite a store in place, name it with -o)" if is_hdf5(terrain) else ""
         raise click.UsageError(f"-o/--output {output} is also TERRAIN {terrain}: give -o another path{hint}")
     refuse_clashes({} if in_place else {"TERRAIN": terrain}, {"-o/--output": output, "--png": png})
     if png is not None and same_path(png, terrain):

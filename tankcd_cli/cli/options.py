@@ -238,14 +238,14 @@ def check_replay_options(ctx: click.Context, fleet: bool) -> None:
     check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation})
     if not (given(ctx, "cache") or given(ctx, "up")):
         return
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
     terrain, label = p.get("terrain"), "--terrain"
     if terrain is None and p.get("scene") and os.path.exists(p["scene"]):
         from tankcd_cli.scene import load_scene
 
         terrain, label = load_scene(p["scene"]).terrain_path, "the scene's terrain"
-    if terrain is None or terrain == "-" or not os.path.isfile(terrain) or not is_store(terrain):
+    if terrain is None or terrain == "-" or not os.path.isfile(terrain) or not is_hdf5(terrain):
         return
     for name, why in (("cache", "it saves a terrain classified on the fly as a store"),
                       ("up", "a store's terrain was turned z-up when it was classified")):

@@ -112,8 +112,9 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.trajectory import read_trajectory
-    from tankcd_cli.replay.pipeline import load_terrain_surface, prepare
+    from tankcd_cli.replay.pipeline import prepare
     from tankcd_cli.replay.run import new_counts, summary, write_outputs
+    from tankcd_cli.terrain.open import open_terrain
     from tankcd_cli.vehicle import vehicle_preset
 
     if poses_path == "-" and "-" in (events_path, summary_path):
@@ -134,7 +135,9 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     refuse_clashes({"TRAJECTORY": trajectory, "--scene": scene, "--terrain": terrain,
                     **(scene_inputs(sc) if sc is not None else {})},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
-    surface, mesh_store = load_terrain_surface(terrain, up=up, vehicle=vehicle, progress=step, cache=cache)
+    opened = open_terrain(terrain, up=up, vehicle=vehicle, progress=step, cache=cache)
+    # the map draws a mesh's classes only when classified here (a mesh store read from disk: none)
+    surface, mesh_store = opened.surface, (opened.mesh_store if opened.classified else None)
 
     chunks = read_trajectory(trajectory)
     first = next(chunks, None)

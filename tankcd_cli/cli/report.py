@@ -44,7 +44,7 @@ class Reporter:
         """Under -v: how the compiled kernels run here (OpenMP threads, or serially without it)."""
         if self.verbosity < 1:
             return
-        from tankcd_cli._threads import get_num_threads, openmp_enabled
+        from tankcd_cli.threads import get_num_threads, openmp_enabled
 
         if openmp_enabled():
             self.detail(f"kernels: compiled with OpenMP, {get_num_threads()} threads")

@@ -124,7 +124,7 @@ def first_gun_contacts(vehicle: Vehicle, azimuth0, dazimuth, elevation0, delevat
     each drum within ``TOL`` above the truth, and no point of the barrel moves faster than
     speed = |dazimuth| rho_az + |delevation| rho_el (m per unit of s; rho_az the farthest a barrel
     point is from the turret axis, rho_el from the trunnion), so a path whose clearance at s is
-    d cannot touch a drum before s + (d - TOL) / speed. The walk (compiled: ``_gun_path``) advances
+    d cannot touch a drum before s + (d - TOL) / speed. The walk (compiled: ``_internal``) advances
     by that, but never by less than ``step_deg`` of the larger angle change, and by just that step
     while the clearance is under ``GUN_CLOSE`` (where the distance's steps would shrink without
     end on a grazing approach), testing exactly at every stop, so a contact is never passed:
@@ -132,7 +132,7 @@ def first_gun_contacts(vehicle: Vehicle, azimuth0, dazimuth, elevation0, delevat
     the barrel dipping a fraction of a millimetre into a drum, may go unseen). Paths that start
     touching are reported at s = 0.
     """
-    from tankcd_cli.collision._gun_path import gun_path_contacts
+    from tankcd_cli.collision._internal import gun_path_contacts
     from tankcd_cli.geometry.cylinders import TOL
 
     az0 = np.asarray(azimuth0, dtype=float).ravel()

@@ -252,7 +252,7 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
     obstacle the group's world box at the step's middle grown by half its motion bound, which
     holds the group throughout the step (every point stays within half the bound of where it is
     at the middle); a step whose boxes miss every obstacle's costs those box tests alone."""
-    from tankcd_cli.bvh._sweep import chain_placements
+    from tankcd_cli.bvh.sweep import chain_placements
     from tankcd_cli.bvh.sweep import first_contacts, motion_rows, static_rows
     from tankcd_cli.geometry.motion import rotation_angle
 

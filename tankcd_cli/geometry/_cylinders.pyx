@@ -1,11 +1,10 @@
 """Compiled kernels of ``tankcd_cli.geometry.cylinders`` (see its docstring): GJK on support mappings.
 
-The arithmetic and its order are those of the former numba kernels. The one part numba left to
-LAPACK, ``np.linalg.det`` and ``np.linalg.solve`` of the (at most 3 x 3) Gram system of a simplex
-face, is done here by ``_lu``/``_lu_solve``, which replay what numba's LAPACK (scipy's OpenBLAS,
-its ``getf2``/``getrs`` with the Haswell/Zen kernels) computes, fused multiply-adds included, and
-``np.linalg.det``'s ``sign * exp(sum log |u_kk|)``; on such machines the distances are the same
-bits as numba's. (numba's were not portable: OpenBLAS picks its kernels per CPU. These are.)
+The (at most 3 x 3) Gram system of a simplex face, its determinant test and its solution, is
+done by ``_lu``/``_lu_solve``: the operations of LAPACK's ``getf2``/``getrs`` as OpenBLAS's
+Haswell/Zen kernels run them, fused multiply-adds included, and the determinant as
+``np.linalg.det`` forms it (``sign * exp(sum log |u_kk|)``). Written out here, they give the
+same bits on every CPU (a LAPACK call would not: OpenBLAS picks its kernels per CPU).
 """
 
 import numpy as np
@@ -119,14 +118,14 @@ cdef inline void _lu_solve(const double* A, int n, const int* piv, double* b) no
 
 
 cdef inline bint _degenerate(const double* A, int n, int info, double gmax) noexcept nogil:
-    """numba's ``abs(np.linalg.det(G)) < 1e-24 * max(1.0, G.max() ** (n))`` on the factors of G,
+    """Whether ``abs(np.linalg.det(G)) < 1e-24 * max(1.0, G.max() ** (n))``, on the factors of G,
     det being ``sign * exp(sum log |u_kk|)`` (0 when a pivot is zero). The product of the pivots
     decides when it is clearly on one side (both agree to 1e-12 relative); else the logs do."""
     cdef double pw, thr, prod, acc
     cdef int k
     if info > 0:
         return True  # det 0 < a positive threshold
-    # numba's float ** int: repeated squaring (x ** 3 = x * (x * x))
+    # float ** int by repeated squaring (x ** 3 = x * (x * x)), the threshold's bits
     if n == 1:
         pw = gmax
     elif n == 2:
@@ -148,8 +147,8 @@ cdef inline bint _degenerate(const double* A, int n, int info, double gmax) noex
 cdef int _closest_on_simplex(const double* S, int m, double* bx, double* by, double* bz, int* keep) noexcept nogil:
     """Closest point to the origin of the simplex S[:m] (m <= 4, rows of 3), trying every face.
 
-    Writes the point and the kept vertices' mask bits; returns 0, or 1 where numba's
-    ``np.linalg`` raised LinAlgError (a Gram system with an infinity or NaN).
+    Writes the point and the kept vertices' mask bits; returns 0, or 1 for a Gram system with
+    an infinity or NaN (no solution: the caller raises LinAlgError).
     """
     cdef double best_d = INFINITY
     cdef double G[9]
@@ -232,7 +231,8 @@ cdef int _closest_on_simplex(const double* S, int m, double* bx, double* by, dou
 cdef double gjk_c(const double* cA, const double* aA, double hA, double rA,
                   const double* cB, const double* aB, double hB, double rB,
                   double nx, double ny, double nz, double tol, bint stop_apart, int* err) noexcept nogil:
-    """``gjk_distance``; ``err`` set to 1 (and the result meaningless) where numba raised LinAlgError."""
+    """``gjk_distance``; ``err`` set to 1 (and the result meaningless) for a Gram system with an
+    infinity or NaN (LinAlgError in Python)."""
     cdef double S[12]
     cdef double ta[3]
     cdef double tb[3]

@@ -17,13 +17,13 @@ cdef enum:
 
 
 cdef inline double _fmin(double a, double b) noexcept nogil:
-    """numba's (Python's) min(a, b): b only when b < a."""
+    """Python's min(a, b): b only when b < a (a NaN never replaces an earlier value)."""
     return b if b < a else a
 
 
 # The walk comes in two compiled variants, chosen by the type of its last argument (a null
 # pointer): _Checked also looks for zero divisors in the loops over the points, which can
-# have one only when eps < 0 (numba raised ZeroDivisionError there); _Unchecked does not.
+# have one only when eps < 0 (the Python callers raise ZeroDivisionError then); _Unchecked does not.
 cdef struct _Checked:
     char unused
 
@@ -247,7 +247,7 @@ cdef int support_plane_c(const double* u, const double* v, const double* z, Py_s
     Writes (a, b, c) to ``out``; returns the status: 0 optimal, 1 no points, 2 not converged
     (the origin outside the points' hull, or cycling): callers fall back; -1 a division by
     zero (only when ``eps`` is 0 or negative, or the points underflow), where the Python-level
-    callers raise ZeroDivisionError as the numba kernels did (``out`` is then not written).
+    callers raise ZeroDivisionError (``out`` is then not written).
     ``eps`` is the length below which xy distances count as zero.
     """
     cdef bint tied = False

@@ -1,8 +1,9 @@
 # Moller's triangle-triangle test as nogil C-level helpers (see triangles.py for the method).
 #
 # Defined here, inline, so that every module that cimports ``tri_tri_c`` (the tree traversal)
-# compiles it in and calls it directly. The arithmetic and its order are those of the former
-# numba kernels: results are bit-identical. Triangles are 9 contiguous doubles, vertex-major
+# compiles it in and calls it directly; its arithmetic has one fixed order (no fused multiply-add:
+# setup.py builds with -ffp-contract=off), so every caller gets the same bits. Triangles are 9
+# contiguous doubles, vertex-major
 # ((3, 3) C order); points are 3 doubles.
 
 from libc.math cimport fabs, sqrt, INFINITY
@@ -12,12 +13,12 @@ cdef inline double _rel_eps() noexcept nogil:
     return 1e-12  # REL_EPS of triangles.py
 
 
-cdef inline double _pymax(double a, double b) noexcept nogil:
+cdef inline double pymax(double a, double b) noexcept nogil:
     """Python's max(a, b): b only when b > a (a NaN never replaces an earlier value)."""
     return b if b > a else a
 
 
-cdef inline double _pymin(double a, double b) noexcept nogil:
+cdef inline double pymin(double a, double b) noexcept nogil:
     """Python's min(a, b): b only when b < a."""
     return b if b < a else a
 
@@ -33,17 +34,17 @@ cdef inline bint _seg_seg_2d(double ax, double ay, double bx, double by, double 
             and ((d3 > eps and d4 < -eps) or (d3 < -eps and d4 > eps))):
         return True
     # collinear or touching: bounding-box overlap on the line
-    if (fabs(d1) <= eps and _pymin(cx, dx) - eps <= ax <= _pymax(cx, dx) + eps
-            and _pymin(cy, dy) - eps <= ay <= _pymax(cy, dy) + eps):
+    if (fabs(d1) <= eps and pymin(cx, dx) - eps <= ax <= pymax(cx, dx) + eps
+            and pymin(cy, dy) - eps <= ay <= pymax(cy, dy) + eps):
         return True
-    if (fabs(d2) <= eps and _pymin(cx, dx) - eps <= bx <= _pymax(cx, dx) + eps
-            and _pymin(cy, dy) - eps <= by <= _pymax(cy, dy) + eps):
+    if (fabs(d2) <= eps and pymin(cx, dx) - eps <= bx <= pymax(cx, dx) + eps
+            and pymin(cy, dy) - eps <= by <= pymax(cy, dy) + eps):
         return True
-    if (fabs(d3) <= eps and _pymin(ax, bx) - eps <= cx <= _pymax(ax, bx) + eps
-            and _pymin(ay, by) - eps <= cy <= _pymax(ay, by) + eps):
+    if (fabs(d3) <= eps and pymin(ax, bx) - eps <= cx <= pymax(ax, bx) + eps
+            and pymin(ay, by) - eps <= cy <= pymax(ay, by) + eps):
         return True
-    if (fabs(d4) <= eps and _pymin(ax, bx) - eps <= dx <= _pymax(ax, bx) + eps
-            and _pymin(ay, by) - eps <= dy <= _pymax(ay, by) + eps):
+    if (fabs(d4) <= eps and pymin(ax, bx) - eps <= dx <= pymax(ax, bx) + eps
+            and pymin(ay, by) - eps <= dy <= pymax(ay, by) + eps):
         return True
     return False
 
@@ -67,7 +68,7 @@ cdef inline void _edge_crossing_point(const double* a, const double* b, const do
     cdef int m
     if den != 0.0:
         t = ((c[i0] - a[i0]) * fy - (c[i1] - a[i1]) * fx) / den
-        t = _pymin(_pymax(t, 0.0), 1.0)
+        t = pymin(pymax(t, 0.0), 1.0)
     for m in range(3):
         out[m] = a[m] + t * (b[m] - a[m])
 
@@ -168,8 +169,8 @@ cdef inline bint tri_tri_c(const double* P, const double* Q, double* out, double
     cdef int a, m
     for a in range(3):
         for m in range(3):
-            scale = _pymax(scale, fabs(P[3 * a + m] - Q[m]))
-    scale = _pymax(scale, 1e-300)
+            scale = pymax(scale, fabs(P[3 * a + m] - Q[m]))
+    scale = pymax(scale, 1e-300)
     cdef double nq = sqrt(nqx * nqx + nqy * nqy + nqz * nqz)
     cdef double npn = sqrt(npx * npx + npy * npy + npz * npz)
     if nq == 0.0 or npn == 0.0:
@@ -218,14 +219,14 @@ cdef inline bint tri_tri_c(const double* P, const double* Q, double* out, double
             qa[m] = qb[m]
             qb[m] = tmp
     cdef double tol = _rel_eps() * scale * sqrt(lx * lx + ly * ly + lz * lz) * scale
-    cdef double lo = _pymax(tpa, tqa)
-    cdef double hi = _pymin(tpb, tqb)
+    cdef double lo = pymax(tpa, tqa)
+    cdef double hi = pymin(tpb, tqb)
     if lo > hi + tol:
         return False
     # the middle of the overlap, on P's segment
     cdef double mid = 0.5 * (lo + hi)
     cdef double span = tpb - tpa
-    cdef double t = 0.5 if span <= 0.0 else _pymin(_pymax((mid - tpa) / span, 0.0), 1.0)
+    cdef double t = 0.5 if span <= 0.0 else pymin(pymax((mid - tpa) / span, 0.0), 1.0)
     for m in range(3):
         out[m] = pa[m] + t * (pb[m] - pa[m])
     return True

@@ -25,7 +25,7 @@ cdef inline bint _is_f64(object a, int ndim, bint writeable):
 
 
 cdef cnp.ndarray _triangle(object T):
-    """Triangle T as a (3, 3) C-contiguous float64 array (its first 3 x 3 values, as numba read them)."""
+    """Triangle T as a (3, 3) C-contiguous float64 array (its first 3 x 3 values; a larger array is cut)."""
     cdef cnp.ndarray arr
     if _is_f64(T, 2, False):
         arr = <cnp.ndarray>T
@@ -40,8 +40,8 @@ cdef cnp.ndarray _triangle(object T):
 def tri_tri(P, Q, out, scratch=None):
     """Whether closed triangles P and Q (3, 3) meet; if so, ``out`` (3,) receives a common point.
 
-    ``scratch`` (6, 3), if given, is used as working space (kept for the former numba API;
-    the compiled test needs no allocation either way).
+    ``scratch`` (6, 3), if given, receives the working values (where each triangle crosses the
+    other's plane, and its vertices' distances to it); the test needs no allocation either way.
     """
     cdef cnp.ndarray p = _triangle(P)
     cdef cnp.ndarray q = _triangle(Q)
@@ -57,7 +57,7 @@ def tri_tri(P, Q, out, scratch=None):
     if scratch is not None:
         if _is_f64(scratch, 2, True):
             tmp_scratch = <cnp.ndarray>scratch
-        else:  # work on a float64 copy and write it back, as numba wrote into it
+        else:  # work on a float64 copy and write it back into the caller's array
             tmp_scratch = np.array(scratch, dtype=np.float64, order="C", ndmin=2)
         if tmp_scratch.shape[0] < 6 or tmp_scratch.shape[1] != 3:
             raise ValueError("tri_tri needs a (6, 3) scratch")

@@ -24,8 +24,9 @@ overlaps in every projection), never missing one.
 
 The GJK routine and its batch (``gjk_distance``, ``cylinders_distance_batch``, parallel over
 the A cylinders) are compiled ahead of time (Cython, ``_cylinders.pyx``); the small Gram systems
-of the simplex faces are solved there as numba's LAPACK (OpenBLAS, x86-64 with FMA) solved them,
-so the distances are the same bits the former numba kernels gave there, and now on every machine.
+of the simplex faces are solved there by an LU factorisation written out in the kernel (the
+operations of OpenBLAS's getf2/getrs on x86-64 with FMA), so the distances are the same bits on
+every machine.
 """
 
 from __future__ import annotations

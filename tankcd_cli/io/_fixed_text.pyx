@@ -42,7 +42,7 @@ cdef inline Py_ssize_t _put_int(unsigned char* out, Py_ssize_t pos, long long va
     return pos + digits
 
 
-# Python's floor division and modulo (what the former numba kernel did), for the cases the fast path leaves out
+# Python's floor division and modulo, for the cases the fast path leaves out
 cdef inline long long _fdiv(long long a, long long b) noexcept nogil:
     cdef long long q = a / b
     if (a % b != 0) and ((a < 0) != (b < 0)):
@@ -58,7 +58,7 @@ cdef inline long long _fmod(long long a, long long b) noexcept nogil:
 
 
 cdef Py_ssize_t _put_int_floor(unsigned char* out, Py_ssize_t pos, long long value, Py_ssize_t width) noexcept nogil:
-    """``_put_int`` with floor semantics for any value (the former numba kernel's for a negative one)."""
+    """``_put_int`` with floor semantics for any value (a negative one too, as Python's // and % give)."""
     cdef Py_ssize_t digits = 1, k
     cdef long long probe = value
     while probe >= 10:
@@ -78,13 +78,14 @@ cdef Py_ssize_t _format(const double* numbers, Py_ssize_t n, Py_ssize_t m, const
                         const long long* index, Py_ssize_t ncols,
                         unsigned char* out) noexcept nogil:
     """The rows' text into ``out``; returns the bytes written, -1 for a column whose
-    10 ** decimals is 0 (the former numba kernel's ZeroDivisionError), -2 when out of memory."""
+    10 ** decimals is 0 in int64 (decimals < 0 or >= 64: the caller raises ZeroDivisionError), -2 when
+    out of memory."""
     cdef Py_ssize_t pos = 0, i, c, k, length
     cdef long long j, code, d, scale, r, t
     cdef unsigned long long p
     cdef double v
     cdef const unsigned char* label
-    # 10 ** d for each column as the former numba kernel's int64 power: wrapping past d = 18, 0 for d < 0
+    # 10 ** d for each column as an int64 power: wrapping past d = 18, 0 for d < 0
     cdef long long* scales = <long long*>malloc((ndec if ndec > 0 else 1) * sizeof(long long))
     if scales == NULL:
         return -2
@@ -101,7 +102,7 @@ cdef Py_ssize_t _format(const double* numbers, Py_ssize_t n, Py_ssize_t m, const
                 pos += 1
             j = index[c]
             if kinds[c] == 1:
-                # negative indices count from the end, as numpy's (and the former numba kernel's) do
+                # negative indices count from the end, as numpy's do
                 code = codes[i * ncodes + (j + ncodes if j < 0 else j)]
                 length = label_len[code + nlen if code < 0 else code]
                 label = labels + (code + nlabels if code < 0 else code) * lwidth

@@ -1,4 +1,4 @@
-# The compiled plain-OBJ reader (see obj_kernels.py for the contract): one counting pass, one
+# The compiled plain-OBJ reader (see obj.py for the contract): one counting pass, one
 # filling pass, both without the GIL and without a Python object per line; any line off the
 # plain shape declines the whole file (None), and the Python readers decide.
 
@@ -118,7 +118,7 @@ cdef bint _fill(const unsigned char* buf, Py_ssize_t n, const double* pow10, _Fi
     cdef Py_ssize_t p = 0, e, ce, pos, k
     cdef const unsigned char* nl
     cdef unsigned char c0, c1
-    cdef int slash = -1  # faces with '/': decided by the first face line, as _simple_obj does
+    cdef int slash = -1  # faces with '/': decided by the first face line, as simple_obj does
     cdef long long idx
     while p < n:
         nl = <const unsigned char*>memchr(buf + p, 10, n - p)

@@ -101,11 +101,11 @@ def _well_formed_values(lines: list, width: int, cols: list):
     numbers. Anything else (blank lines or cells, text, NaN) returns None and is
     read cell by cell, which names the first bad line and column.
     """
-    from tankcd_cli.io.csv_kernels import _POW10, parse_table
+    from tankcd_cli.io.csv_kernels import POW10, parse_table
 
     text = "".join(lines)
     if text.isascii():
-        values, ok = parse_table(np.frombuffer(text.encode("ascii"), np.uint8), len(lines), width, _POW10)
+        values, ok = parse_table(np.frombuffer(text.encode("ascii"), np.uint8), len(lines), width, POW10)
         if ok:
             return np.ascontiguousarray(values[:, cols])
     commas = width - 1

@@ -8,7 +8,7 @@ count) makes the whole chunk fall back to the general readers, which also
 name the bad line and column.
 
 ``parse_table(buf, rows, width, pow10)`` (in ``_csv_kernels.pyx``): ``rows`` lines of
-``width`` comma-separated decimals from ``buf`` (uint8 text) with ``pow10 = _POW10``;
+``width`` comma-separated decimals from ``buf`` (uint8 text) with ``pow10 = POW10``;
 returns ((rows, width) float64 values, ok).
 """
 
@@ -18,4 +18,4 @@ import numpy as np
 
 from tankcd_cli.io._csv_kernels import parse_table  # noqa: F401
 
-_POW10 = np.array([10.0 ** k for k in range(23)])
+POW10 = np.array([10.0 ** k for k in range(23)])

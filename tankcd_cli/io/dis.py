@@ -1,7 +1,7 @@
 """DIS captures in bulk: Entity State PDUs out of pcap and pcapng files, as arrays.
 
 A capture is read in blocks of bytes (memory bounded whatever its size; a record may straddle
-blocks). A compiled framing pass (``_pcap.pyx``) walks the records or packet blocks, the link
+blocks). A compiled framing pass (``_dis.pyx``) walks the records or packet blocks, the link
 layer (Ethernet with 802.1Q/802.1ad tags, Linux cooked SLL and SLL2, raw IP, BSD loopback),
 IPv4 (options; fragments other than the first skipped and counted) or IPv6 (extension headers
 counted and skipped) and UDP on any port, then the DIS PDUs of each payload back to back by
@@ -329,7 +329,7 @@ class DisCapture:
     # -- the framing pass --------------------------------------------------------------------------------
     def _outputs(self):
         if self._outs is None:  # room for a block and for the PDUs of the largest record beside
-            from tankcd_cli.io._pcap import MAX_RECORD
+            from tankcd_cli.io._dis import MAX_RECORD
 
             cap = self.block_pdus + MAX_RECORD // 144 + 1
             self._outs = (np.empty(cap, np.int64), np.empty(cap, np.int64), np.empty(cap, np.int64), np.empty(cap))
@@ -359,7 +359,7 @@ class DisCapture:
         raise AssertionError(status)
 
     def _pcap(self, buf: "_Buffer", big: bool, nanos: bool) -> Iterator[EntityStates]:
-        from tankcd_cli.io._pcap import walk_pcap
+        from tankcd_cli.io._dis import walk_pcap
 
         u32 = struct.Struct(">I" if big else "<I").unpack_from
         if buf.end < 24:
@@ -391,7 +391,7 @@ class DisCapture:
             pos = 0
 
     def _pcapng(self, buf: "_Buffer") -> Iterator[EntityStates]:
-        from tankcd_cli.io._pcap import walk_pcapng
+        from tankcd_cli.io._dis import walk_pcapng
 
         outs = self._outputs()
         pos, packet = 0, 0

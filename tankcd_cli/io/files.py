@@ -34,3 +34,15 @@ def same_path(a: str, b: str) -> bool:
         return os.path.samefile(a, b)
     except OSError:
         return False
+
+
+def read_bytes(path: str, name: str) -> bytes:
+    """The whole content of ``path`` ('-': standard input); ``name`` is how errors name it."""
+    _, stream = open_input(path)
+    try:
+        return stream.read()
+    except OSError as exc:
+        raise InputError(name, f"cannot read: {exc.strerror or exc}") from None
+    finally:
+        if path != "-":
+            stream.close()

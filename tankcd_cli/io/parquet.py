@@ -289,7 +289,7 @@ def pose_columns(step, t, poses, matcher_names, status_names, entity=None) -> di
     (numbers not finite) keeps step, t, x, y and yaw_deg, the rest null; penetration and gap null
     where not measured; region names (``unknown`` outside the classes); matcher ``none`` for a row
     whose status is ``off``. Numbers at full precision (the CSV rounds them to its decimals)."""
-    from tankcd_cli.io.poses_csv import _REGION_LABELS
+    from tankcd_cli.io.poses_csv import REGION_LABELS
     from tankcd_cli.names import NO_MATCHER
 
     step = np.asarray(step, dtype=np.int64)
@@ -310,7 +310,7 @@ def pose_columns(step, t, poses, matcher_names, status_names, entity=None) -> di
     status = np.asarray(poses.status, dtype=np.int64)
     matcher = np.where(status == list(status_names).index("off"), len(matcher_names),
                        np.asarray(poses.matcher, dtype=np.int64))
-    out["region"] = Coded(np.where((region >= 0) & (region < 3), region, 3), _REGION_LABELS)
+    out["region"] = Coded(np.where((region >= 0) & (region < 3), region, 3), REGION_LABELS)
     out["matcher"] = Coded(matcher, [*matcher_names, NO_MATCHER])
     out["penetration"] = Masked(np.asarray(poses.penetration, dtype=np.float64), ~(measured & posed))
     out["gap"] = Masked(np.asarray(poses.gap, dtype=np.float64), ~(measured & posed))

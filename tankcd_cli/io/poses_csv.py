@@ -20,7 +20,7 @@ _ROW_NO_MEASURE = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,
 
 
 _DECIMALS = np.array([0, 6, 4, 4, 4, 5, 5, 5, 8, 8, 8, 8, 4, 4])
-_REGION_LABELS = CLASS_NAMES + (NO_CLASS_NAME,)
+REGION_LABELS = CLASS_NAMES + (NO_CLASS_NAME,)
 # output columns in COLUMNS order: (0, j) is number j, (1, j) label column j (region, matcher, status)
 _LAYOUT = np.array([(0, j) for j in range(12)] + [(1, 0), (1, 1), (0, 12), (0, 13), (1, 2)])
 
@@ -40,9 +40,9 @@ def format_rows(step, t, poses, matcher_names, status_names) -> str:
     # a row without a pose was placed by no matcher
     matcher = np.where(status == status_names.index("off"), len(matcher_names), np.asarray(poses.matcher, dtype=np.int64))
     codes = np.column_stack([np.where((region >= 0) & (region < 3), region, 3),
-                             len(_REGION_LABELS) + matcher,
-                             len(_REGION_LABELS) + len(matcher_names) + 1 + status])
-    text = table_text(numbers, _DECIMALS, codes, [*_REGION_LABELS, *matcher_names, NO_MATCHER, *status_names],
+                             len(REGION_LABELS) + matcher,
+                             len(REGION_LABELS) + len(matcher_names) + 1 + status])
+    text = table_text(numbers, _DECIMALS, codes, [*REGION_LABELS, *matcher_names, NO_MATCHER, *status_names],
                       _LAYOUT[:, 0], _LAYOUT[:, 1])
     if text is None:  # a number too large for fixed point (far beyond any terrain): printf does it
         return format_rows_printf(step, t, poses, matcher_names, status_names)

@@ -42,12 +42,13 @@ import os
 import re
 import warnings
 import zipfile
-from dataclasses import dataclass
 from xml.etree import ElementTree
 
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.io.dem_source import DemSourceInfo
 
 RASTER_SUFFIXES: tuple[str, ...] = ("tif", "tiff", "gtif", "dt0", "dt1", "dt2", "hgt", "hgt.zip", "zip", "asc",
                                     "vrt", "img", "bil", "flt", "dem")
@@ -76,38 +77,15 @@ _GDAL_OPTIONS = {
 _EXACT_IN_FLOAT32 = ("int8", "uint8", "int16", "uint16", "float32")
 
 
-@dataclass(frozen=True)
-class GridInfo:
-    """The metric grid ``RasterSource.read`` serves, and where it came from.
+class RasterSource:
+    """An open raster DEM; ``read`` windows of heights. A context manager; not for sharing between threads.
 
-    origin: world x, y (m) of post [0, 0], the north-west post; spacing (dx, dy) > 0 m;
-    post (r, c) is at x = ox + c*dx, y = oy - r*dy. rows, cols, origin and spacing describe the
-    grid after any reprojection; format, dtype, nodata, block describe the source.
+    grid : the metric grid ``read`` serves (after any reprojection)
+    info : where it came from: the source's format, band, NODATA, block, SHA-256, own CRS
     """
 
-    source: str
-    format: str
-    rows: int
-    cols: int
-    origin: tuple[float, float]
-    spacing: tuple[float, float]
-    crs_wkt: str
-    crs_name: str
-    source_crs_name: str
-    reprojected: bool
-    nodata: float | None
-    dtype: str
-    band: int
-    bands: int
-    block: tuple[int, int]
-    sha256: str
-    height_dtype: str
-
-
-class RasterSource:
-    """An open raster DEM; ``read`` windows of heights. A context manager; not for sharing between threads."""
-
-    def __init__(self, info: GridInfo, dataset, reader, keep: list):
+    def __init__(self, grid: PostGrid, info: DemSourceInfo, dataset, reader, keep: list):
+        self.grid = grid
         self.info = info
         self._dataset = dataset      # the source as GDAL opened it
         self._reader = reader        # what read() reads: the dataset, or a WarpedVRT over it
@@ -140,8 +118,8 @@ class RasterSource:
         if r1 < r0 or c1 < c0:
             raise ValueError(f"inverted window rows {r0}-{r1} cols {c0}-{c1}")
         out = np.full((r1 - r0, c1 - c0), np.nan)
-        a0, a1 = max(r0, 0), min(r1, self.info.rows)
-        b0, b1 = max(c0, 0), min(c1, self.info.cols)
+        a0, a1 = max(r0, 0), min(r1, self.grid.rows)
+        b0, b1 = max(c0, 0), min(c1, self.grid.cols)
         if a0 >= a1 or b0 >= b1:
             return out
         from rasterio.windows import Window
@@ -596,10 +574,9 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
         else:  # GDAL's identity transform: read it north-up with 1 m posts, the south-west one at (0, 0)
             origin, spacing = (0.0, float(ds.height - 1)), (1.0, 1.0)
             crs_wkt, crs_name = "", source_crs_name
-        info = GridInfo(rows=ds.height, cols=ds.width, origin=(float(origin[0]), float(origin[1])),
-                        spacing=(float(spacing[0]), float(spacing[1])), crs_wkt=crs_wkt, crs_name=crs_name,
-                        reprojected=False, block=(block[0], block[1]), **common)
-        return RasterSource(info, ds, ds, keep)
+        grid = PostGrid(ds.height, ds.width, float(origin[0]), float(origin[1]), float(spacing[0]), float(spacing[1]),
+                        crs_wkt, crs_name)
+        return RasterSource(grid, DemSourceInfo(reprojected=False, block=(block[0], block[1]), **common), ds, ds, keep)
     return _warped(ds, name, src_crs, dst, common, keep)
 
 
@@ -689,9 +666,8 @@ def _warped(ds, name: str, src_crs, dst, common: dict, keep: list) -> RasterSour
                 raise
             raise InputError(name, f"cannot warp to {_crs_name(dst)}: {_gdal_message(exc)}") from None
         block = tuple(int(v) for v in vrt.block_shapes[common["band"] - 1])
-    info = GridInfo(rows=rows, cols=cols, origin=(x0, y0), spacing=(step, step), crs_wkt=dst.to_wkt(),
-                    crs_name=_crs_name(dst), reprojected=True, block=(block[0], block[1]), **common)
-    return RasterSource(info, ds, vrt, keep)
+    grid = PostGrid(rows, cols, x0, y0, step, step, dst.to_wkt(), _crs_name(dst))
+    return RasterSource(grid, DemSourceInfo(reprojected=True, block=(block[0], block[1]), **common), ds, vrt, keep)
 
 
 def _read_native(ds, band: int, window) -> np.ndarray:

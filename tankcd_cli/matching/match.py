@@ -137,7 +137,7 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
           tolerance: float | None = None) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
-    surface : :class:`~tankcd_cli.terrain.surface.TerrainSurface`
+    surface : a :class:`~tankcd_cli.terrain.surface.Surface` (either layout's)
     matcher : one of ``MATCHER_CHOICES``
     measure : also compute penetration, gap and coverage (costs an exact footprint pass)
     regions : report the worst region class under each footprint (always done for ``auto``)

@@ -23,9 +23,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.replay.pipeline import prepare, replay_chunks
     from tankcd_cli.sample import write_sample
     from tankcd_cli.scene import load_scene
-    from tankcd_cli.terrain.dem_classify import classify_dem
-    from tankcd_cli.terrain.dem_sources import ascii_dem
-    from tankcd_cli.terrain.grid_store import open_grid
+    from tankcd_cli.terrain.open import classify_file, open_terrain
 
     say = progress or (lambda s: None)
     os.makedirs(out_dir, exist_ok=True)
@@ -39,14 +37,13 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
         fh.write(text)
     say("classifying the terrain")
     store = p("battlefield.h5")
-    with atomic_path(store, ".h5") as tmp:
-        classify_dem(ascii_dem(p("battlefield.asc")), tmp)
+    classify_file(p("battlefield.asc"), store)
     with atomic_path(p("classes.png"), ".png") as tmp:
         grid_map_png(store, tmp)
     scene = load_scene(scene_path)
     say("building the obstacles' trees")
     load_obstacles(scene, cache=True, rebuild=True, progress=say)
-    surface = open_grid(store)
+    surface = open_terrain(store).surface
     chunks = list(read_trajectory(p("patrol.csv")))
     setup = prepare(surface, scene.vehicle, scene, turret_moves=chunks[0].has_turret, progress=say)
     say("replaying the patrol")

@@ -145,7 +145,7 @@ def load_world(world: World, progress: Callable[[str], None] | None = None):
 
 def _load_world_locked(world: World, progress):
     if world not in _LOADED:
-        from tankcd_cli.replay.pipeline import load_terrain_surface
+        from tankcd_cli.terrain.open import open_terrain
         from tankcd_cli.vehicle import vehicle_preset
 
         scene = None
@@ -156,7 +156,7 @@ def _load_world_locked(world: World, progress):
             vehicle, terrain, up = scene.vehicle, scene.required_terrain(), scene.terrain_up
         else:
             vehicle, terrain, up = vehicle_preset(world.vehicle), world.terrain, world.up
-        surface, _ = load_terrain_surface(world.store or terrain, up=up, vehicle=vehicle, progress=progress)
+        surface = open_terrain(world.store or terrain, up=up, vehicle=vehicle, progress=progress).surface
         _LOADED.clear()  # one world per process: a new one replaces the old
         _LOADED[world] = (surface, vehicle, scene, _setups(surface, vehicle, scene, world.escalate, world.tolerance))
     return _LOADED[world]
@@ -182,7 +182,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
     import subprocess
     import sys
 
-    from tankcd_cli.terrain.store import is_store
+    from tankcd_cli.terrain.store import is_hdf5
 
     if world.scene:
         from tankcd_cli.scene import load_scene
@@ -191,7 +191,7 @@ def classified_world(world: World, out_dir: str, progress: Callable[[str], None]
         terrain, up = scene.terrain_path, scene.terrain_up
     else:
         terrain, up = world.terrain, world.up
-    if terrain is None or is_store(terrain):
+    if terrain is None or is_hdf5(terrain):
         return world
     store = os.path.join(out_dir, ".fleet-terrain.h5")
     (progress or (lambda s: None))(f"classifying {terrain} once for the fleet")
@@ -376,7 +376,7 @@ def _lost(task: Task, exc: BaseException) -> dict:
 
 def _worker_threads(threads: int) -> None:
     """Each of N workers gets cores / N compiled-kernel threads: no oversubscription."""
-    from tankcd_cli._threads import set_num_threads
+    from tankcd_cli.threads import set_num_threads
 
     set_num_threads(threads)
 

@@ -79,7 +79,7 @@ cdef struct Job:
     Posts posts
 
 
-# numba's min / max (Python's): the second argument only when strictly smaller / larger
+# Python's min / max: the second argument only when strictly smaller / larger (NaN never wins)
 cdef inline double _fmin(double a, double b) noexcept nogil:
     return b if b < a else a
 
@@ -96,10 +96,10 @@ cdef inline Py_ssize_t _imax(Py_ssize_t a, Py_ssize_t b) noexcept nogil:
     return b if b > a else a
 
 
-# int(np.floor(x)) and int(np.ceil(x)) as numba computes them, without a libm call (the
-# baseline x86-64 target has no rounding instruction): exact for every x in the int64 range;
-# NaN, infinities and values beyond give INT64_MIN, what x86's truncating conversion gives
-# there (in numba an undefined result: its grid path could crash on such poses).
+# int(np.floor(x)) and int(np.ceil(x)) without a libm call (the baseline x86-64 target has no
+# rounding instruction): exact for every x in the int64 range; NaN, infinities and values
+# beyond give INT64_MIN, what x86's truncating conversion gives there (a plain C cast is
+# undefined for them), and the pass finds no ground under such poses.
 cdef inline Py_ssize_t _ifloor(double x) noexcept nogil:
     cdef Py_ssize_t i
     if not (x >= -9223372036854775808.0 and x < 9223372036854775808.0):

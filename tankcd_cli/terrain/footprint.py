@@ -28,7 +28,7 @@ from tankcd_cli.terrain._footprint import MAX_POLY, footprint_batch  # noqa: F40
 
 
 class MeshGround(NamedTuple):
-    """A mesh's faces and the locator the pass finds them by (``terrain.surface.TerrainSurface``)."""
+    """A mesh's faces and the locator the pass finds them by (``mesh.surface.MeshSurface``)."""
 
     vertices: np.ndarray  # (n, 3) local
     faces: np.ndarray  # (m, 3)
@@ -43,7 +43,7 @@ class MeshGround(NamedTuple):
 
 
 class PostGround(NamedTuple):
-    """A DEM's posts, or a window of them (``terrain.grid_kernels``' window convention)."""
+    """A DEM's posts, or a window of them (``grid.post_queries``' window convention)."""
 
     post_z: np.ndarray  # (rows, cols), south row first, NaN at NODATA
     post_origin: np.ndarray  # (2,) local x, y of the whole grid's post [0, 0]

@@ -7,7 +7,7 @@ import numpy as np
 
 class PatchQueries:
     """The public queries of the ground under a vehicle's patches, shared by both surfaces
-    (``TerrainSurface``, ``GridSurface``), each of which provides ``footprint`` (the pass).
+    (``MeshSurface``, ``GridSurface``), each of which provides ``footprint`` (the pass).
 
     Patches are (N, 2, 4, 2) quadrilaterals in each pose's heading frame; planes (N, 3) are
     a + b u + c v in that frame; x, y are world footprint centres, yaw rad.

@@ -1,91 +1,22 @@
-"""The terrain store (HDF5): what ``classify`` writes and every later command reads.
+"""What both layouts of the terrain store (HDF5) share: the format's name and version, the root
+attribute ``layout`` that names the layout (``mesh``: ``mesh/store.py``; ``grid``:
+``grid/store.py``), and reading the root attributes without any array.
 
-Layout (docs/formats.md; the documented paths first, the rest makes later queries fast):
-
-/mesh/vertices            (n, 3) float64   world coordinates, m
-/mesh/faces               (m, 3) int32/64  vertex indices
-/curvature/mean           (n,) float64     signed mean curvature H, 1/m
-/curvature/footprint      (n,) float64     footprint-averaged |H| that the classes come from, 1/m
-/classes/vertex           (n,) uint8       0 flat, 1 general, 2 uneven
-/classes/raster           (ny, nx) uint8   class per raster cell (255: no terrain); attrs origin, cell
-/curvature/footprint_raster (ny, nx) float32  averaged |H| per raster cell (NaN: no terrain)
-/index/start, /index/face                  triangle buckets for point location on irregular meshes;
-                                           attrs origin, cell, shape
-/grid/vertex              (rows, cols) int64  DEMs only: vertex of each post (-1 NODATA), which
-                                           locates any point in O(1); attrs origin, spacing
-
-Datasets are stored contiguous and uncompressed so that readers can map them.
+A file is told to be HDF5 by its signature (``is_hdf5``); ``open_store`` opens it as a terrain
+store, refusing another format or an older version with a one-line "run classify again".
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from tankcd_cli.errors import InputError
-
 FORMAT = "tankcd-terrain"
-FORMAT_VERSION = 2  # 2: a root attribute ``layout`` (mesh | grid); DEMs in the grid layout (grid_store.py)
+FORMAT_VERSION = 2  # 2: a root attribute ``layout`` (mesh | grid); DEMs in the grid layout (grid/store.py)
+WHAT = "tankcd terrain store"  # how messages name a store
 
 
-@dataclass
-class TerrainStore:
-    """Everything in a terrain store, as arrays. ``attrs`` holds the root attributes."""
-
-    vertices: np.ndarray
-    faces: np.ndarray
-    mean_curvature: np.ndarray
-    footprint_curvature: np.ndarray
-    vertex_class: np.ndarray
-    class_raster: np.ndarray
-    footprint_raster: np.ndarray
-    raster_origin: np.ndarray
-    raster_cell: float
-    buckets: object | None  # TriangleBuckets, for irregular meshes
-    grid: object | None  # io.terrain_readers.Grid
-    attrs: dict = field(default_factory=dict)
-
-
-def write_store(path: str, store: TerrainStore) -> None:
-    """Write a store to ``path`` (callers wrap this in an atomic rename)."""
-    import h5py
-
-    n = len(store.vertices)
-    face_dtype = np.int32 if n < 2**31 else np.int64
-    with h5py.File(path, "w") as h5:
-        h5.attrs["format"] = FORMAT
-        h5.attrs["format_version"] = FORMAT_VERSION
-        h5.attrs["layout"] = "mesh"
-        for key, value in store.attrs.items():
-            h5.attrs[key] = value
-        h5["mesh/vertices"] = store.vertices.astype(np.float64)
-        h5["mesh/faces"] = store.faces.astype(face_dtype)
-        h5["curvature/mean"] = store.mean_curvature.astype(np.float64)
-        h5["curvature/footprint"] = store.footprint_curvature.astype(np.float64)
-        h5["curvature/footprint_raster"] = store.footprint_raster.astype(np.float32)
-        h5["classes/vertex"] = store.vertex_class.astype(np.uint8)
-        ds = h5.create_dataset("classes/raster", data=store.class_raster.astype(np.uint8))
-        for d in (ds, h5["curvature/footprint_raster"]):
-            d.attrs["origin"] = store.raster_origin
-            d.attrs["cell"] = store.raster_cell
-        b = store.buckets
-        if b is not None:
-            grp = h5.create_group("index")
-            grp.attrs["kind"] = "triangle buckets"
-            grp.attrs["origin"] = b.origin
-            grp.attrs["cell"] = b.cell
-            grp.attrs["shape"] = np.asarray(b.shape)
-            grp["start"] = b.start
-            grp["face"] = b.face
-        if store.grid is not None:
-            g = h5.create_dataset("grid/vertex", data=store.grid.vertex)
-            g.attrs["origin"] = store.grid.origin
-            g.attrs["spacing"] = store.grid.spacing
-
-
-def is_store(path: str) -> bool:
-    """True when ``path`` is an HDF5 file (by its signature)."""
+def is_hdf5(path: str) -> bool:
+    """True when ``path`` is an HDF5 file (by its signature): a store, or a tree (``bvh``)."""
     try:
         with open(path, "rb") as fh:
             return fh.read(8) == b"\x89HDF\r\n\x1a\n"
@@ -93,85 +24,32 @@ def is_store(path: str) -> bool:
         return False
 
 
-def read_attrs(path: str) -> dict:
-    """Root attributes of a store, without reading its arrays."""
-
-    from tankcd_cli.io.h5 import read_errors
-
-    h5 = _open(path)
-    with h5, read_errors(path, "tankcd terrain store"):
-        return {k: _plain(v) for k, v in list(h5.attrs.items())}  # list(): see read_store
-
-
-def read_store(path: str) -> TerrainStore:
-    """Read a whole store into memory."""
-    from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.io.terrain_readers import Grid
-    from tankcd_cli.terrain.locate import TriangleBuckets
-
-    what = "tankcd terrain store"
-    h5 = _open(path)
-    with h5, read_errors(path, what):
-        # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in
-        # _plain would leave it suspended (a later garbage collection in another thread deadlocks)
-        attrs = {k: _plain(v) for k, v in list(h5.attrs.items())}
-        if attrs.get("layout") == "grid":
-            raise InputError(path, "a grid-layout store (a DEM) is read by window, not whole")
-        buckets = None
-        if "index" in h5:
-            idx = h5["index"]
-            buckets = TriangleBuckets(np.asarray(idx.attrs["origin"]), float(idx.attrs["cell"]),
-                                      tuple(int(s) for s in idx.attrs["shape"]), idx["start"][()],
-                                      idx["face"][()])
-        grid = None
-        if "grid/vertex" in h5:
-            g = h5["grid/vertex"]
-            grid = Grid(np.asarray(g.attrs["origin"]), np.asarray(g.attrs["spacing"]), g[()])
-        raster = h5["classes/raster"]
-        store = TerrainStore(
-            vertices=h5["mesh/vertices"][()], faces=h5["mesh/faces"][()].astype(np.int64),
-            mean_curvature=h5["curvature/mean"][()], footprint_curvature=h5["curvature/footprint"][()],
-            vertex_class=h5["classes/vertex"][()], class_raster=raster[()],
-            footprint_raster=h5["curvature/footprint_raster"][()],
-            raster_origin=np.asarray(raster.attrs["origin"]), raster_cell=float(raster.attrs["cell"]),
-            buckets=buckets, grid=grid, attrs=attrs)
-    _check_store(path, what, store)
-    return store
-
-
-def _check_store(path: str, what: str, s: TerrainStore) -> None:
-    """Shapes and indices that the compiled kernels trust without bounds checks."""
-    from tankcd_cli.io.h5 import check_indices
-
-    n = len(s.vertices)
-    if s.vertices.ndim != 2 or s.vertices.shape[1] != 3 or s.faces.ndim != 2 or s.faces.shape[1] != 3:
-        raise InputError(path, f"damaged {what}: mesh arrays have the wrong shape")
-    if not np.isfinite(s.vertices).all():
-        raise InputError(path, f"damaged {what}: non-finite vertex coordinates")
-    check_indices(path, what, s.faces, n, "face")
-    if s.faces.size and s.faces.min() < 0:
-        raise InputError(path, f"damaged {what}: negative face indices")
-    for name in ("mean_curvature", "footprint_curvature", "vertex_class"):
-        if len(getattr(s, name)) != n:
-            raise InputError(path, f"damaged {what}: {name} has {len(getattr(s, name))} values for {n} vertices")
-    if s.class_raster.ndim != 2 or not np.isfinite(s.raster_cell) or s.raster_cell <= 0:
-        raise InputError(path, f"damaged {what}: bad class raster")
-    if s.buckets is not None:
-        check_indices(path, what, s.buckets.face, len(s.faces), "bucket face")
-        if len(s.buckets.start) != int(np.prod(s.buckets.shape)) + 1 or (np.diff(s.buckets.start) < 0).any() \
-                or s.buckets.start[-1] != len(s.buckets.face) or s.buckets.start[0] != 0:
-            raise InputError(path, f"damaged {what}: bad triangle buckets")
-    if s.grid is not None:
-        check_indices(path, what, s.grid.vertex, n, "grid post")
-
-
-def _open(path: str):
+def open_store(path: str, **kwargs):
+    """The h5py file of a terrain store, checked for the format and its version (InputError
+    otherwise); ``kwargs`` go to h5py (e.g. ``rdcc_nbytes``)."""
     from tankcd_cli.io.h5 import open_h5
 
-    return open_h5(path, FORMAT, FORMAT_VERSION, "tankcd terrain store", "run classify again")
+    return open_h5(path, FORMAT, FORMAT_VERSION, WHAT, "run classify again", **kwargs)
 
 
-def _plain(value):
+def read_attrs(path: str) -> dict:
+    """Root attributes of a store, without reading its arrays."""
+    from tankcd_cli.io.h5 import read_errors
+
+    h5 = open_store(path)
+    with h5, read_errors(path, WHAT):
+        # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in
+        # plain_value would leave it suspended (a later garbage collection in another thread deadlocks)
+        return {k: plain_value(v) for k, v in list(h5.attrs.items())}
+
+
+def store_layout(path: str) -> str:
+    """'grid' or 'mesh' for a terrain store (its root attribute ``layout``)."""
+    return str(read_attrs(path).get("layout", "mesh"))
+
+
+def plain_value(value):
+    """An HDF5 attribute as a plain Python value: text, a number, a list."""
     if isinstance(value, bytes):
         return value.decode("utf-8", "replace")
     if isinstance(value, np.generic):

@@ -122,13 +122,13 @@ def grid_mesh(field: HeightField, half_extent: float, spacing: float,
     Returns vertices (n, 3) float64 m (shifted by ``offset``), faces (m, 3) int64,
     and the local x, y (n, 2) at which the field was sampled.
     """
-    from tankcd_cli.io.terrain_readers import grid_faces
+    from tankcd_cli.geometry.post_grid import grid_faces
 
     count = int(round(2 * half_extent / spacing)) + 1
     xs = -half_extent + spacing * np.arange(count)
     X, Y = np.meshgrid(xs, xs)
     xy = np.column_stack([X.ravel(), Y.ravel()])
-    faces = grid_faces(np.arange(count * count).reshape(count, count))
+    faces = grid_faces(np.arange(count * count).reshape(count, count)[::-1])  # vertex rows run south to north
     return _lift(field, xy, offset), faces, xy
 
 
@@ -157,8 +157,10 @@ def _lift(field: HeightField, xy: Array, offset) -> Array:
 
 
 def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: str = "dem"):
-    """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south; NaN = NODATA)."""
-    from tankcd_cli.io.terrain_readers import Grid, RawTerrain, grid_faces
+    """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south, as a
+    mesh numbers its vertices; NaN = NODATA) whose south-west post is at ``origin``."""
+    from tankcd_cli.geometry.post_grid import PostGrid, PostVertices, grid_faces
+    from tankcd_cli.io.terrain_readers import RawTerrain
 
     heights = np.asarray(heights, dtype=float)
     valid = np.isfinite(heights)
@@ -166,8 +168,9 @@ def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: s
     vertex[valid] = np.arange(int(valid.sum()))
     rr, cc = np.nonzero(valid)
     vertices = np.column_stack([origin[0] + cc * spacing, origin[1] + rr * spacing, heights[valid]])
-    grid = Grid(np.array(origin, dtype=float), np.array([spacing, spacing]), vertex)
-    return RawTerrain(vertices, grid_faces(vertex), grid, name, "0" * 64, "asc")
+    north = np.ascontiguousarray(vertex[::-1])
+    grid = PostVertices(PostGrid.from_south_west(*heights.shape, origin[0], origin[1], spacing, spacing), north)
+    return RawTerrain(vertices, grid_faces(north), grid, name, "0" * 64, "asc")
 
 
 def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh"):
@@ -178,11 +181,11 @@ def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh"):
 
 
 def surface_of(raw, vehicle=None):
-    """Classify a RawTerrain and build its TerrainSurface (for tests and benchmarks)."""
-    from tankcd_cli.terrain.classify import classify_terrain
-    from tankcd_cli.terrain.surface import TerrainSurface
+    """Classify a RawTerrain and build its MeshSurface (for tests and benchmarks)."""
+    from tankcd_cli.terrain.mesh.classify import classify_mesh
+    from tankcd_cli.terrain.mesh.surface import MeshSurface
 
-    return TerrainSurface.from_store(classify_terrain(raw, vehicle=vehicle))
+    return MeshSurface.from_store(classify_mesh(raw, vehicle=vehicle))
 
 
 def obstacle_course(spacing: float = 0.5, seed: int = 0) -> Array:

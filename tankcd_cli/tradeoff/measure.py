@@ -146,7 +146,7 @@ def machine() -> dict:
     import scipy
 
     from tankcd_cli import __version__
-    from tankcd_cli._threads import get_num_threads, openmp_enabled
+    from tankcd_cli.threads import get_num_threads, openmp_enabled
 
     cpu = platform.processor() or platform.machine()
     try:
@@ -178,13 +178,9 @@ def _pct(values: np.ndarray, q: float) -> float:
 
 def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
     from tankcd_cli.terrain import synthetic
-    from tankcd_cli.terrain.curvature import METHODS, mean_curvature
-    from tankcd_cli.terrain.regions import (
-        classify_values,
-        default_thresholds,
-        footprint_curvature,
-        vertex_areas,
-    )
+    from tankcd_cli.terrain.curvature.mean import METHODS, mean_curvature
+    from tankcd_cli.terrain.mesh.footprint_average import footprint_curvature, vertex_areas
+    from tankcd_cli.terrain.regions import classify_values, default_thresholds
 
     truth = "closed-form H of the analytic surface"
     res.axes["curvature"] = ("vertex", "median |H - H_true| / median |H_true|")

@@ -20,9 +20,9 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
                  progress: Callable[[str], None] | None = None, command: str = "tankcd tradeoff") -> Results:
     """Measure every stage on the scene (default: the sample battlefield) and write the report into out_dir."""
     from tankcd_cli.collision.obstacles import placed_triangles
-    from tankcd_cli.replay.pipeline import load_terrain_surface
     from tankcd_cli.scene import load_scene
     from tankcd_cli.terrain import synthetic
+    from tankcd_cli.terrain.open import open_terrain
     from tankcd_cli.tradeoff import measure
 
     say = progress or (lambda s: None)
@@ -45,7 +45,7 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
         scene.required_terrain()
         vehicle = scene.vehicle
         say(f"terrain: {scene.terrain_path}")
-        surface, _ = load_terrain_surface(scene.terrain_path, up=scene.terrain_up, vehicle=vehicle)
+        surface = open_terrain(scene.terrain_path, up=scene.terrain_up, vehicle=vehicle).surface
         obstacle_tris = [placed_triangles(spec)[0] for spec in scene.obstacles]
         if trajectory is not None:
             x, y, yaw = _trajectory_xy(trajectory)

@@ -7,13 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
-from tankcd_cli.bvh._sweep import chain_placements as compiled_chain
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.bvh.build import build_tree
 from tankcd_cli.bvh.sweep import (
     LEAF_BOUND,
     Joint,
     chain_placements,
+    chain_placements_naive,
     first_contacts,
     first_contacts_sampled,
     motion_rows,
@@ -217,8 +217,8 @@ def test_joints_turn_parts_as_the_chain_says_and_the_compiled_chain_agrees():
     a0, da = rng.uniform(-np.pi, np.pi, (2, n)), rng.uniform(-2, 2, (2, n))
     rows, joints = motion_rows(q0, c0, q1, c1, (turret, gun), a0, da)
     s = rng.uniform(0, 1, n)
-    R, t = chain_placements(rows, joints, s)
-    Rc, tc = compiled_chain(rows, joints, s)
+    R, t = chain_placements_naive(rows, joints, s)
+    Rc, tc = chain_placements(rows, joints, s)
     np.testing.assert_allclose(Rc, R, atol=1e-12)
     np.testing.assert_allclose(tc, t, atol=1e-9)
     # the gun's muzzle, by hand: hull placement, then the turret turn, then the elevation

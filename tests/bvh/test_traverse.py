@@ -1,11 +1,12 @@
-"""The compiled triangle test and tree walk: the inputs the numba kernels took, any thread count, same answers."""
+"""The compiled triangle test and tree walk: the inputs they take (any layout, read-only, other dtypes),
+any thread count, same answers."""
 
 import dataclasses
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.bvh.build import build_tree
 from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch, collide_batch
@@ -25,7 +26,7 @@ def test_tri_tri_takes_any_array_like_and_fills_scratch():
     Qr.flags.writeable = False
     assert tri_tri(P.astype(float), Qr, out64, scratch)
     np.testing.assert_array_equal(out64, out)
-    assert scratch.any()  # the working space was used, as with numba
+    assert scratch.any()  # the working space given was used
     assert not tri_tri(P, Q + [0, 0, 5], out64)
     assert tri_tri(P, Q, out64) == tri_tri_brute(P, Q)
 

@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tankcd_cli.terrain.store import read_store, write_store
+from tankcd_cli.terrain.mesh.store import read_mesh_store, write_mesh_store
 from tests.conftest import write_asc, write_obj
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_data"
@@ -105,10 +105,10 @@ def test_store_is_rewritten_in_place_only_when_o_names_it(run, sample_store, tmp
 def test_mesh_store_has_buckets_and_round_trips(run, tmp_path):
     result = run("classify", SAMPLE / "battlefield.obj", "-o", "mesh.h5")
     assert result.exit_code == 0, result.stderr
-    a = read_store(str(tmp_path / "mesh.h5"))
+    a = read_mesh_store(str(tmp_path / "mesh.h5"))
     assert a.grid is None and a.buckets is not None
-    write_store(str(tmp_path / "again.h5"), a)
-    b = read_store(str(tmp_path / "again.h5"))
+    write_mesh_store(str(tmp_path / "again.h5"), a)
+    b = read_mesh_store(str(tmp_path / "again.h5"))
     np.testing.assert_array_equal(a.buckets.face, b.buckets.face)
     np.testing.assert_array_equal(a.buckets.start, b.buckets.start)
 
@@ -186,7 +186,7 @@ def test_internal_error_is_exit_4(run, tmp_path, monkeypatch):
 
     def boom(*a, **k):
         raise RuntimeError("simulated bug")
-    monkeypatch.setattr("tankcd_cli.terrain.dem_classify.classify_dem", boom)
+    monkeypatch.setattr("tankcd_cli.terrain.grid.classify.classify_dem", boom)
     result = run("classify", src)
     assert result.exit_code == 4
     assert "internal error" in result.stderr and "please report" in result.stderr

@@ -246,7 +246,7 @@ def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
 
 def test_ascii_grid_through_gdal_equals_our_parser(run, tmp_path, monkeypatch):
     """Large ESRI grids go through GDAL (faster, windowed), small ones through our parser: the same store."""
-    import tankcd_cli.terrain.dem_sources as ds
+    import tankcd_cli.terrain.grid.sources as ds
 
     z = ground(40, 50, seed=8)
     src = write_asc(tmp_path / "g.asc", np.where(np.isnan(z), -9999, z), xll=X0, yll=YN - 39, nodata=-9999)

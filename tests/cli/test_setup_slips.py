@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from tankcd_cli.terrain.mesh import height_field_problems
+from tankcd_cli.terrain.mesh.clean import height_field_problems
 from tankcd_cli.vehicle_mesh import box
 from tests.conftest import write_asc, write_obj
 

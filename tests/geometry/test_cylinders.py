@@ -1,12 +1,12 @@
-"""The compiled GJK: the former numba kernel's bits, the inputs it took, any thread count."""
+"""The compiled GJK: pinned distances to the bit, the inputs it takes, any thread count."""
 
 import numpy as np
 import pytest
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
+from tankcd_cli.threads import get_num_threads, set_num_threads
 from tankcd_cli.geometry.cylinders import cylinders_distance_batch, cylinders_intersect, gjk_distance, projections_overlap
 
-# (cA, aA, hA, rA, cB, aB, hB, rB, plane normal, distance the numba kernel gave, stop_apart off)
+# (cA, aA, hA, rA, cB, aB, hB, rB, plane normal, the distance pinned to the bit (float.hex), stop_apart off)
 PINNED = [
     ([0.206, -0.526, 0.359], [0.8647, 0.4818, -0.1417], 1.294, 0.541, [-0.063, 0.295, -0.313], [0.2773, 0.5527, 0.7859], 0.404, 0.461, (0.0, 0.0, 0.0), '0x1.a9efbb070ee54p-6'),
     ([-0.013, -0.705, -0.49], [-0.1063, 0.9664, -0.2341], 0.141, 0.333, [-0.37, 0.4, -0.177], [0.4759, -0.8397, 0.2614], 0.482, 1.456, (0.0, 0.0, 1.0), '0x1.050e3ac96a85bp-5'),
@@ -24,7 +24,7 @@ PINNED = [
 
 
 @pytest.mark.parametrize("case", PINNED)
-def test_distances_are_the_numba_kernels_bits(case):
+def test_distances_keep_their_pinned_bits(case):
     *args, nrm, expected = case
     args = [np.array(a) if isinstance(a, list) else a for a in args]
     assert gjk_distance(*args, *nrm, 1e-9, False).hex() == expected
@@ -55,7 +55,7 @@ def test_batch_is_the_single_routine_on_any_thread_count():
         set_num_threads(threads)
 
 
-def test_inputs_numba_took():
+def test_inputs_it_takes():
     cA, aA = _sweep(50, seed=1)
     cB, aB = np.array([0.3, -0.8, 0.4]), np.array([0.0, 1.0, 0.0])
     ref = cylinders_intersect(cA, aA, 2.5, 0.08, cB, aB, 0.45, 0.3)
@@ -70,10 +70,10 @@ def test_inputs_numba_took():
     assert projections_overlap(empty, empty, 1.0, 0.1, cB, aB, 0.4, 0.3).shape == (0,)
 
 
-def test_non_finite_gram_systems_raise_as_numba_did():
+def test_non_finite_gram_systems_raise_linalg_error():
     args = (np.array([0, 0, 0.5]), np.array([1.0, 0, 0]), 1e200, 0.1, np.zeros(3), np.array([0, 1.0, 0]), 0.4, 0.3)
     with pytest.raises(np.linalg.LinAlgError):
         gjk_distance(*args, 0.0, 0.0, 0.0, 1e-9, False)
-    # a NaN centre never reaches a Gram system: numba answered 0 (contact), so does this
+    # a NaN centre never reaches a Gram system: the answer is 0 (contact)
     assert cylinders_distance_batch(np.array([[np.nan, 0, 0]]), np.array([[1.0, 0, 0]]), 1.0, 0.1, np.zeros(3),
                                     np.array([0, 1.0, 0]), 0.4, 0.3, np.zeros(3), 1e-9)[0] == 0.0

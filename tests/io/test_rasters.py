@@ -27,8 +27,10 @@ from rasterio.transform import Affine  # noqa: E402
 from rasterio.warp import transform as warp_points, transform_bounds  # noqa: E402
 
 from tankcd_cli.errors import InputError  # noqa: E402
-from tankcd_cli.io.rasters import GridInfo, RASTER_SUFFIXES, is_raster, open_raster  # noqa: E402
-from tankcd_cli.io.terrain_readers import parse_esri_ascii  # noqa: E402
+from tankcd_cli.geometry.post_grid import PostGrid  # noqa: E402
+from tankcd_cli.io.dem_source import DemSourceInfo  # noqa: E402
+from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster, open_raster  # noqa: E402
+from tankcd_cli.io.esri_ascii import parse_esri_ascii  # noqa: E402
 
 # --- one ground, many formats ---------------------------------------------------
 
@@ -152,12 +154,12 @@ WINDOWS = [
 @pytest.mark.parametrize("kind", ["tiled", "striped", "cog", "asc", "vrt", "folder", "zip"])
 def test_every_format_reads_the_same_ground(same_ground, kind):
     with open_raster(same_ground[kind]) as src:
-        info = src.info
-        assert (info.rows, info.cols) == (ROWS, COLS)
-        assert info.origin == (WEST + STEP / 2, NORTH - STEP / 2)
-        assert info.spacing == (STEP, STEP)
-        assert CRS.from_wkt(info.crs_wkt).to_epsg() == 32633
-        assert "UTM zone 33N" in info.crs_name.replace("_", " ").replace("Zone", "zone")
+        info, grid = src.info, src.grid
+        assert (grid.rows, grid.cols) == (ROWS, COLS)
+        assert grid.origin == (WEST + STEP / 2, NORTH - STEP / 2)
+        assert grid.spacing == (STEP, STEP)
+        assert CRS.from_wkt(grid.crs_wkt).to_epsg() == 32633
+        assert "UTM zone 33N" in grid.crs_name.replace("_", " ").replace("Zone", "zone")
         assert not info.reprojected
         assert info.nodata == NODATA
         assert info.band == info.bands == 1
@@ -172,8 +174,8 @@ def test_every_format_reads_the_same_ground(same_ground, kind):
 
 def test_grid_info_fields_and_hashes(same_ground):
     with open_raster(same_ground["tiled"]) as src:
-        info = src.info
-    assert isinstance(info, GridInfo)
+        info, grid = src.info, src.grid
+    assert isinstance(info, DemSourceInfo) and isinstance(grid, PostGrid)
     assert info.block == (32, 32) and info.dtype == "int16" and info.height_dtype == "float32"
     with open(same_ground["tiled"], "rb") as fh:
         assert info.sha256 == hashlib.sha256(fh.read()).hexdigest()
@@ -238,17 +240,15 @@ def test_ascii_grid_decimals_are_float64_exact(tmp_path):
             + "\n".join(" ".join(row) for row in tokens) + "\n")
     path = tmp_path / "dec.asc"
     path.write_text(text)
-    _, _, grid = parse_esri_ascii(text.encode(), str(path))
-    vertices, _, _ = parse_esri_ascii(text.encode(), str(path))
-    theirs = np.full(grid.vertex.shape, np.nan)
-    theirs[grid.vertex >= 0] = vertices[grid.vertex[grid.vertex >= 0], 2]
-    theirs = theirs[::-1]  # theirs runs south to north
+    vertices, _, posts = parse_esri_ascii(text.encode(), str(path))
+    theirs = np.full(posts.vertex.shape, np.nan)  # row 0 north, as the raster's
+    theirs[posts.vertex >= 0] = vertices[posts.vertex[posts.vertex >= 0], 2]
     with open_raster(str(path)) as src:
         ours = src.read(0, 6, 0, 9)
-        assert src.info.origin == (grid.origin[0], grid.origin[1] + 5 * grid.spacing[1])
-        assert src.info.spacing == tuple(grid.spacing)
+        assert src.grid.origin == posts.geometry.origin
+        assert src.grid.spacing == posts.geometry.spacing
         assert src.info.dtype == "float64" and src.info.height_dtype == "float64"
-        assert src.info.crs_wkt == "" and src.info.crs_name == "local grid (no CRS)"
+        assert src.grid.crs_wkt == "" and src.grid.crs_name == "local grid (no CRS)"
     np.testing.assert_array_equal(ours, theirs)
     assert ours[0, 0] == float(tokens[0][0]) and ours[5, 8] == float(tokens[5][8])
 
@@ -317,14 +317,14 @@ def test_geographic_tiles_warp_to_their_utm_zone(geo_tiles, kind, fmt, step):
     path, z = geo_tiles[kind]
     plain = geo_tiles["hgt"][0] if "zip" in kind else path  # the source as rasterio opens it
     with open_raster(path) as src:
-        info = src.info
+        info, grid = src.info, src.grid
         assert info.format == fmt and info.reprojected and info.dtype == "int16" and info.height_dtype == "float32"
-        assert CRS.from_wkt(info.crs_wkt).to_epsg() == 32632
-        assert info.crs_name == "WGS 84 / UTM zone 32N" and info.source_crs_name == "WGS 84"
-        assert info.spacing == (step, step)
-        assert all(abs(o / step - round(o / step)) < 1e-9 for o in info.origin)  # posts on the step's lattice
-        west, north = info.origin
-        east, south = west + (info.cols - 1) * step, north - (info.rows - 1) * step
+        assert CRS.from_wkt(grid.crs_wkt).to_epsg() == 32632
+        assert grid.crs_name == "WGS 84 / UTM zone 32N" and info.source_crs_name == "WGS 84"
+        assert grid.spacing == (step, step)
+        assert all(abs(o / step - round(o / step)) < 1e-9 for o in grid.origin)  # posts on the step's lattice
+        west, north = grid.origin
+        east, south = west + (grid.cols - 1) * step, north - (grid.rows - 1) * step
         # the grid holds the tile's whole footprint, and no side lies a post or more beyond it
         fx0, fy0, fx1, fy1 = transform_bounds("EPSG:4326", "EPSG:32632", LON, LAT, LON + 1, LAT + 1, densify_pts=101)
         assert west <= fx0 < west + step and east - step < fx1 <= east
@@ -332,25 +332,25 @@ def test_geographic_tiles_warp_to_their_utm_zone(geo_tiles, kind, fmt, step):
         xs, ys = warp_points("EPSG:4326", "EPSG:32632", [LON, LON + 1, LON, LON + 1], [LAT, LAT, LAT + 1, LAT + 1])
         assert all(west <= x <= east and south <= y <= north for x, y in zip(xs, ys))
         # the grid's corners lie outside the tile (NaN), the centre inside with the source's height
-        assert np.isnan(src.read(0, 1, 0, 1)[0, 0]) and np.isnan(src.read(info.rows - 1, info.rows, 0, 1)[0, 0])
-        for r, c in ((info.rows // 2, info.cols // 2), (info.rows // 3, info.cols // 2 + 5)):
+        assert np.isnan(src.read(0, 1, 0, 1)[0, 0]) and np.isnan(src.read(grid.rows - 1, grid.rows, 0, 1)[0, 0])
+        for r, c in ((grid.rows // 2, grid.cols // 2), (grid.rows // 3, grid.cols // 2 + 5)):
             height = src.read(r, r + 1, c, c + 1)[0, 0]
             want = source_bilinear(plain, z, west + c * step, north - r * step, "EPSG:32632")
             assert abs(height - want) < 0.05, (r, c, height, want)
         # a row across the whole grid and beyond: NaN, then one run of heights, then NaN
-        row = src.read(info.rows // 2, info.rows // 2 + 1, -10, info.cols + 10)[0]
-        assert row.shape == (info.cols + 20,)
+        row = src.read(grid.rows // 2, grid.rows // 2 + 1, -10, grid.cols + 10)[0]
+        assert row.shape == (grid.cols + 20,)
         finite = np.flatnonzero(np.isfinite(row))
-        assert finite[0] > 10 and finite[-1] < info.cols + 9 and len(finite) == finite[-1] - finite[0] + 1
+        assert finite[0] > 10 and finite[-1] < grid.cols + 9 and len(finite) == finite[-1] - finite[0] + 1
 
 
 def test_crs_option_names_the_utm_zone(geo_tiles):
     path, z = geo_tiles["dt0"]
     with open_raster(path, crs="EPSG:32631") as src:
-        info = src.info
-        assert CRS.from_wkt(info.crs_wkt).to_epsg() == 32631 and info.crs_name == "WGS 84 / UTM zone 31N"
-        r, c = info.rows // 2, info.cols // 2
-        x, y = info.origin[0] + c * info.spacing[0], info.origin[1] - r * info.spacing[1]
+        info, grid = src.info, src.grid
+        assert CRS.from_wkt(grid.crs_wkt).to_epsg() == 32631 and grid.crs_name == "WGS 84 / UTM zone 31N"
+        r, c = grid.rows // 2, grid.cols // 2
+        x, y = grid.origin[0] + c * grid.spacing[0], grid.origin[1] - r * grid.spacing[1]
         assert abs(src.read(r, r + 1, c, c + 1)[0, 0] - source_bilinear(path, z, x, y, "EPSG:32631")) < 0.05
 
 
@@ -358,10 +358,10 @@ def test_projected_source_warps_only_when_asked(same_ground):
     with open_raster(same_ground["tiled"], crs="EPSG:32633") as src:  # its own CRS: nothing to do
         assert not src.info.reprojected
     with open_raster(same_ground["tiled"], crs="EPSG:32632") as src:
-        info = src.info
-        assert info.reprojected and info.spacing == (2.0, 2.0) and CRS.from_wkt(info.crs_wkt).to_epsg() == 32632
+        info, grid = src.info, src.grid
+        assert info.reprojected and grid.spacing == (2.0, 2.0) and CRS.from_wkt(grid.crs_wkt).to_epsg() == 32632
         assert info.source_crs_name == "WGS 84 / UTM zone 33N"
-        block = src.read(info.rows // 2 - 5, info.rows // 2 + 5, info.cols // 2 - 5, info.cols // 2 + 5)
+        block = src.read(grid.rows // 2 - 5, grid.rows // 2 + 5, grid.cols // 2 - 5, grid.cols // 2 + 5)
         assert np.isfinite(block).all() and 95 < block.mean() < 110
 
 
@@ -371,7 +371,7 @@ def test_feet_need_a_crs(tmp_path):
     with pytest.raises(InputError, match=r"feet\.tif: CRS .* is in US survey foot; give --crs to reproject"):
         open_raster(path)
     with open_raster(path, crs="EPSG:32618") as src:
-        assert src.info.reprojected and src.info.spacing == (0.61, 0.61)
+        assert src.info.reprojected and src.grid.spacing == (0.61, 0.61)
 
 
 def test_dted_with_a_bad_checksum_fails_at_read(geo_tiles, tmp_path):
@@ -383,7 +383,7 @@ def test_dted_with_a_bad_checksum_fails_at_read(geo_tiles, tmp_path):
     bad.write_bytes(bytes(data))
     with open_raster(str(bad)) as src:  # the first and last columns are sound
         with pytest.raises(InputError) as caught:
-            src.read(0, src.info.rows, 0, src.info.cols)
+            src.read(0, src.grid.rows, 0, src.grid.cols)
     text = str(caught.value)
     assert str(bad) in text and "checksum" in text and "\n" not in text and "rows 0-" in text
 
@@ -417,7 +417,7 @@ def test_large_raster_read_window_by_window(tmp_path):
 def one_line_error(path, **kw) -> str:
     with pytest.raises(InputError) as caught:
         with open_raster(path, **kw) as src:
-            src.read(0, src.info.rows, 0, src.info.cols)
+            src.read(0, src.grid.rows, 0, src.grid.cols)
     text = str(caught.value)
     assert "\n" not in text and text.startswith(str(path) if path != "-" else "<stdin>"), text
     return text
@@ -460,21 +460,21 @@ def test_bad_georeferencing(tmp_path):
     assert "not a projected CRS" in one_line_error(polar, crs="EPSG:4326")
     assert "US survey foot" in one_line_error(polar, crs="EPSG:2263")
     with open_raster(polar, crs="EPSG:32661") as src:
-        assert src.info.reprojected and src.info.crs_name.startswith("WGS 84 / UPS North")
+        assert src.info.reprojected and src.grid.crs_name.startswith("WGS 84 / UPS North")
 
 
 def test_local_grids(tmp_path):
     z = np.arange(12, dtype=np.float32).reshape(3, 4)
     no_crs = write(tmp_path / "no_crs.tif", z, transform=from_origin(100, 50, 0.5, 0.25))
     with open_raster(no_crs) as src:
-        assert src.info.crs_wkt == "" and src.info.crs_name == "local grid (no CRS)"
-        assert src.info.origin == (100.25, 49.875) and src.info.spacing == (0.5, 0.25)
+        assert src.grid.crs_wkt == "" and src.grid.crs_name == "local grid (no CRS)"
+        assert src.grid.origin == (100.25, 49.875) and src.grid.spacing == (0.5, 0.25)
     assert "no CRS" in one_line_error(no_crs, crs="EPSG:32633")
     bare = write(tmp_path / "bare.tif", z)
     with open_raster(bare) as src:
-        info = src.info
-        assert info.crs_wkt == "" and info.crs_name == "local grid (no georeferencing; 1 m posts assumed)"
-        assert info.origin == (0.0, 2.0) and info.spacing == (1.0, 1.0)
+        info, grid = src.info, src.grid
+        assert grid.crs_wkt == "" and grid.crs_name == "local grid (no georeferencing; 1 m posts assumed)"
+        assert grid.origin == (0.0, 2.0) and grid.spacing == (1.0, 1.0)
         np.testing.assert_array_equal(src.read(0, 3, 0, 4), z)  # first file row is north
 
 
@@ -546,12 +546,12 @@ def test_folder_of_geographic_tiles_warps_as_one(geo_tiles, tmp_path):
     write_geographic_tile(folder / "n45e006.dt0", 121, 121, "DTED")
     write_geographic_tile(folder / "n45e007.dt0", 121, 121, "DTED", lon=7)
     with open_raster(str(folder)) as both, open_raster(path) as one:
-        assert both.info.reprojected and CRS.from_wkt(both.info.crs_wkt).to_epsg() == 32632
-        assert both.info.cols > one.info.cols * 1.8 and both.info.spacing == one.info.spacing
+        assert both.info.reprojected and CRS.from_wkt(both.grid.crs_wkt).to_epsg() == 32632
+        assert both.grid.cols > one.grid.cols * 1.8 and both.grid.spacing == one.grid.spacing
         # same lattice: the west tile's posts come back unchanged from the mosaic
-        dc = round((one.info.origin[0] - both.info.origin[0]) / one.info.spacing[0])
-        dr = round((both.info.origin[1] - one.info.origin[1]) / one.info.spacing[1])
-        r, c = one.info.rows // 2, one.info.cols // 2
+        dc = round((one.grid.origin[0] - both.grid.origin[0]) / one.grid.spacing[0])
+        dr = round((both.grid.origin[1] - one.grid.origin[1]) / one.grid.spacing[1])
+        r, c = one.grid.rows // 2, one.grid.cols // 2
         np.testing.assert_allclose(both.read(dr + r - 3, dr + r + 3, dc + c - 3, dc + c + 3),
                                    one.read(r - 3, r + 3, c - 3, c + 3), atol=0.02)  # warp approximations differ
 

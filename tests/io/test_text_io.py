@@ -115,11 +115,11 @@ written = st.sampled_from(["{:.3f}", "{:.6f}", "{!r}", "{:.4e}", "{:+.1f}", " {:
        st.booleans())
 def test_compiled_parser_gives_what_float_gives(rows, fmt, newline, final_newline):
     """Bit for bit: the compiled parser's fast path or its fall-back, never a nearby double."""
-    from tankcd_cli.io.csv_kernels import _POW10, parse_table
+    from tankcd_cli.io.csv_kernels import POW10, parse_table
 
     cells = [[fmt.format(v) for v in row] for row in rows]
     text = newline.join(",".join(row) for row in cells) + (newline if final_newline else "")
-    values, ok = parse_table(np.frombuffer(text.encode(), np.uint8), len(rows), 3, _POW10)
+    values, ok = parse_table(np.frombuffer(text.encode(), np.uint8), len(rows), 3, POW10)
     expect = np.array([[float(c) for c in row] for row in cells])
     if ok:
         assert np.array_equal(values, expect) and np.array_equal(np.signbit(values), np.signbit(expect))
@@ -136,10 +136,10 @@ def test_compiled_parser_gives_what_float_gives(rows, fmt, newline, final_newlin
     ("1234567890123456,1,2\n", False), ("1e400,1,2\n", False), ("1e,2,3\n", False), ("-,2,3\n", False),
     ("1.2.3,4,5\n", False), ("1,2,3\r4,5,6\n", False)])
 def test_compiled_parser_shapes(text, ok):
-    from tankcd_cli.io.csv_kernels import _POW10, parse_table
+    from tankcd_cli.io.csv_kernels import POW10, parse_table
 
     rows = len(text.splitlines())
-    values, good = parse_table(np.frombuffer(text.encode(), np.uint8), rows, 3, _POW10)
+    values, good = parse_table(np.frombuffer(text.encode(), np.uint8), rows, 3, POW10)
     assert good is ok
     if ok:
         assert np.array_equal(values.ravel(), [float(c) for c in text.replace("\r", "").replace("\n", ",").split(",")

@@ -119,9 +119,9 @@ def test_a_second_resting_pose_is_not_the_reference():
     wheel stations find one (it passes the check at its own tilt), the reference, starting
     untilted, the other, 15 degrees away. The certificate's untilted round tells them apart."""
     from tankcd_cli.geometry.pose import attitude_from_slopes
-    from tankcd_cli.terrain.classify import load_terrain
+    from tankcd_cli.terrain.mesh.classify import read_mesh
 
-    surface = S.surface_of(load_terrain(str(SAMPLE / "battlefield.asc")), vehicle=T72)
+    surface = S.surface_of(read_mesh(str(SAMPLE / "battlefield.asc")), vehicle=T72)
     x, y, yaw = np.array([500171.39264163165]), np.array([4500099.780576975]), np.array([3.5203672028430906])
     plain = match(surface, T72, x, y, yaw, "wheel_stations")
     ref = match(surface, T72, x, y, yaw, "reference")

@@ -170,13 +170,14 @@ def test_a_near_miss_beside_a_wall(run, tmp_path, gap, hit):
 
 def test_a_contact_across_a_chunk_boundary_is_reported_once(tmp_path):
     from tankcd_cli.io.trajectory import read_trajectory
-    from tankcd_cli.replay.pipeline import load_terrain_surface, prepare, replay_chunks
+    from tankcd_cli.replay.pipeline import prepare, replay_chunks
     from tankcd_cli.scene import load_scene
+    from tankcd_cli.terrain.open import open_terrain
 
     _wall_scene(tmp_path, [50.0, 10.0, 95.0], [50.2, 50.0, 105.0])
     (tmp_path / "t.csv").write_text("t,x,y,yaw_deg\n" + "".join(f"{k},{30 + 15 * k},30,0\n" for k in range(4)))
     scene = load_scene(str(tmp_path / "scene.toml"))
-    surface, _ = load_terrain_surface(scene.required_terrain(), vehicle=scene.vehicle)
+    surface = open_terrain(scene.required_terrain(), vehicle=scene.vehicle).surface
 
     def events_with(chunk_rows):
         setup = prepare(surface, scene.vehicle, scene)

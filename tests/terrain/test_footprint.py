@@ -1,13 +1,11 @@
-"""The compiled support-plane walk and footprint pass (Cython): what the numba kernels did at the
-edges of their inputs, and what per-thread scratch must not change."""
+"""The compiled footprint pass (Cython): what it does at the edges of its inputs (zero divisors,
+any array layout, non-finite poses), and what per-thread scratch must not change."""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
-from tankcd_cli._threads import get_num_threads, set_num_threads
-from tankcd_cli.geometry.support_plane import support_plane, support_plane_brute_force, support_planes_fixed
+from tankcd_cli.threads import get_num_threads, set_num_threads
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain.footprint import footprint_batch
 from tankcd_cli.matching.match import EPS_XY, patch_quads
 from tankcd_cli.terrain import synthetic as S
@@ -29,29 +27,7 @@ def _same(a, b):
         assert x.dtype == y.dtype
 
 
-def test_support_plane_types_and_validation():
-    u = np.array([-1.0, 1.0, 1.0, -1.0])
-    v = np.array([-1.0, -1.0, 1.0, 1.0])
-    z = np.array([0.0, 0.1, 0.2, 0.1])
-    a, b, c, st = support_plane(u, v, z, 4, 1e-9)
-    assert isinstance(a, float) and isinstance(st, int) and st == 0
-    assert a == pytest.approx(support_plane_brute_force(u, v, z))
-    assert np.isnan(support_plane(u, v, z, 0, 1e-9)[0]) and support_plane(u, v, z, 0, 1e-9)[3] == 1
-    assert support_plane([0, 1, 2, 3], v.tolist(), z, 4, 1e-9)[3] in (0, 2)  # lists and ints are converted
-    with pytest.raises(ValueError):
-        support_plane(u, v, z, 5, 1e-9)
-    planes, status = support_planes_fixed(u, v, np.tile(z, (7, 1))[:, ::1], 1e-9)
-    assert planes.shape == (7, 3) and status.dtype == np.int64 and (status == 0).all()
-    empty, st0 = support_planes_fixed(u, v, np.empty((0, 4)), 1e-9)
-    assert empty.shape == (0, 3) and st0.shape == (0,)
-
-
-def test_zero_divisors_raise_as_numba_did():
-    # a negative eps lets a point level with p (d == 0) into the division
-    with pytest.raises(ZeroDivisionError):
-        support_plane(np.array([1.0, 1.0]), np.array([0.0, 0.0]), np.array([1.0, 0.0]), 2, -1e-3)
-    with pytest.raises(ZeroDivisionError):
-        support_planes_fixed(np.array([1.0, 1.0]), np.array([0.0, 0.0]), np.array([[1.0, 0.0]] * 3), -1e-3)
+def test_a_zero_cell_size_raises_zero_division_error():
     surface = S.surface_of(S.dem_terrain(np.zeros((10, 10)), origin=UTM))
     q = np.ascontiguousarray(patch_quads(T72, np.zeros(1), np.zeros(1)))
     args = list(_args(surface, 0, [UTM[0] + 5], [UTM[1] + 5], [0.0], q, np.zeros((1, 3)), arithmetic=False))
@@ -112,13 +88,13 @@ def test_many_points_per_patch_grow_the_scratch_and_threads_change_nothing(arith
 
 
 def test_non_finite_and_huge_poses_find_no_ground():
-    """Poses at NaN, infinite or beyond-int64 coordinates: no ground under them (numba's grid
-    path could crash there)."""
-    from tankcd_cli.terrain.grid_surface import GridSurface
+    """Poses at NaN, infinite or beyond-int64 coordinates: no ground under them (the grid path
+    finds no cell rather than reading out of bounds)."""
+    from tankcd_cli.terrain.grid.surface import GridSurface
 
     rng = np.random.default_rng(2)
     z = 100 + rng.normal(0, 0.1, (30, 30))
-    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (UTM[0], UTM[1] + 29.0), (1.0, 1.0))
+    grid = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), PostGrid(*z.shape, UTM[0], UTM[1] + 29.0))
     mesh = S.surface_of(S.dem_terrain(z[::-1], origin=UTM))
     x = UTM[0] + np.array([np.nan, np.inf, -np.inf, 1e19, 9.3e18, 0.0, 0.0, 15.0])
     y = UTM[1] + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1e300, -np.inf, 15.0])
@@ -131,74 +107,3 @@ def test_non_finite_and_huge_poses_find_no_ground():
             np.testing.assert_array_equal(status, [1] * 7 + [0])
             np.testing.assert_array_equal(covered, [0.0] * 7 + [1.0])
         np.testing.assert_allclose(a[0][-1], b[0][-1], rtol=0, atol=1e-9)
-
-
-@pytest.mark.parametrize("layout", ["dem mesh", "tin", "grid"])
-def test_both_queries_from_one_pass_are_the_two_passes(layout):
-    """Mode 2 (the certificate's pass): the support plane of mode 0 (started from the given planes,
-    as mode 2 starts) and the height of mode 1, bit for bit, on every surface kind, and the plane
-    of a level start to rounding; no ground under the patches: NaN height and status 1."""
-    from scipy.spatial import Delaunay
-
-    from tankcd_cli.terrain.grid_surface import GridSurface
-
-    rng = np.random.default_rng(3)
-    z = 100 + np.cumsum(rng.normal(0, 0.1, (40, 40)), axis=0)
-    if layout == "grid":
-        surface = GridSurface.from_arrays(z, np.zeros(z.shape, np.uint8), (UTM[0], UTM[1] + 39.0), (1.0, 1.0))
-    elif layout == "tin":
-        xy = rng.uniform(0, 39, (1500, 2))
-        surface = S.surface_of(S.mesh_terrain(np.column_stack([xy + UTM, 100 + np.sin(xy[:, 0] / 3) * xy[:, 1] / 20]),
-                                              Delaunay(xy).simplices.astype(np.int64)))
-    else:
-        surface = S.surface_of(S.dem_terrain(z, origin=UTM))
-    n = 300
-    x = UTM[0] + np.append(rng.uniform(4, 35, n - 1), -50.0)  # the last one off the terrain
-    y = UTM[1] + np.append(rng.uniform(4, 35, n - 1), 0.0)
-    yaw = rng.uniform(-np.pi, np.pi, n)
-    quads = np.ascontiguousarray(patch_quads(T72, rng.normal(0, 0.1, n), rng.normal(0, 0.1, n)))
-    planes = np.column_stack([rng.normal(100, 1, n), rng.normal(0, 0.1, n), rng.normal(0, 0.1, n)])
-    lowest, covered0, status0 = surface.support_plane_under(x, y, yaw, quads, start=planes)
-    level_start, _, _ = surface.support_plane_under(x, y, yaw, quads)
-    high, covered1, _ = surface.highest_over_patches(x, y, yaw, quads, planes)
-    both, high2, covered2, status2 = surface.support_and_highest(x, y, yaw, quads, planes)
-    np.testing.assert_array_equal(both, lowest)
-    np.testing.assert_allclose(both, level_start, rtol=0, atol=1e-9)
-    np.testing.assert_array_equal(status2, status0)
-    np.testing.assert_array_equal(covered2, covered0)
-    np.testing.assert_array_equal(covered2, covered1)
-    np.testing.assert_array_equal(high2[:-1], high[:-1])
-    assert np.isnan(high2[-1]) and status2[-1] == 1 and (status2[:-1] == 0).all()
-
-
-@settings(max_examples=400, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.integers(3, 40), st.floats(-2, 2), st.floats(-2, 2), st.booleans())
-def test_a_walk_from_any_start_finds_the_level_walks_plane(seed, k, b0, c0, lattice):
-    """``support_plane(start=...)``: the same lowest plane as the walk from level, to rounding,
-    from any start; on a lattice of points (the origin often over an edge or a point of the
-    upper hull, where several planes are lowest) it gives the level walk's choice."""
-    rng = np.random.default_rng(seed)
-    if lattice:
-        u, v = (rng.integers(-2, 3, k).astype(float) for _ in range(2))
-        z = rng.integers(0, 3, k).astype(float) * 0.5
-    else:
-        u, v, z = rng.uniform(-3, 3, k), rng.uniform(-1.5, 1.5, k), rng.normal(0, 0.3, k)
-    cold = support_plane(u, v, z, k, EPS_XY)
-    warm = support_plane(u, v, z, k, EPS_XY, start=(b0, c0))
-    assert warm[3] == cold[3]
-    if cold[3] == 0:
-        np.testing.assert_allclose(warm[:3], cold[:3], rtol=0, atol=1e-9)
-        assert support_plane_brute_force(u, v, z) == pytest.approx(cold[0], abs=1e-9)
-
-
-def test_the_walk_turns_past_a_line_through_the_origin_beyond_its_points():
-    """Found by the test above: the level walk's first two points, (0, 2) and (0, 1), lie on a
-    line through the origin but both on one side of it. Turning about that line cannot lower
-    the origin; the walk must turn about (0, 1) alone (it stopped at 1.0, not the lowest 0.833)."""
-    u = np.array([0.0, 1, -2, -2, 0, 2, 0, -1, 1])
-    v = np.array([-2.0, -2, -1, -2, 2, 2, 1, 2, 1])
-    z = np.array([0.0, 0.5, 0, 0.5, 1, 0.5, 1, 1, 0.5])
-    a, b, c, status = support_plane(u, v, z, 9, EPS_XY)
-    assert status == 0
-    assert a == pytest.approx(5 / 6, abs=1e-12) == support_plane_brute_force(u, v, z)
-    assert (a + b * u + c * v >= z - 1e-12).all()

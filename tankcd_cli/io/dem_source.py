@@ -1,0 +1,37 @@
+"""What a DEM source serves beside its geometry: where its posts come from and how they are read.
+
+Every DEM source (a raster through GDAL, an ESRI grid through tankcd's parser, the heights of
+a grid store, an array) has ``grid``, a :class:`~tankcd_cli.geometry.post_grid.PostGrid` (the
+metric grid it serves, after any reprojection), and ``info``, a :class:`DemSourceInfo`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class DemSourceInfo:
+    """A DEM source's provenance and reading details.
+
+    source : the input's name as given ("<stdin>" for standard input)
+    format : the format read (a GDAL driver name, "asc", "h5", ...)
+    sha256 : the SHA-256 of the input's bytes ("" when unknown)
+    source_crs_name : the source's own CRS, in words ("" when the grid keeps it)
+    reprojected : whether the grid was warped from the source's CRS
+    height_dtype : "float32" when every height is exactly a float32, else "float64"
+    nodata, dtype, band, bands, block : a raster's NODATA value, band type, band read (from 1),
+        band count and block shape (rows, cols); other sources keep the defaults
+    """
+
+    source: str
+    format: str
+    sha256: str = ""
+    source_crs_name: str = ""
+    reprojected: bool = False
+    height_dtype: str = "float64"
+    nodata: float | None = None
+    dtype: str = "float64"
+    band: int = 1
+    bands: int = 1
+    block: tuple[int, int] = (0, 0)

@@ -1,0 +1,106 @@
+"""Classify a DEM: a windowed DEM source (``sources.py``) in, a grid-layout store out, tile by tile
+(``tiled_classify.py``), in this process's threads or on a Dask cluster (``cluster.py``)."""
+
+from __future__ import annotations
+
+import datetime
+import os
+import time
+from typing import Callable
+
+import numpy as np
+
+from tankcd_cli import __version__
+from tankcd_cli.errors import InputError
+from tankcd_cli.terrain.grid.sources import checked_read
+from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, classify_grid_tiles
+from tankcd_cli.terrain.regions import Thresholds, default_thresholds
+from tankcd_cli.vehicle import Vehicle, vehicle_preset
+
+
+def default_jobs() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle | None = None,
+                 thresholds: Thresholds | None = None, tile=DEFAULT_TILE, jobs: int | None = None,
+                 progress: Callable[[int, int, int, float], None] | None = None, scheduler: str | None = None,
+                 spec: tuple | None = None) -> dict:
+    """Classify every post of ``source`` (see ``grid.sources``) into a grid store at ``out_path``.
+
+    progress(tiles_done, tiles_total, posts_done, seconds) after each tile.
+    scheduler : a Dask scheduler's address: the tiles run there as tasks, each worker reading
+        its windows of the DEM named by ``spec`` ((kind, path, format, band, crs), the arguments
+        of ``sources.open_source`` with a path every worker sees); this process writes the store,
+        in the same tile order as a local run.
+    Returns the store's root attributes.
+    """
+    from tankcd_cli.terrain.grid.store import GridStoreWriter
+
+    vehicle = vehicle or vehicle_preset("t72")
+    thresholds = thresholds or default_thresholds(vehicle)
+    grid, info = source.grid, source.info
+    if grid.rows < 2 or grid.cols < 2:
+        raise InputError(info.source, f"a {grid.rows} x {grid.cols} grid has no cells (needs at least 2 x 2 posts)")
+    dx, dy = float(grid.dx), float(grid.dy)
+    started = time.perf_counter()
+    writer = GridStoreWriter(out_path, grid, info.height_dtype)
+
+    def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        return checked_read(source, r0, r1, c0, c1)
+
+    try:
+        if scheduler:
+            from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
+
+            classify_tiles_on_dask(scheduler, spec, grid, method, vehicle.track_length, thresholds, tile,
+                                   writer.write, progress_of(progress, started))
+        else:
+            classify_grid_tiles(read, grid, method, vehicle.track_length, thresholds, tile=tile,
+                                jobs=jobs or default_jobs(), on_tile=writer.write,
+                                progress=progress_of(progress, started))
+        if writer.valid == 0:
+            raise InputError(info.source, "every post is NODATA")
+        total = writer.by_class.sum()
+        shares = writer.by_class / total if total > 0 else writer.by_class
+        nw = np.asarray(grid.origin, dtype=float)
+        lo = [nw[0], nw[1] - (grid.rows - 1) * dy, writer.zmin]
+        hi = [nw[0] + (grid.cols - 1) * dx, nw[1], writer.zmax]
+        attrs = {
+            "tankcd_version": __version__,
+            "created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "source": info.source,
+            "source_sha256": info.sha256,
+            "source_format": info.format,
+            "source_up_axis": "z",
+            "source_crs_name": info.source_crs_name or grid.crs_name,
+            "reprojected": bool(info.reprojected),
+            "crs_name": grid.crs_name,
+            "diagonal": "SW-NE",
+            "rows": grid.rows, "cols": grid.cols,
+            "valid_posts": writer.valid, "nodata_posts": grid.rows * grid.cols - writer.valid,
+            "curvature_method": method,
+            "boundary_treatment": "one-sided quartic fit over the 40 nearest valid posts (within 12 posts)",
+            "threshold_flat": thresholds.flat,
+            "threshold_uneven": thresholds.uneven,
+            "threshold_derivation": thresholds.derivation,
+            "class_average": "area-weighted mean of |H| (H first averaged over a disk of radius track_length/4) "
+                             "over a disk of radius track_length/2, at every post",
+            "vehicle": vehicle.name,
+            "track_length": vehicle.track_length,
+            "track_width": vehicle.track_width,
+            "share_flat": shares[0], "share_general": shares[1], "share_uneven": shares[2],
+            "extent_min": lo, "extent_max": hi,
+            "tile": list(np.broadcast_to(np.asarray(tile), 2).astype(int)),
+        }
+        writer.finish(attrs)
+    except BaseException:
+        writer.abort()
+        raise
+    return attrs
+
+
+def progress_of(progress, started: float):
+    if progress is None:
+        return None
+    return lambda done, total, posts: progress(done, total, posts, time.perf_counter() - started)

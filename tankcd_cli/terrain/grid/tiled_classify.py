@@ -1,0 +1,456 @@
+"""Classify a DEM tile by tile: curvature, footprint-averaged curvature and region classes.
+
+The DEM is read window by window (a tile of ``tile`` x ``tile`` posts plus a
+halo as wide as every stencil that feeds the tile's posts), so peak memory
+depends on the tile, not on the DEM. Every quantity at a post is a fixed
+function of the posts around it, summed in a fixed order, so the result is the
+same, bit for bit, whatever the tiling: a whole raster at once is one tile.
+
+Per post (row 0 north, NaN at NODATA; x = column dx, y = -row dy):
+
+- **Mean curvature H**, 1/m, by ``method``:
+  ``grid`` (the default for DEMs) central differences over the 3 x 3 posts
+  around it, put in the formula of docs/formats.md (second order, as GIS tools do it);
+  ``cotan``, ``sphere``, ``jet`` the mesh estimators (``terrain/curvature/``) on the
+  implicit triangulation, exactly as the mesh layout computes them.
+  Posts without the neighbours a formula needs (the DEM's edges, NODATA
+  borders; ``open_posts``) get the one-sided treatment the mesh layout gives
+  its boundary: a least-squares quartic over the ``BOUNDARY_NEIGHBOURS`` (40)
+  nearest valid posts, here looked for within ``FIT_RADIUS`` posts (a speck of
+  fewer than 14 valid posts there has H = 0).
+- **Post area** a, m^2: a third of the 3-D area of each triangle at the post.
+- **Footprint-averaged |H|** (the value the classes come from; see
+  ``regions.py``): H averaged (area-weighted) over a disk of radius L/4, then
+  its absolute value averaged over a disk of radius L/2, both disks in metres
+  over the posts (L the track length).
+- **Class** 0 flat, 1 general, 2 uneven; 255 at NODATA.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, JET_DEGREE
+from tankcd_cli.terrain.regions import NO_CLASS, Thresholds, classify_values
+
+GRID_METHODS = ("grid", "cotan", "sphere", "jet")
+FIT_RADIUS = 12  # posts (along the coarser axis): holds the 40 nearest even at a DEM's corner (a quarter disk)
+MIN_FIT_POSTS = 14  # unknowns of the quartic
+DEFAULT_TILE = 512
+FAST_MIN_POSTS = 0  # compiled ahead of time, the passes cost nothing to load: every DEM takes them
+
+
+def use_compiled(grid: PostGrid) -> bool:
+    """Whether to run the compiled twins (the same bits as the numpy passes, which are their oracle)."""
+    return grid.rows * grid.cols >= FAST_MIN_POSTS
+
+
+def _passes(fast: bool):
+    """(central differences, post areas, disk sum): the compiled twins or the numpy ones."""
+    if fast:
+        from tankcd_cli.terrain.grid import post_passes
+
+        return post_passes.fd_mean_curvature, post_passes.post_areas, _disk_sum
+    return grid_mean_curvature_fd, post_areas, _disk_sum
+
+
+@dataclass(frozen=True)
+class Stencils:
+    """Fixed offset lists (row, col) in the order their terms are summed."""
+
+    disk_track: np.ndarray  # radius L/4
+    disk_footprint: np.ndarray  # radius L/2
+    fit: np.ndarray  # candidate neighbours of a one-sided fit, nearest first, ties by the mesh's vertex order
+    halo_rows: int
+    halo_cols: int
+    reach_rows: int  # how far the two disks together reach
+    reach_cols: int
+
+
+def disk_offsets(radius: float, dx: float, dy: float) -> np.ndarray:
+    """(k, 2) (row, col) offsets of the posts within ``radius`` m of a post, row-major."""
+    rr = int(math.floor(radius / dy + 1e-9))
+    rc = int(math.floor(radius / dx + 1e-9))
+    r, c = np.mgrid[-rr:rr + 1, -rc:rc + 1]
+    inside = (r * dy) ** 2 + (c * dx) ** 2 <= radius * radius * (1 + 1e-12)
+    return np.column_stack([r[inside], c[inside]]).astype(np.int64)
+
+
+def fit_offsets(dx: float, dy: float) -> np.ndarray:
+    """Offsets within FIT_RADIUS posts of the coarser axis, the post itself excluded, nearest
+    first; equal distances in the mesh layout's vertex order (south row first, then west)."""
+    off = disk_offsets(FIT_RADIUS * max(dx, dy), dx, dy)
+    off = off[(off != 0).any(axis=1)]
+    d2 = (off[:, 0] * dy) ** 2 + (off[:, 1] * dx) ** 2
+    order = np.lexsort((off[:, 1], -off[:, 0], d2))  # north-up rows: a larger row is further south
+    return off[order]
+
+
+def stencils(grid: PostGrid, track_length: float) -> Stencils:
+    dx, dy = grid.dx, grid.dy
+    track = disk_offsets(track_length / 4.0, dx, dy)
+    foot = disk_offsets(track_length / 2.0, dx, dy)
+    fit = fit_offsets(dx, dy)
+    reach_r = int(np.abs(track[:, 0]).max() + np.abs(foot[:, 0]).max())
+    reach_c = int(np.abs(track[:, 1]).max() + np.abs(foot[:, 1]).max())
+    return Stencils(track, foot, fit, reach_r + int(np.abs(fit[:, 0]).max()) + 1,
+                    reach_c + int(np.abs(fit[:, 1]).max()) + 1, reach_r, reach_c)
+
+
+# --- per window --------------------------------------------------------------------
+
+def _shift(a: np.ndarray, dr: int, dc: int, fill) -> np.ndarray:
+    """b[r, c] = a[r + dr, c + dc] (``fill`` past the edge)."""
+    out = np.full(a.shape, fill, dtype=a.dtype)
+    rows, cols = a.shape
+    rs, re = max(0, -dr), min(rows, rows - dr)
+    cs, ce = max(0, -dc), min(cols, cols - dc)
+    if rs < re and cs < ce:
+        out[rs:re, cs:ce] = a[rs + dr:re + dr, cs + dc:ce + dc]
+    return out
+
+
+def _disk_sum(a: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Sum of ``a`` over the offsets around every post, in the offsets' order (zero past the edge)."""
+    out = np.zeros_like(a)
+    rows, cols = a.shape
+    for dr, dc in offsets:
+        rs, re = max(0, -dr), min(rows, rows - dr)
+        cs, ce = max(0, -dc), min(cols, cols - dc)
+        if rs < re and cs < ce:
+            out[rs:re, cs:ce] += a[rs + dr:re + dr, cs + dc:ce + dc]
+    return out
+
+
+def grid_mean_curvature_fd(z: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """H by central differences at every post (NaN where a 3 x 3 neighbour is missing, and on
+    the array's own border)."""
+    c = z[1:-1, 1:-1]
+    n, s = z[:-2, 1:-1], z[2:, 1:-1]  # row 0 north: the row above is north
+    e, w = z[1:-1, 2:], z[1:-1, :-2]
+    fx = (e - w) * (0.5 / dx)
+    fy = (n - s) * (0.5 / dy)
+    fxx = (e - 2 * c + w) * (1.0 / (dx * dx))
+    fyy = (n - 2 * c + s) * (1.0 / (dy * dy))
+    fxy = ((z[:-2, 2:] - z[:-2, :-2]) - (z[2:, 2:] - z[2:, :-2])) * (0.25 / (dx * dy))
+    fx2 = fx * fx
+    fy2 = fy * fy
+    g = 1.0 + fx2 + fy2
+    H = np.full(z.shape, np.nan)
+    H[1:-1, 1:-1] = -((1 + fy2) * fxx - 2 * fx * fy * fxy + (1 + fx2) * fyy) / (2.0 * g * np.sqrt(g))
+    return H
+
+
+def open_posts(valid: np.ndarray, method: str) -> np.ndarray:
+    """Valid posts the method's formula cannot serve: for ``grid`` a missing one of the 8
+    neighbours; for the mesh estimators the posts on a boundary edge of the implicit mesh (an
+    edge with one triangle) or in no triangle, as the mesh layout finds them."""
+    if method == "grid":
+        full = valid.copy()
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                if dr or dc:
+                    full &= _shift(valid, dr, dc, False)
+        return valid & ~full
+    return valid & mesh_boundary_posts(valid)
+
+
+def mesh_boundary_posts(valid: np.ndarray) -> np.ndarray:
+    """Posts on an edge that one triangle of the implicit mesh holds, or in no triangle.
+
+    Per cell (row 0 north) the triangles are (SW, SE, NE) and (SW, NE, NW) when full, the
+    triangle of the three valid corners when one is missing; each cell side and diagonal is
+    counted over the triangles that hold it (sides over both cells that share them).
+    """
+    rows, cols = valid.shape
+    out = np.zeros((rows, cols), dtype=bool)
+    if rows < 2 or cols < 2:
+        return valid.copy()
+    nw, ne, sw, se = valid[:-1, :-1], valid[:-1, 1:], valid[1:, :-1], valid[1:, 1:]
+    count = nw.astype(np.int8) + ne + sw + se
+    full, three = count == 4, count == 3
+    m_sw, m_se, m_ne, m_nw = three & ~sw, three & ~se, three & ~ne, three & ~nw
+    one = np.int8(1)
+    # triangles holding each cell edge (0, 1 or 2)
+    top = (full | m_sw | m_se) * one            # NW-NE: T2 / (SE,NE,NW) / (SW,NE,NW)
+    bottom = (full | m_ne | m_nw) * one         # SW-SE: T1 / (SW,SE,NW) / (SW,SE,NE)
+    left = (full | m_se | m_ne) * one           # NW-SW: T2 / (SW,NE,NW) / (SW,SE,NW)
+    right = (full | m_sw | m_nw) * one          # NE-SE: T1 / (SE,NE,NW) / (SW,SE,NE)
+    diag = (2 * full + m_se + m_nw) * one       # SW-NE: T1 and T2 / (SW,NE,NW) / (SW,SE,NE)
+    anti = (m_sw | m_ne) * one                  # NW-SE: (SE,NE,NW) / (SW,SE,NW)
+    # horizontal edges (r, c)-(r, c+1): the bottom of the cell above plus the top of the cell below
+    horiz = np.zeros((rows, cols - 1), dtype=np.int8)
+    horiz[:-1] += top
+    horiz[1:] += bottom
+    vert = np.zeros((rows - 1, cols), dtype=np.int8)
+    vert[:, :-1] += left
+    vert[:, 1:] += right
+    h1, v1 = horiz == 1, vert == 1
+    out[:, :-1] |= h1
+    out[:, 1:] |= h1
+    out[:-1, :] |= v1
+    out[1:, :] |= v1
+    d1, a1 = diag == 1, anti == 1
+    out[1:, :-1] |= d1  # SW end
+    out[:-1, 1:] |= d1  # NE end
+    out[:-1, :-1] |= a1  # NW end
+    out[1:, 1:] |= a1  # SE end
+    # posts in no triangle
+    used = np.zeros((rows, cols), dtype=bool)
+    any_tri = full | three
+    used[:-1, :-1] |= any_tri & nw
+    used[:-1, 1:] |= any_tri & ne
+    used[1:, :-1] |= any_tri & sw
+    used[1:, 1:] |= any_tri & se
+    return out | ~used
+
+
+def post_areas(z: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """A third of the 3-D area of each triangle at every post, m^2 (0 at NODATA)."""
+    nw, ne = z[:-1, :-1], z[:-1, 1:]
+    sw, se = z[1:, :-1], z[1:, 1:]
+    ok = np.stack([np.isfinite(sw), np.isfinite(se), np.isfinite(ne), np.isfinite(nw)])
+    count = ok.sum(axis=0)
+    zz = [np.nan_to_num(v) for v in (sw, se, ne, nw)]
+    # corners in the cell's plane: SW (0, 0), SE (dx, 0), NE (dx, dy), NW (0, dy)
+    xy = ((0.0, 0.0), (dx, 0.0), (dx, dy), (0.0, dy))
+
+    def area(i, j, k):
+        ax, ay = xy[j][0] - xy[i][0], xy[j][1] - xy[i][1]
+        bx, by = xy[k][0] - xy[i][0], xy[k][1] - xy[i][1]
+        az, bz = zz[j] - zz[i], zz[k] - zz[i]
+        cx = ay * bz - az * by
+        cy = az * bx - ax * bz
+        cz = ax * by - ay * bx
+        return 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
+
+    full = count == 4
+    t1 = np.where(full, area(0, 1, 2), 0.0) / 3.0  # (SW, SE, NE)
+    t2 = np.where(full, area(0, 2, 3), 0.0) / 3.0  # (SW, NE, NW)
+    share = [t1 + t2, t1, t1 + t2, t2]  # SW, SE, NE, NW
+    three = count == 3
+    for missing, corners in ((0, (1, 2, 3)), (1, (0, 2, 3)), (2, (0, 1, 3)), (3, (0, 1, 2))):
+        sel = three & ~ok[missing]
+        if sel.any():
+            t = np.where(sel, area(*corners), 0.0) / 3.0
+            for k in corners:
+                share[k] = share[k] + t
+    a = np.zeros(z.shape)
+    a[1:, :-1] += share[0]
+    a[1:, 1:] += share[1]
+    a[:-1, 1:] += share[2]
+    a[:-1, :-1] += share[3]
+    return a
+
+
+def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: float, dy: float,
+                  offsets: np.ndarray, k: int = BOUNDARY_NEIGHBOURS, chunk: int = 4096,
+                  fast: bool = False) -> np.ndarray:
+    """H at the posts ``which`` (bool, window shape) from a quartic over their k nearest valid
+    posts among ``offsets``, nearest in 3-D and ties broken as the mesh layout breaks them
+    (``curvature.nearest_neighbours``: distances to 1e-9 of the 57th, then vertex order).
+    Coordinates come from whole-grid indices (row0, col0: the window's first post), so the
+    fit does not depend on the window. ``fast``: the compiled fit (the mesh layout's), else numpy."""
+    if fast:
+        from tankcd_cli.terrain.curvature.jet_fit import jet_fit as fit
+    else:
+        from tankcd_cli.terrain.curvature.jet import jet_fit_numpy as fit
+
+    H = np.zeros(z.shape)
+    rr_all, cc_all = np.nonzero(which)
+    rows, cols = z.shape
+    extra = k + 16  # the mesh layout's k + 1 + 16 nearest, less the post itself
+    # the mesh layout's tie order: its vertex index grows with the row from the south, then the column
+    tie = np.lexsort((offsets[:, 1], -offsets[:, 0]))
+    tie_rank = np.empty(len(offsets), dtype=np.int64)
+    tie_rank[tie] = np.arange(len(offsets))
+    for start in range(0, len(rr_all), chunk):
+        rr, cc = rr_all[start:start + chunk], cc_all[start:start + chunk]
+        nr = rr[:, None] + offsets[None, :, 0]
+        nc = cc[:, None] + offsets[None, :, 1]
+        inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
+        nz = z[np.clip(nr, 0, rows - 1), np.clip(nc, 0, cols - 1)]
+        ok = inside & np.isfinite(nz)
+        ddx = offsets[None, :, 1] * dx
+        ddy = offsets[None, :, 0] * dy
+        ddz = np.where(ok, nz - z[rr, cc][:, None], 0.0)
+        dist = np.where(ok, np.sqrt(ddx * ddx + ddy * ddy + ddz * ddz), np.inf)
+        count = ok.sum(axis=1)
+        order = np.argsort(dist, axis=1, kind="stable")
+        nearest = np.take_along_axis(dist, order[:, :extra], axis=1)
+        scale = np.maximum(nearest[np.arange(len(rr)), np.minimum(count, extra) - 1], 1e-300)
+        key = np.round(dist / scale[:, None] * 1e9)
+        order = np.lexsort((np.broadcast_to(tie_rank, dist.shape), key), axis=-1)
+        use = np.minimum(count, k)
+        for m in np.unique(use):
+            if m < MIN_FIT_POSTS:
+                continue  # a speck of terrain: nothing to fit, H stays 0
+            sel = np.flatnonzero(use == m)
+            taken = order[sel, :m]
+            pr = np.take_along_axis(nr[sel], taken, axis=1)
+            pc = np.take_along_axis(nc[sel], taken, axis=1)
+            cr, ccol = rr[sel], cc[sel]
+            allr = np.concatenate([cr, pr.ravel()])
+            allc = np.concatenate([ccol, pc.ravel()])
+            verts = np.column_stack([(allc + col0) * dx, -(allr + row0) * dy, z[allr, allc]])
+            nbr = len(sel) + np.arange(len(sel) * m).reshape(len(sel), m)
+            up = np.tile([0.0, 0.0, 1.0], (len(verts), 1))
+            H[cr, ccol] = fit(verts, up, np.arange(len(sel)), nbr, JET_DEGREE)
+    return H
+
+
+def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, dy: float,
+                   fast: bool = False) -> np.ndarray:
+    """H by a mesh estimator on the window's implicit triangulation (values at open posts unused)."""
+    from tankcd_cli.geometry.post_grid import grid_faces
+    from tankcd_cli.terrain.curvature.mean import OpenVertices, mean_curvature
+
+    south = z[::-1]  # the mesh layout numbers posts from the south row
+    valid = np.isfinite(south)
+    vertex = np.full(south.shape, -1, dtype=np.int64)
+    vertex[valid] = np.arange(int(valid.sum()))
+    rows = z.shape[0]
+    s_idx, c_idx = np.nonzero(valid)
+    # x, y from whole-grid indices (north row r = rows - 1 - s), so the result does not depend on the window
+    verts = np.column_stack([(c_idx + col0) * dx, -((rows - 1 - s_idx) + row0) * dy, south[valid]])
+    faces = grid_faces(vertex[::-1])
+    H = np.zeros(z.shape)
+    if len(faces) == 0:
+        return H
+    n = len(verts)
+    none = np.zeros(n, dtype=bool)
+    h = mean_curvature(verts, faces, method, open_verts=OpenVertices(none, none, None), fast=fast)
+    out = np.zeros(south.shape)
+    out[valid] = h
+    return out[::-1]
+
+
+def window_fields(z: np.ndarray, row0: int, col0: int, grid: PostGrid, st: Stencils, method: str,
+                  band: tuple[int, int] = (0, 0), fast: bool = False):
+    """H, post area and footprint-averaged |H| over a window (row0, col0: its first post in the
+    grid). Values are final only at least ``halo`` posts inside the window's edges (or at the
+    grid's own edges, where the window holds NaN beyond). ``band`` (rows, cols): the outer
+    posts whose H no final value reads (no fit is spent on them). ``fast``: the compiled twins."""
+    dx, dy = grid.dx, grid.dy
+    fd, areas, disk = _passes(fast)
+    valid = np.isfinite(z)
+    if method == "grid":
+        H = fd(z, dx, dy)
+    else:
+        H = _mesh_interior(z, method, row0, col0, dx, dy, fast)
+    edge = open_posts(valid, method)
+    H = np.where(valid & ~edge, H, 0.0)
+    br, bc = band
+    if br or bc:
+        edge[:br] = False
+        edge[edge.shape[0] - br:] = False
+        edge[:, :bc] = False
+        edge[:, edge.shape[1] - bc:] = False
+    if edge.any():
+        H = np.where(edge, one_sided_fit(z, edge, row0, col0, dx, dy, st.fit, fast=fast), H)
+    H = np.where(np.isfinite(H), H, 0.0)
+    area = areas(z, dx, dy)
+    a_track = disk(area, st.disk_track)
+    ah_track = disk(area * H, st.disk_track)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h_track = np.where(a_track > 0, ah_track / a_track, 0.0)
+    a_foot = disk(area, st.disk_footprint)
+    ah_foot = disk(area * np.abs(h_track), st.disk_footprint)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        field = np.where(a_foot > 0, ah_foot / a_foot, np.abs(H))  # a post with no triangle: its own |H|
+    return np.where(valid, H, np.nan), area, np.where(valid, np.maximum(field, 0.0), np.nan)
+
+
+@dataclass
+class TileResult:
+    r0: int
+    c0: int
+    height: np.ndarray
+    mean: np.ndarray
+    footprint: np.ndarray
+    classes: np.ndarray
+    area_by_class: np.ndarray  # (3,) m^2
+    valid: int
+
+
+def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_origin: tuple[int, int],
+                  grid: PostGrid, st: Stencils, method: str, thresholds: Thresholds,
+                  fast: bool = False) -> TileResult:
+    """Fields and classes of the core rows r0..r1-1, cols c0..c1-1 from a window of heights
+    whose first post is window_origin (row, col) in the grid."""
+    r0, r1, c0, c1 = core
+    wr, wc = window_origin
+    # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read
+    band = (max(r0 - wr - st.reach_rows, 0), max(c0 - wc - st.reach_cols, 0))
+    H, area, field = window_fields(z_window, wr, wc, grid, st, method, band, fast)
+    sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
+    z, H, area, field = z_window[sl], H[sl], area[sl], field[sl]
+    valid = np.isfinite(z)
+    classes = np.where(valid, classify_values(np.nan_to_num(field), thresholds), NO_CLASS).astype(np.uint8)
+    by_class = np.bincount(classes[valid], weights=area[valid], minlength=3)[:3]
+    return TileResult(r0, c0, z, H, field, classes, by_class, int(valid.sum()))
+
+
+def tiles_of(grid: PostGrid, tile):
+    """Core windows (r0, r1, c0, c1) in row-major order; ``tile`` a side or (rows, cols)."""
+    th, tw = (tile, tile) if np.isscalar(tile) else tile
+    for r0 in range(0, grid.rows, th):
+        for c0 in range(0, grid.cols, tw):
+            yield r0, min(r0 + th, grid.rows), c0, min(c0 + tw, grid.cols)
+
+
+def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: PostGrid, method: str,
+                        track_length: float, thresholds: Thresholds, tile=DEFAULT_TILE, jobs: int = 1,
+                        on_tile: Callable[[TileResult], None] | None = None,
+                        progress: Callable[[int, int, int], None] | None = None) -> None:
+    """Classify every tile and hand each result to ``on_tile`` in row-major order.
+
+    read(r0, r1, c0, c1) : heights (float64, NaN NODATA and beyond the grid) of a window
+    tile : posts per tile side, or (rows, cols)
+    jobs : worker threads (numpy releases the GIL in the array work)
+    progress(tiles_done, tiles_total, posts_done)
+    """
+    if method not in GRID_METHODS:
+        raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(GRID_METHODS)}")
+    st = stencils(grid, track_length)
+    cores = list(tiles_of(grid, tile))
+    fast = use_compiled(grid)
+
+    def work(core, z, origin):
+        return classify_tile(z, core, origin, grid, st, method, thresholds, fast)
+
+    def fetch(core):
+        r0, r1, c0, c1 = core
+        wr, wc = r0 - st.halo_rows, c0 - st.halo_cols
+        z = read(wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
+        return z, (wr, wc)
+
+    count = {"tiles": 0, "posts": 0}
+
+    def deliver(result):
+        count["tiles"] += 1
+        count["posts"] += result.height.size
+        if on_tile:
+            on_tile(result)
+        if progress:
+            progress(count["tiles"], len(cores), count["posts"])
+
+    if jobs <= 1:
+        for core in cores:
+            deliver(work(core, *fetch(core)))
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        pending = []
+        for core in cores:
+            pending.append(pool.submit(work, core, *fetch(core)))
+            if len(pending) >= 2 * jobs:  # bounded: at most 2 x jobs windows in memory
+                deliver(pending.pop(0).result())
+        for fut in pending:
+            deliver(fut.result())

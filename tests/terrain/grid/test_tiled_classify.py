@@ -1,0 +1,147 @@
+"""The tiled classification of a DEM: tiles give the whole raster's bits, curvature against closed
+forms, the mesh estimators and classes against the mesh layout, the compiled passes against numpy."""
+
+import numpy as np
+import pytest
+
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.terrain import synthetic
+from tankcd_cli.terrain.grid import tiled_classify as gc
+from tankcd_cli.terrain.mesh.classify import classify_mesh
+from tests.terrain.grid.dems import T72, THRESHOLDS, classify_arrays, dem_as_mesh, rough_dem
+
+
+# --- no seams ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("tile", [5, 16, (1, 97), (37, 1000), 64])
+@pytest.mark.parametrize("method", ["grid", "cotan"])
+def test_tiled_equals_whole_raster(tile, method):
+    """Tiles smaller than the halo, tiles of one row, a DEM no multiple of the tile: bit for bit."""
+    z = rough_dem(61, 97, seed=1)
+    whole = classify_arrays(z, method, tile=10_000)
+    tiled = classify_arrays(z, method, tile=tile, jobs=2)
+    for k in whole:
+        np.testing.assert_array_equal(tiled[k], whole[k], err_msg=k)
+    assert (whole["classes"][np.isnan(z)] == 255).all() and np.isnan(whole["mean"][np.isnan(z)]).all()
+    assert np.isfinite(whole["mean"][np.isfinite(z)]).all()
+
+
+@pytest.mark.parametrize("method", ["jet", "sphere"])
+def test_tiled_equals_whole_raster_mesh_estimators(method):
+    z = rough_dem(40, 45, seed=2)
+    np.testing.assert_array_equal(classify_arrays(z, method, tile=13)["mean"],
+                                  classify_arrays(z, method, tile=1000)["mean"])
+
+
+def test_crop_interior_equals_whole():
+    """A crop's posts farther than the halo from the cut equal the whole DEM's."""
+    z = rough_dem(90, 110, seed=3)
+    st = gc.stencils(PostGrid(90, 110), T72.track_length)
+    whole = classify_arrays(z)
+    r0, r1, c0, c1 = 20, 75, 30, 100
+    crop = classify_arrays(z[r0:r1, c0:c1].copy(), tile=17)
+    h, w = st.halo_rows, st.halo_cols
+    inner = np.s_[h:r1 - r0 - h, w:c1 - c0 - w]
+    for k in whole:
+        np.testing.assert_array_equal(crop[k][inner], whole[k][r0:r1, c0:c1][inner], err_msg=k)
+
+
+def test_anisotropic_posts_tiled_equals_whole():
+    z = rough_dem(50, 40, seed=4)
+    a = classify_arrays(z, tile=1000, dx=2.0, dy=0.75)
+    b = classify_arrays(z, tile=(7, 9), dx=2.0, dy=0.75)
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k])
+
+
+# --- against independent truths -----------------------------------------------------
+
+@pytest.mark.parametrize("field", [synthetic.sphere_cap(60.0), synthetic.gaussian_hill(3.0, 8.0), synthetic.saddle(0.02, 0.01),
+                                   synthetic.plane(0.3, -0.2)], ids=lambda f: f.name)
+def test_grid_curvature_converges_to_closed_form(field):
+    """Central differences are second order: halving the spacing quarters the interior error."""
+    errors = []
+    for h in (1.0, 0.5):
+        xs = np.arange(-20, 20 + h / 2, h)
+        x, y = np.meshgrid(xs, xs[::-1])  # row 0 north
+        z = field.f(x, y)
+        H = gc.grid_mean_curvature_fd(z, h, h)
+        truth = field.mean_curvature(x, y)
+        inner = (np.abs(x) < 15) & (np.abs(y) < 15)
+        errors.append(np.abs(H[inner] - truth[inner]).max())
+    if errors[0] < 1e-12:  # a plane: exact
+        assert errors[1] < 1e-12
+    else:
+        assert errors[1] < errors[0] / 3.5, errors
+
+
+def test_one_sided_fit_at_edges_is_accurate():
+    """Edge and corner posts of a sphere cap (the one-sided quartic) stay within 1 % of 1/R."""
+    field = synthetic.sphere_cap(80.0)
+    xs = np.arange(-15, 15.5, 1.0)
+    x, y = np.meshgrid(xs, xs[::-1])
+    out = classify_arrays(field.f(x, y))
+    truth = field.mean_curvature(x, y)
+    edge = np.zeros(x.shape, bool)
+    edge[[0, -1], :] = True
+    edge[:, [0, -1]] = True
+    assert np.abs(out["mean"][edge] / truth[edge] - 1).max() < 0.01
+
+
+def test_exactly_flat_is_zero_and_flat():
+    out = classify_arrays(np.full((30, 40), 250.0))
+    assert (out["mean"] == 0).all() and (out["classes"] == 0).all()
+
+
+# --- the grid path against the mesh layout --------------------------------------------
+
+@pytest.mark.parametrize("method", ["cotan", "sphere", "jet"])
+def test_mesh_estimators_equal_the_mesh_layout(method):
+    z = rough_dem(45, 52, seed=5)
+    raw = dem_as_mesh(z)
+    store = classify_mesh(raw, method=method)
+    Hm = np.full(z.shape, np.nan)
+    v = raw.grid.vertex  # row 0 north, as the grid's
+    Hm[v >= 0] = store.mean_curvature[v[v >= 0]]
+    Hg = classify_arrays(z, method, tile=11)["mean"]
+    scale = np.nanmax(np.abs(Hm))
+    np.testing.assert_allclose(Hg[v >= 0], Hm[v >= 0], rtol=0, atol=1e-12 * scale)
+
+
+def test_classes_close_to_the_mesh_layout():
+    """Both layouts average |H| over the same disks; the mesh layout on a raster of L/8 cells,
+    the grid at the posts themselves: the classes agree but for posts near a threshold."""
+    from tankcd_cli.terrain.regions import classify_values
+
+    z = rough_dem(150, 150, seed=10, holes=False) * 3
+    raw = dem_as_mesh(z)
+    store = classify_mesh(raw, method="cotan")
+    grid = classify_arrays(z, "cotan")
+    vm = np.full(z.shape, np.nan)
+    v = raw.grid.vertex
+    vm[v >= 0] = store.footprint_curvature[v[v >= 0]]
+    agree = grid["classes"] == classify_values(vm, THRESHOLDS)
+    assert agree.mean() > 0.97
+    near = np.minimum(np.abs(vm - THRESHOLDS.flat) / THRESHOLDS.flat, np.abs(vm - THRESHOLDS.uneven) / THRESHOLDS.uneven)
+    assert (near[~agree] < 0.25).all()
+
+
+# --- the store, read by window ---------------------------------------------------------
+
+
+# --- compiled twins ----------------------------------------------------------------------
+
+
+def test_the_compiled_passes_give_the_numpy_passes_result(monkeypatch):
+    z = rough_dem(64, 70, seed=14)
+    fast = classify_arrays(z, tile=20, jobs=2)
+    monkeypatch.setattr(gc, "FAST_MIN_POSTS", 10**12)
+    slow = classify_arrays(z, tile=20)
+    for key in slow:
+        if slow[key].dtype.kind == "f":
+            # the passes are bit for bit; the edge posts' quartic fits agree to rounding (compiled
+            # normal equations against numpy's), as in test_jet_compiled
+            scale = np.nanmax(np.abs(slow[key]))
+            np.testing.assert_allclose(fast[key], slow[key], rtol=1e-9, atol=1e-12 * scale)
+        else:
+            np.testing.assert_array_equal(fast[key], slow[key])
