@@ -33,10 +33,11 @@ Methods:
 - ``candidate_pairs``: the entry point, which picks one (its docstring gives the rule and the
   measurements behind it).
 
-Memory: candidates are generated and tested in blocks of at most ``block`` (default ``BLOCK``),
-so the working memory beyond a few arrays of M (or of the grid's entries) and the output stays
-bounded however many segments overlap on the sweep axis or share a cell. No per-segment Python
-loop: every step is a numpy operation over a block.
+Memory: candidates are generated and tested in blocks of at most ``block`` (default ``BLOCK``)
+and the grid builds its entries a slab of columns of cells at a time (about ``GRID_SLAB``), so
+the working memory is a few arrays of M (about 100-200 bytes a segment, the inputs' copies
+included) and the output, however many segments overlap on the sweep axis or share a cell. No
+per-segment Python loop: every step is a numpy operation over a block.
 """
 
 from __future__ import annotations
@@ -51,25 +52,32 @@ BLOCK = 1 << 18
 
 GRID_SCALE = (3.0, 2.0)
 """The grid's cells against the segments' typical size: side over the median horizontal extent,
-length over the median time span (``grid_cell_size``). Measured on the benchmark's exercises
-(benchmarks/results/broad_phase.md): sides of 2 to 6 and lengths of 1 to 3 are all within 30 %
-of the best time on both layouts, the spread one preferring large cells, the platoons small."""
+length over the median time span (``grid_cell_size``). On the benchmark's exercises
+(benchmarks/results/broad_phase.md, "The grid's cells") this is within 20 % of the best of the
+sizes tried on each, spread vehicles preferring larger cells (4-6 sides), platoons smaller
+(2-3); one time cell (a grid over x, y alone) is 2-9x slower."""
 
 MAX_CELLS = 64
 """A segment covering more grid cells than this is swept against the rest, not entered in the
 grid (a long segment of a vehicle that stood still between two rows, an outlier in size)."""
 
-BRUTE_FORCE_BELOW = 160
+BRUTE_FORCE_BELOW = 128
 """``candidate_pairs`` tests every pair below this many segments, where the other methods' fixed
 costs (sorts, a few dozen numpy calls) exceed the M (M - 1) / 2 tests."""
 
-SWEEP_CANDIDATES_PER_SEGMENT = 20.0
+SWEEP_CANDIDATES_PER_SEGMENT = 30.0
 """``candidate_pairs`` sweeps while the sweep tests at most this many candidates per segment (its
-cost grows with them: about 30 ns each) and uses the grid above (whose cost grows with its
-entries, two to four per segment, and the pairs sharing its cells)."""
+cost grows with them: 20-40 ns each) and uses the grid above (whose cost grows with its entries,
+two to four per segment, and the pairs sharing its cells: about 1-2.5 us a segment)."""
 
-ESTIMATE_SAMPLE = 8192
-"""Segments ``candidate_pairs`` counts projected overlaps on (every k-th): exact below it."""
+GRID_SLAB = 1 << 17
+"""Grid entries (segment, cell) built at a time: the grid is processed in slabs of columns of
+cells holding about this many (about 15 MB of working arrays); slabs of 2**16 to 2**30 entries
+ran within the noise of one another on the benchmark's exercises."""
+
+ESTIMATE_SAMPLE = 2048
+"""Segments ``candidate_pairs`` counts the sweep's candidates on (a uniform sample; all of them
+below this): about 1 ms, against 0.3 ms per 1,000 segments for the fastest method."""
 
 _EMPTY = np.empty((0, 2), dtype=np.int64)
 
@@ -145,19 +153,21 @@ def _key(i, j, m):
     return np.minimum(i, j) * m + np.maximum(i, j)
 
 
-def _ranges(first: np.ndarray, count: np.ndarray, block: int):
+def _ranges(first, count: np.ndarray, block: int):
     """Every (row, first[row] + k) with 0 <= k < count[row], in row order, as blocks of arrays
-    (rows, partners) of at most ``block`` entries; a row longer than a block spans several."""
+    (rows, partners) of at most ``block`` entries; a row longer than a block spans several.
+    ``first`` None means row + 1 (a row's partners are the rows after it)."""
     end = np.cumsum(count)
     total = int(end[-1]) if len(end) else 0
-    start = end - count
     for k0 in range(0, total, block):
         k1 = min(k0 + block, total)
         r0 = int(np.searchsorted(end, k0, side="right"))           # the row holding entry k0
         r1 = int(np.searchsorted(end, k1 - 1, side="right")) + 1   # past the row holding k1 - 1
-        n = np.minimum(end[r0:r1], k1) - np.maximum(start[r0:r1], k0)
+        start = end[r0:r1] - count[r0:r1]
+        n = np.minimum(end[r0:r1], k1) - np.maximum(start, k0)
         rows = np.repeat(np.arange(r0, r1), n)
-        yield rows, np.arange(k0, k1) - start[rows] + first[rows]
+        k = np.arange(k0, k1) - np.repeat(start, n)
+        yield rows, (k + rows + 1 if first is None else k + first[rows])
 
 
 def _overlap(L_a, H_a, L_b, H_b, p, q, axes):
@@ -226,12 +236,14 @@ def _projected_overlaps(L, H) -> np.ndarray:
 
 
 def _estimated_overlaps(L, H, sample: int = ESTIMATE_SAMPLE) -> np.ndarray:
-    """``_projected_overlaps`` exactly up to ``sample`` segments, else from every k-th segment,
-    scaled by k squared (each pair is in the sample with chance 1 / k**2)."""
-    k = -(-len(L) // sample)
-    if k <= 1:
+    """``_projected_overlaps`` exactly up to ``sample`` segments; above, on a uniform sample of
+    that many (a fixed seed: the same estimate every time) scaled by M (M - 1) / (s (s - 1)), the
+    inverse of the chance that both segments of a pair are in the sample."""
+    m = len(L)
+    if m <= sample:
         return _projected_overlaps(L, H).astype(np.float64)
-    return _projected_overlaps(L[::k], H[::k]).astype(np.float64) * float(k) ** 2
+    pick = np.sort(np.random.default_rng(0).choice(m, sample, replace=False))
+    return _projected_overlaps(L[pick], H[pick]).astype(np.float64) * (m * (m - 1.0) / (sample * (sample - 1.0)))
 
 
 def sort_and_sweep(lo, hi, t0, t1, owner, *, axis: int | str | None = None, block: int = BLOCK) -> np.ndarray:
@@ -272,11 +284,9 @@ def _sweep(L, H, own, ids, axis, others, block) -> list:
     cL = [np.ascontiguousarray(L[order, a]) for a in range(4)]
     cH = [np.ascontiguousarray(H[order, a]) for a in range(4)]
     c_own = own[order]
-    n = len(order)
-    first = np.arange(1, n + 1)
-    count = np.searchsorted(cL[axis], cH[axis], side="right") - first
+    count = np.searchsorted(cL[axis], cH[axis], side="right") - np.arange(1, len(order) + 1)
     keys = []
-    for p, q in _ranges(first, count, block):
+    for p, q in _ranges(None, count, block):
         ok = _overlap(cL, cH, cL, cH, p, q, others[:1])
         p, q = p[ok], q[ok]
         ok = c_own[p] != c_own[q]
@@ -339,13 +349,14 @@ def grid_cell_size(lo, hi, t0=None, t1=None, scale: tuple[float, float] = GRID_S
 
 
 def uniform_grid(lo, hi, t0, t1, owner, *, cell: float | None = None, time_cell: float | None = None,
-                 block: int = BLOCK, max_cells: int = MAX_CELLS) -> np.ndarray:
+                 block: int = BLOCK, max_cells: int = MAX_CELLS, slab: int = GRID_SLAB) -> np.ndarray:
     """Candidate pairs through a uniform grid over x, y and time.
 
     lo, hi : (M, 3) float, m; t0, t1 : (M,) float, s; owner : (M,) int
     cell : the cells' side in x and y, m; time_cell : their length in time, s (inf: one time
         cell, a grid over x, y alone); by default ``grid_cell_size``'s
     max_cells : a segment covering more cells than this is swept against the others instead
+    slab : about how many (segment, cell) entries are built at a time (columns of cells at a time)
     Returns (P, 2) int64 candidate pairs (see the module's docstring).
 
     Time is a dimension of the grid because one place holds many segments at different times (a
@@ -366,63 +377,54 @@ def uniform_grid(lo, hi, t0, t1, owner, *, cell: float | None = None, time_cell:
         side, length = grid_cell_size(L[:, :3], H[:, :3], L[:, 3], H[:, 3])
         cell = side if cell is None else cell
         time_cell = length if time_cell is None else time_cell
-    return _pairs(_grid(L, H, own, float(cell), float(time_cell), block, int(max_cells)), len(L))
+    return _pairs(_grid(L, H, own, float(cell), float(time_cell), block, int(max_cells), _check_block(slab)), len(L))
 
 
-def _grid(L, H, own, cell, time_cell, block, max_cells) -> list:
+def _grid(L, H, own, cell, time_cell, block, max_cells, slab=GRID_SLAB) -> list:
     m = len(L)
     sizes = np.array([cell, cell, time_cell])
     if not (sizes > 0).all():          # NaN fails too
         raise ValueError(f"cell and time_cell must be positive, got {cell!r} and {time_cell!r}")
     dims = [0, 1, 3]
     origin = L[:, dims].min(axis=0)
-    c_lo = np.floor((L[:, dims] - origin) / sizes).astype(np.int64)
-    c_hi = np.floor((H[:, dims] - origin) / sizes).astype(np.int64)
-    span = c_hi - c_lo + 1
-    ncell = span.prod(axis=1)
-    large = ncell > max_cells
+    # cell indices in 32 bits (grid_cell_size's cells make at most 2**20 + 1 an axis), keys in 64
+    top = np.floor((H[:, dims].max(axis=0) - origin) / sizes)
+    if (top >= 2**30).any() or float(np.prod(top + 1)) >= 2.0**62:
+        raise ValueError(f"cells of {cell!r} m and {time_cell!r} s are too small for the segments' spread")
+    c_lo = np.floor((L[:, dims] - origin) / sizes).astype(np.int32)
+    c_hi = np.floor((H[:, dims] - origin) / sizes).astype(np.int32)
+    extent = top.astype(np.int64) + 1
+    c_hi -= c_lo
+    span = c_hi
+    span += 1
+    del c_hi
+    large = span.prod(axis=1, dtype=np.int64) > max_cells
     # a cell's key: its three indices in mixed radix over the grid's extent
-    extent = c_hi.max(axis=0) + 1
     stride = np.array([extent[1] * extent[2], extent[2], 1], dtype=np.int64)
     keys = []
 
-    # the grid's entries: (cell key, segment) for every cell a small segment covers, sorted by
-    # cell and, within a cell, by segment (a stable sort; the segments enter in index order)
+    # slabs of whole columns of cells (one x index each) holding about ``slab`` entries each, so
+    # the entries' memory stays bounded; a cell lies in one slab, so a pair's cell of record too
     small = np.flatnonzero(~large)
-    if len(small) > 1:
-        n = ncell[small]
-        seg = np.repeat(small, n)
-        rest = np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n)
-        key = np.zeros(len(seg), dtype=np.int64)
-        for d in (2, 1, 0):
-            w = span[seg, d]
-            key += (c_lo[seg, d] + rest % w) * stride[d]
-            rest //= w
-        del rest, w
-        order = np.argsort(key, kind="stable")
-        key, seg = key[order], seg[order]
-        del order
-        # each entry's partners: the entries after it in its cell
-        start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-        length = np.diff(np.r_[start, len(key)])
-        first = np.arange(1, len(key) + 1)
-        count = np.repeat(start + length, length) - first
-        # the entries' own copies of what the test reads: a candidate's two entries lie in one
-        # cell, next to each other, so its reads stay local
-        e_own = own[seg]
-        eL = [L[seg, a] for a in range(4)]
-        eH = [H[seg, a] for a in range(4)]
-        for p, q in _ranges(first, count, block):
-            ok = e_own[p] != e_own[q]
-            ok &= _overlap(eL, eH, eL, eH, p, q, (0, 1, 3, 2))
-            p, q = p[ok], q[ok]
-            i, j = seg[p], seg[q]              # i < j: a cell holds a segment once, in index order
-            # the pair's cell of record: the one holding its intersection's lower corner
-            ref = np.maximum(c_lo[i, 0], c_lo[j, 0]) * stride[0]
-            ref += np.maximum(c_lo[i, 1], c_lo[j, 1]) * stride[1]
-            ref += np.maximum(c_lo[i, 2], c_lo[j, 2])
-            here = ref == key[p]
-            keys.append(i[here] * m + j[here])
+    small = small[np.argsort(c_lo[small, 0], kind="stable")]
+    per_column = span[small, 1] * span[small, 2]            # entries a segment puts in each column
+    column = np.zeros(extent[0] + 1, dtype=np.int64)
+    np.add.at(column, c_lo[small, 0], per_column)
+    np.add.at(column, c_lo[small, 0] + span[small, 0], -per_column)
+    entries = np.cumsum(np.cumsum(column)[:-1])             # entries in columns 0 .. x, cumulated
+    cuts = np.unique(np.searchsorted(entries, np.arange(slab, int(entries[-1]) if len(entries) else 0, slab)))
+    bounds = np.r_[0, cuts + 1, extent[0]] if len(cuts) else np.array([0, extent[0]])
+    bounds = np.unique(np.minimum(bounds, extent[0]))
+    starts_x = c_lo[small, 0]
+    for x0, x1 in zip(bounds[:-1], bounds[1:]):
+        # the segments covering columns x0 .. x1 - 1: a small one starts at most max_cells - 1
+        # columns before x0
+        a = np.searchsorted(starts_x, x0 - max_cells, side="left")
+        b = np.searchsorted(starts_x, x1, side="left")
+        ids = small[a:b]
+        ids = ids[c_lo[ids, 0] + span[ids, 0] > x0]
+        if len(ids) > 1:
+            keys += _grid_slab(L, H, own, ids, c_lo, span, stride, x0, x1, block, m)
 
     big = np.flatnonzero(large)
     if len(big):
@@ -430,7 +432,50 @@ def _grid(L, H, own, cell, time_cell, block, max_cells) -> list:
         axis = int(np.argmin(counts))
         others = _others(axis, counts)
         keys += _sweep(L, H, own, big, axis, others, block)
-        keys += _sweep_between(L, H, own, big, small, axis, others, block)
+        keys += _sweep_between(L, H, own, big, np.flatnonzero(~large), axis, others, block)
+    return keys
+
+
+def _grid_slab(L, H, own, ids, c_lo, span, stride, x0, x1, block, m) -> list:
+    """Pair keys from the cells of columns x0 .. x1 - 1 that segments ``ids`` cover."""
+    keys = []
+    first_x = np.maximum(c_lo[ids, 0], x0).astype(np.int64)
+    width = np.minimum(c_lo[ids, 0] + span[ids, 0], x1) - first_x
+    n = width * span[ids, 1] * span[ids, 2]
+    # the slab's entries: (cell key, segment) for every cell of the slab a segment covers,
+    # sorted by cell
+    seg = np.repeat(ids, n)
+    rest = np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n)
+    key = np.zeros(len(seg), dtype=np.int64)
+    for d, low, w in ((2, c_lo[seg, 2], span[seg, 2]), (1, c_lo[seg, 1], span[seg, 1]),
+                      (0, np.repeat(first_x, n), np.repeat(width, n))):
+        key += (low + rest % w) * stride[d]          # int64: rest is
+        rest //= w
+    del rest, low, w
+    order = np.argsort(key, kind="stable")
+    key, seg = key[order], seg[order]
+    del order
+    # each entry's partners: the entries after it in its cell
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    length = np.diff(np.r_[start, len(key)])
+    count = np.repeat(start + length, length) - np.arange(1, len(key) + 1)
+    del start, length
+    # the entries' own copies of what the test reads: a candidate's two entries lie in one cell,
+    # next to each other, so its reads stay local
+    e_own = own[seg]
+    eL = [L[seg, a] for a in range(4)]
+    eH = [H[seg, a] for a in range(4)]
+    for p, q in _ranges(None, count, block):
+        ok = e_own[p] != e_own[q]
+        ok &= _overlap(eL, eH, eL, eH, p, q, (0, 1, 3, 2))
+        p, q = p[ok], q[ok]
+        i, j = seg[p], seg[q]
+        # the pair's cell of record: the one holding its intersection's lower corner
+        ref = np.maximum(c_lo[i, 0], c_lo[j, 0]) * stride[0]    # int64: stride is
+        ref += np.maximum(c_lo[i, 1], c_lo[j, 1]) * stride[1]
+        ref += np.maximum(c_lo[i, 2], c_lo[j, 2])
+        here = ref == key[p]
+        keys.append(_key(i[here], j[here], m))
     return keys
 
 
@@ -446,18 +491,21 @@ def candidate_pairs(lo, hi, t0, t1, owner, *, method: str = "auto", block: int =
     Returns (P, 2) int64 segment indices, i < j, each pair once, sorted lexicographically; the
     same array whichever method runs.
 
-    ``auto``, from benchmarks/results/broad_phase.md (exercises of vehicles driving for 10 s at
-    10 Hz, spread over 10 km x 10 km or crowded in platoons):
+    ``auto``, from benchmarks/results/broad_phase.md (vehicles driving for 10 s at 10 Hz, spread
+    over 10 km x 10 km or crowded in platoons in 1 km x 1 km; every method in the same run):
 
-    - fewer than ``BRUTE_FORCE_BELOW`` (160) segments: brute force (below about 150 segments all
-      three methods take 0.05-0.3 ms and brute force the least; at 200 the sweep is 1.5-2x
-      faster, at 1000 ten times);
-    - otherwise the sweep's candidates K on its best axis are counted (exactly up to 8192
-      segments, else on every k-th segment): the sweep while K <= 20 per segment, the grid above.
-      The sweep's time grows with K (about 30 ns each), the grid's with its entries and the pairs
-      sharing its cells; the two cross where the sweep tests 15 to 30 candidates per segment
-      (spread: about 2,000-5,000 segments; platoons: about 2,000), and at 100,000 segments the
-      grid is 4x (spread) to 20x (platoons) faster than the sweep.
+    - fewer than ``BRUTE_FORCE_BELOW`` (128) segments: brute force. All three take 0.05-0.6 ms
+      there; brute force is the fastest up to 50 segments, level with the sweep at 100, and 1.5-2x
+      slower than it from 160 (at 1,000 segments ten times slower, at 100,000 60-260x slower than
+      the sweep or the grid).
+    - otherwise the sweep's candidates K on its best axis are counted (exactly up to 2,048
+      segments, else estimated on a fixed uniform sample of 2,048, within 3 % on the benchmark):
+      the sweep while K <= ``SWEEP_CANDIDATES_PER_SEGMENT`` (30) per segment, the grid above.
+      The sweep's time follows K, the grid's its entries and the pairs sharing its cells; the
+      two cross at 15-40 candidates per segment on the spread exercises and at 30-150 in
+      platoons (runs on the shared machine move the crossover by that much, and a pick on the
+      wrong side of it costs at most about 2x); past it the grid pulls away: at 100,000
+      segments 4x (spread) to 8x (platoons) faster than the sweep, at 500,000 6x and 20x.
     """
     if method not in METHODS:
         raise ValueError(f"unknown broad-phase method {method!r}: use one of {', '.join(METHODS)}")

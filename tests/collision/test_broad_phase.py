@@ -33,6 +33,7 @@ VARIANTS = {
     "grid": uniform_grid,
     "grid over x, y alone": lambda *a: uniform_grid(*a, time_cell=np.inf),
     "grid, blocks of 61": lambda *a: uniform_grid(*a, block=61),
+    "grid, slabs of 40 entries": lambda *a: uniform_grid(*a, slab=40),
     "grid, fine cells": lambda *a: uniform_grid(*a, cell=0.37, time_cell=0.05),
     "grid, few cells per segment": lambda *a: uniform_grid(*a, max_cells=3, block=101),
     "grid, every segment swept": lambda *a: uniform_grid(*a, max_cells=0),
@@ -140,6 +141,7 @@ def test_blocks_of_one_candidate(seed):
         for block in (1, 2, 5):
             assert_pairs(fn(*seg, block=block), truth.tolist())
     assert_pairs(uniform_grid(*seg, block=1, max_cells=2), truth.tolist())
+    assert_pairs(uniform_grid(*seg, block=3, slab=1), truth.tolist())
 
 
 # --- random and clustered -----------------------------------------------------------------------
@@ -382,6 +384,22 @@ def test_memory_stays_bounded_when_everything_overlaps_on_the_sweep_axis():
     assert peak < 12e6, f"peak {peak / 1e6:.1f} MB for 8 million candidates in blocks of 65536"
 
 
+def test_the_grids_memory_follows_the_segments_not_its_entries():
+    # built a slab of columns at a time, the grid's working memory is a small multiple of the
+    # inputs (88 bytes a segment) whatever the number of its entries
+    rng = np.random.default_rng(1)
+    seg = exercise(400, 50, rng, spread=300.0)
+    m = len(seg[0])
+    tracemalloc.start()
+    try:
+        got = uniform_grid(*seg, slab=1 << 12, block=1 << 12)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert len(got) > 1000
+    assert peak < 250 * m, f"peak {peak / m:.0f} bytes a segment"
+
+
 def test_projected_overlaps_counts_the_sweeps_candidates():
     rng = np.random.default_rng(4)
     lo, hi, t0, t1, _ = random_segments(rng, 200, snap=1.0)
@@ -452,6 +470,8 @@ def test_unknown_method_and_axis():
         sort_and_sweep(*seg, axis="w")
     with pytest.raises(ValueError, match="positive"):
         uniform_grid(*seg, cell=0.0)
+    with pytest.raises(ValueError, match="too small"):
+        uniform_grid(*seg, cell=1e-12)
 
 
 @pytest.mark.parametrize("fn", list(VARIANTS.values()), ids=list(VARIANTS))
