@@ -53,9 +53,9 @@ BLOCK = 1 << 18
 GRID_SCALE = (3.0, 2.0)
 """The grid's cells against the segments' typical size: side over the median horizontal extent,
 length over the median time span (``grid_cell_size``). On the benchmark's exercises
-(benchmarks/results/broad_phase.md, "The grid's cells") this is within 20 % of the best of the
-sizes tried on each, spread vehicles preferring larger cells (4-6 sides), platoons smaller
-(2-3); one time cell (a grid over x, y alone) is 2-9x slower."""
+(benchmarks/results/broad_phase.md, "The grid's cells") the best size tried moves with the
+exercise and the run (sides of 2-6, lengths of 1-2), and this one stays within 20 % of it on
+each; one time cell (a grid over x, y alone) is 2-8x slower."""
 
 MAX_CELLS = 64
 """A segment covering more grid cells than this is swept against the rest, not entered in the
@@ -67,8 +67,8 @@ costs (sorts, a few dozen numpy calls) exceed the M (M - 1) / 2 tests."""
 
 SWEEP_CANDIDATES_PER_SEGMENT = 30.0
 """``candidate_pairs`` sweeps while the sweep tests at most this many candidates per segment (its
-cost grows with them: 20-40 ns each) and uses the grid above (whose cost grows with its entries,
-two to four per segment, and the pairs sharing its cells: about 1-2.5 us a segment)."""
+cost grows with them: 10-30 ns each) and uses the grid above (whose cost grows with its entries,
+two to four per segment, and the pairs sharing its cells: 0.6-2 us a segment)."""
 
 GRID_SLAB = 1 << 17
 """Grid entries (segment, cell) built at a time: the grid is processed in slabs of columns of
@@ -494,18 +494,19 @@ def candidate_pairs(lo, hi, t0, t1, owner, *, method: str = "auto", block: int =
     ``auto``, from benchmarks/results/broad_phase.md (vehicles driving for 10 s at 10 Hz, spread
     over 10 km x 10 km or crowded in platoons in 1 km x 1 km; every method in the same run):
 
-    - fewer than ``BRUTE_FORCE_BELOW`` (128) segments: brute force. All three take 0.05-0.6 ms
-      there; brute force is the fastest up to 50 segments, level with the sweep at 100, and 1.5-2x
-      slower than it from 160 (at 1,000 segments ten times slower, at 100,000 60-260x slower than
-      the sweep or the grid).
+    - fewer than ``BRUTE_FORCE_BELOW`` (128) segments: brute force. All three take 0.04-0.5 ms
+      there; brute force is the fastest up to 50 segments, within 0.03 ms of the sweep at 100,
+      and from 160 on 1.8x slower than it or more (at 1,000 segments 10x; at 100,000 24-58x
+      slower than the sweep and 190-220x slower than the grid).
     - otherwise the sweep's candidates K on its best axis are counted (exactly up to 2,048
-      segments, else estimated on a fixed uniform sample of 2,048, within 3 % on the benchmark):
-      the sweep while K <= ``SWEEP_CANDIDATES_PER_SEGMENT`` (30) per segment, the grid above.
-      The sweep's time follows K, the grid's its entries and the pairs sharing its cells; the
-      two cross at 15-40 candidates per segment on the spread exercises and at 30-150 in
-      platoons (runs on the shared machine move the crossover by that much, and a pick on the
-      wrong side of it costs at most about 2x); past it the grid pulls away: at 100,000
-      segments 4x (spread) to 8x (platoons) faster than the sweep, at 500,000 6x and 20x.
+      segments, else estimated on a fixed uniform sample of 2,048: within 3 % on the benchmark)
+      and the sweep runs while K <= ``SWEEP_CANDIDATES_PER_SEGMENT`` (30) per segment, the grid
+      above. The sweep's time follows K, the grid's its entries and the pairs sharing its cells;
+      on the benchmark they cross between 5,000 and 10,000 segments, at 22-25 candidates per
+      segment spread over 10 km and at 74-150 in platoons (the crowded grid costs more per
+      segment); the rule's picks there cost at most 1.4x against the faster of the two, and past
+      the crossover the grid pulls away: at 100,000 segments 3.9x (spread) and 7.9x (platoons)
+      faster than the sweep, at 500,000 5.3x and 14x.
     """
     if method not in METHODS:
         raise ValueError(f"unknown broad-phase method {method!r}: use one of {', '.join(METHODS)}")
