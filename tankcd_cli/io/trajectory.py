@@ -215,9 +215,7 @@ class TrajectoryReader:
             self.geographic = lay.geographic
             self.columns = tuple(lay.header)
             if lay.geographic and self.convert:
-                from tankcd_cli.io.geodesy import _crs
-
-                _crs(self.crs or "", name)  # no CRS, or one pyproj cannot read: refused before any row
+                _check_crs(self.crs, name)
             part = self.part
             if part is not None:
                 first_row_time(fh, lay)
@@ -301,14 +299,14 @@ class TrajectoryReader:
         return chunk, error
 
     @staticmethod
-    def _order_error(name, has_entity, names, order, code, t, line, what="line", unit="t"):
+    def _order_error(name, has_entity, names, order, code, t, line):
         prev = float(order.last_t[code])
         if not has_entity:
             return InputError(name, f"time goes back ({float(t)!r} after {prev!r}); t must be non-decreasing",
-                              where=f"{what} {line} column t" if what == "line" else f"{what} {line}")
+                              where=f"line {line} column t")
         return InputError(name, f"entity {names.list[code]!r}: time goes back ({float(t)!r} after {prev!r} on "
-                                f"{what} {int(order.last_line[code])}); each entity's t must be non-decreasing",
-                          where=f"{what} {line}")
+                                f"line {int(order.last_line[code])}); each entity's t must be non-decreasing",
+                          where=f"line {line}")
 
     # -- GPX ---------------------------------------------------------------------------------------------
     def _gpx(self) -> Iterator[TrajectoryChunk]:
@@ -317,9 +315,7 @@ class TrajectoryReader:
         if self.path == "-":
             raise InputError("<stdin>", "a GPX file is read from a file, not from standard input")
         if self.convert:
-            from tankcd_cli.io.geodesy import _crs
-
-            _crs(self.crs or "", self.path)
+            _check_crs(self.crs, self.path)
         g = read_gpx(self.path)
         self.start = g.start
         names = _Names(_track_names(g.track_names))
@@ -361,9 +357,7 @@ class TrajectoryReader:
         if self.path == "-":
             raise InputError("<stdin>", "a capture is read from a file, not from standard input")
         if self.convert:
-            from tankcd_cli.io.geodesy import _crs
-
-            _crs(self.crs or "", self.path)
+            _check_crs(self.crs, self.path)
         cap = DisCapture(self.path, block_pdus=self.chunk_rows)
         self.counts = cap.counts
         state = _CaptureState()
@@ -527,6 +521,14 @@ def _track_names(raw: list) -> list:
         taken.add(got)
         names.append(got)
     return names
+
+
+def _check_crs(crs: str | None, source: str) -> None:
+    """Refuse (InputError naming ``source``) a terrain without a CRS, or with one pyproj cannot read or that is
+    not projected, before any row is read."""
+    from tankcd_cli.io.geodesy import project
+
+    project(np.zeros(0), np.zeros(0), crs or "", source=source)
 
 
 def _geographic(lon, lat, heading_deg, compass: bool, crs: str, source: str):
