@@ -10,12 +10,17 @@ name the bad line and column.
 ``parse_table(buf, rows, width, pow10)`` (in ``_csv_kernels.pyx``): ``rows`` lines of
 ``width`` comma-separated decimals from ``buf`` (uint8 text) with ``pow10 = POW10``;
 returns ((rows, width) float64 values, ok).
+
+The trajectory reader's kernels (``io.trajectory`` and ``io.trajectory_csv`` document them):
+``parse_rows`` (rows of a chunk of bytes: numbers, ISO times, the text column's spans),
+``Interner`` (entity ids to codes in order of first appearance), ``entity_order`` (each entity's
+time order) and ``carry`` (a value carried forward per entity).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from tankcd_cli.io._csv_kernels import parse_table  # noqa: F401
+from tankcd_cli.io._csv_kernels import Interner, carry, entity_order, parse_rows, parse_table  # noqa: F401
 
 POW10 = np.array([10.0 ** k for k in range(23)])

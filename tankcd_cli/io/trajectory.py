@@ -1,14 +1,26 @@
-"""Trajectory CSV (docs/formats.md; the input of ``replay``), read in chunks and validated strictly.
+"""Trajectories in (docs/formats.md, "Trajectory CSV" and "Recorded and geographic trajectories"): one
+reader for every input a user holds, as chunks a replay streams.
 
-Header row required, column order free, extra columns ignored. Required:
-``t`` (s, non-decreasing), ``x``, ``y`` (m), ``yaw_deg``; optional
-``turret_deg``, ``gun_deg`` (0 when absent). Every bad row is exit 3 naming
-the line and the column.
+``read_trajectory(path, chunk_rows, part, crs, fmt)`` reads, chosen by suffix or ``fmt``:
+
+- ``csv``: the trajectory CSV (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``,
+  ``entity``), also as logs are kept (comment lines before the header, header names in any case,
+  ``;`` or tab as separator, ISO 8601 times), and in geographic coordinates (``lon``, ``lat``,
+  ``heading_deg`` or ``yaw_deg``: converted to the terrain's CRS); see ``trajectory_csv``;
+- ``gpx``: GPX tracks (each track an entity, each segment a piece of motion);
+- ``pcap``, ``pcapng``: DIS captures (each ``site:application:entity`` an entity).
+
+Every chunk is a :class:`TrajectoryChunk`: rows in the input's order, positions and headings in
+the terrain's CRS, each row's entity as a code into the names seen so far, and where each
+entity's pieces of motion start. Every bad row or record is an :class:`InputError` naming the
+file and the line (or point, or packet); the rows before it have been yielded.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
+from datetime import datetime, timedelta, timezone
 from typing import Iterator
 
 import numpy as np
@@ -18,12 +30,33 @@ from tankcd_cli.io.files import open_input
 
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
+FORMATS = ("csv", "gpx", "pcap", "pcapng")
+EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
+REORDER_WINDOW = 1.0  # s: a capture's packets this much out of time order are put back in order
+_EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
 
 
 @dataclass(frozen=True)
 class TrajectoryChunk:
-    """Consecutive rows: step (row index from 0), first_line (file line of the first row), columns (N,),
-    line (N,) the file line of each row."""
+    """Consecutive rows of a trajectory, N of them, in the input's order.
+
+    step : (N,) int64 the row's index in the input (from 0; a part keeps the whole file's numbers)
+    first_line : the first row's ``line``
+    t : (N,) float64 s; x, y : (N,) float64 m in the terrain's CRS; yaw_deg : (N,) float64 from grid
+        east, counter-clockwise; turret_deg, gun_deg : (N,) float64 (0 where the input has none)
+    has_turret : the input gives turret or gun angles (a CSV's columns; a capture's articulated
+        parts, in any PDU up to this chunk's end)
+    line : (N,) int64 where each row is, for messages: what ``where`` says (a CSV's file line, a GPX
+        track point's ``<trkpt`` line, a capture's packet number from 1)
+    entity : (N,) int64 each row's entity, a code into ``entity_names``; 0 throughout (named after
+        the file's stem) for an input without entities
+    entity_names : every entity name seen up to this chunk's end; codes never change as it grows
+        (``entity_names[entity[i]]`` is row i's name)
+    piece_start : (N,) bool the row starts a piece of motion of its entity: no motion from that
+        entity's previous row to it (the entity's first row, a GPX segment's first point)
+    has_entity : the input names its entities (an entity column, GPX tracks, DIS entity ids)
+    where : "line" or "packet"
+    """
 
     step: np.ndarray
     first_line: int
@@ -35,9 +68,18 @@ class TrajectoryChunk:
     gun_deg: np.ndarray
     has_turret: bool
     line: np.ndarray = None
+    entity: np.ndarray = None
+    entity_names: tuple = ()
+    piece_start: np.ndarray = None
+    has_entity: bool = False
+    where: str = "line"
 
     def __len__(self) -> int:
         return len(self.t)
+
+    def names(self) -> np.ndarray:
+        """(N,) str: each row's entity name."""
+        return np.asarray(self.entity_names, dtype=str)[self.entity] if len(self) else np.zeros(0, str)
 
 
 @dataclass(frozen=True)
@@ -52,22 +94,492 @@ class TrajectoryPart:
     rows: int
 
 
-def lead_row(path: str, part: TrajectoryPart) -> TrajectoryChunk | None:
-    """The data row just before ``part`` (one row, with its step and line), or None for a part that
-    starts the file: the row a part's first interval of motion starts from."""
-    import io
+class _Names:
+    """Entity names in code order, each code fixed once given."""
 
+    def __init__(self, names=()):
+        self.list: list = []
+        self.index: dict = {}
+        self._tuple: tuple = ()
+        for name in names:
+            self.add(name)
+
+    def add(self, name: str) -> int:
+        code = self.index.get(name)
+        if code is None:
+            code = self.index[name] = len(self.list)
+            self.list.append(name)
+        return code
+
+    def tuple(self) -> tuple:
+        if len(self._tuple) != len(self.list):
+            self._tuple = tuple(self.list)
+        return self._tuple
+
+
+class _Order:
+    """Each entity's time never going back, across chunks (the compiled check's state by code)."""
+
+    def __init__(self):
+        self.last_t = np.full(16, np.nan)
+        self.last_line = np.zeros(16, np.int64)
+        self.seen = np.zeros(16, np.uint8)
+
+    def check(self, codes, t, lines, ncodes: int):
+        """(piece_start (n,) bool, first row whose time goes back or -1)."""
+        from tankcd_cli.io.csv_kernels import entity_order
+
+        if ncodes > len(self.seen):
+            grow = max(ncodes, 2 * len(self.seen)) - len(self.seen)
+            self.last_t = np.r_[self.last_t, np.full(grow, np.nan)]
+            self.last_line = np.r_[self.last_line, np.zeros(grow, np.int64)]
+            self.seen = np.r_[self.seen, np.zeros(grow, np.uint8)]
+        piece = np.empty(len(codes), np.uint8)
+        bad = entity_order(np.ascontiguousarray(codes, dtype=np.int64), np.ascontiguousarray(t, dtype=np.float64),
+                           np.ascontiguousarray(lines, dtype=np.int64), self.last_t, self.last_line, self.seen, piece)
+        return piece.view(bool), bad
+
+
+def trajectory_format(path: str, fmt: str | None = None) -> str:
+    """``csv``, ``gpx``, ``pcap`` or ``pcapng``: ``fmt`` if given, else by the file's suffix (a CSV otherwise)."""
+    if fmt is not None:
+        fmt = fmt.lower()
+        if fmt not in FORMATS:
+            raise ValueError(f"unknown trajectory format {fmt!r} (one of {', '.join(FORMATS)})")
+        return fmt
+    ext = os.path.splitext(path)[1].lower()
+    return {".gpx": "gpx", ".pcap": "pcap", ".pcapng": "pcapng"}.get(ext, "csv")
+
+
+class TrajectoryReader:
+    """The chunks of one trajectory input, an iterator (``read_trajectory`` makes one). Nothing is
+    read before the first ``next``; what it learns is kept here as it goes:
+
+    format : ``csv``, ``gpx``, ``pcap`` or ``pcapng`` (as chosen; a capture's own is in ``counts``)
+    where : what a chunk's ``line`` counts ("line" or "packet")
+    entity_names : the names seen so far (as the last chunk's)
+    geographic : a CSV in lon, lat (None before the header is read; True for GPX and captures)
+    start : the instant ``t`` counts from where the input has one (ISO times, GPX, a capture), UTC
+    skipped : what was passed over, by name (a capture's packets and PDUs that are no Entity State,
+        a CSV's comment and blank lines); complete once the chunks are exhausted
+    counts : a capture's :class:`~tankcd_cli.io.dis.CaptureCounts` (None for other inputs)
+    columns : a CSV header's names as written (empty for other formats)
+    """
+
+    def __init__(self, path: str, chunk_rows: int = 65536, part: TrajectoryPart | None = None,
+                 crs: str | None = None, fmt: str | None = None, convert: bool = True):
+        self.path = path
+        self.format = trajectory_format(path, fmt)
+        self.where = "packet" if self.format in ("pcap", "pcapng") else "line"
+        self.chunk_rows = max(1, int(chunk_rows))
+        self.part = part
+        self.crs = crs
+        self.convert = convert
+        self.entity_names: tuple = ()
+        self.geographic: bool | None = None if self.format == "csv" else True
+        self.start: datetime | None = None
+        self.skipped: dict = {}
+        self.counts = None
+        self.columns: tuple = ()
+        self._gen = None
+        if part is not None and self.format != "csv":
+            raise ValueError("only a trajectory CSV is read in parts")
+
+    def __iter__(self) -> "TrajectoryReader":
+        return self
+
+    def __next__(self) -> TrajectoryChunk:
+        if self._gen is None:
+            self._gen = {"csv": self._csv, "gpx": self._gpx}.get(self.format, self._capture)()
+        chunk = next(self._gen)
+        self.entity_names = chunk.entity_names
+        return chunk
+
+    def close(self) -> None:
+        if self._gen is not None:
+            self._gen.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- CSV ---------------------------------------------------------------------------------------------
+    def _csv(self) -> Iterator[TrajectoryChunk]:
+        from tankcd_cli.io.trajectory_csv import ByteSource, CsvRows, first_row_time, read_layout, stem_name
+
+        name, fh = open_input(self.path, text=False)
+        try:
+            lay = read_layout(fh, name)
+            self.geographic = lay.geographic
+            self.columns = tuple(lay.header)
+            if lay.geographic and self.convert:
+                _check_crs(self.crs, name)
+            part = self.part
+            if part is not None:
+                first_row_time(fh, lay)
+                fh.seek(part.start)
+                src = ByteSource(fh, limit=part.end - part.start)
+                rows = CsvRows(lay, src, self.chunk_rows, part.line_offset)
+                step = part.step_offset
+            else:
+                rows = CsvRows(lay, ByteSource(fh), self.chunk_rows, lay.header_line)
+                step = 0
+            names = _Names(() if lay.entity else (stem_name(self.path),))
+            order = _Order()
+            if not lay.entity and step > 0:
+                order.check(np.zeros(1, np.int64), np.array([-np.inf]), np.zeros(1, np.int64), 1)  # a row before
+            where_t = {c: j for j, c in enumerate(lay.columns)}
+            while True:
+                raw = rows.next_rows()
+                self._csv_skipped(lay)
+                if raw is None:
+                    return
+                if lay.iso and self.start is None:
+                    self.start = _EPOCH + timedelta(seconds=lay.t0[0], microseconds=lay.t0[1] // 1000)
+                if lay.entity:
+                    for nm in rows.names[len(names.list):]:
+                        names.add(nm)
+                chunk, error = self._csv_chunk(raw, lay, names, order, where_t, step)
+                if chunk is not None:
+                    step += len(chunk)
+                    yield chunk
+                if error is not None:
+                    raise error
+        finally:
+            if self.path != "-":
+                fh.close()
+
+    def _csv_skipped(self, lay) -> None:
+        self.skipped = {k: v for k, v in (("comment_lines", lay.comment_lines), ("blank_lines", lay.blank_lines)) if v}
+
+    def _csv_chunk(self, raw, lay, names: _Names, order: _Order, col: dict, step: int):
+        n, v = raw.n, raw.values
+        error = raw.error
+        t = v[0, :n]
+        a, b, h = v[1, :n], v[2, :n], v[3, :n]
+        lines = raw.line[:n]
+        codes = raw.codes[:n] if lay.entity else np.zeros(n, np.int64)
+        k = n
+        if lay.geographic:
+            bad = np.flatnonzero(~((np.abs(a) <= 180.0) & (np.abs(b) <= 90.0)))
+            if len(bad):
+                k = int(bad[0])
+                c, value, limit = ("lon", a[k], 180) if not abs(a[k]) <= 180 else ("lat", b[k], 90)
+                error = InputError(lay.name, f"{float(value)!r} is out of range (-{limit} to {limit} degrees)",
+                                   where=f"line {lines[k]} column {c}")
+        piece, bad = order.check(codes[:k], t[:k], lines[:k], len(names.list))
+        if bad >= 0:
+            error = self._order_error(lay.name, lay.entity, names, order, codes[bad], t[bad], lines[bad])
+            k = bad
+        x, y, yaw = a[:k], b[:k], h[:k]
+        if lay.geographic and self.convert and k:
+            x, y, yaw, bad = _geographic(a[:k], b[:k], h[:k], lay.heading == "heading_deg", self.crs, lay.name)
+            if bad >= 0:
+                k = bad
+                error = InputError(lay.name, f"lon {float(a[k])!r}, lat {float(b[k])!r} has no place in the terrain's "
+                                             "CRS (the projection cannot take it)", where=f"line {lines[k]}")
+                x, y, yaw = x[:k], y[:k], yaw[:k]
+        if k == 0:
+            return None, error
+        zeros = None
+
+        def optional(c):
+            nonlocal zeros
+            if c in col:
+                return v[col[c], :k]
+            if zeros is None:
+                zeros = np.zeros(k)
+            return zeros
+
+        chunk = TrajectoryChunk(np.arange(step, step + k), int(lines[0]), t[:k], x, y, yaw, optional("turret_deg"),
+                                optional("gun_deg"), lay.has_turret, lines[:k], codes[:k], names.tuple(), piece[:k],
+                                lay.entity, "line")
+        return chunk, error
+
+    @staticmethod
+    def _order_error(name, has_entity, names, order, code, t, line):
+        prev = float(order.last_t[code])
+        if not has_entity:
+            return InputError(name, f"time goes back ({float(t)!r} after {prev!r}); t must be non-decreasing",
+                              where=f"line {line} column t")
+        return InputError(name, f"entity {names.list[code]!r}: time goes back ({float(t)!r} after {prev!r} on "
+                                f"line {int(order.last_line[code])}); each entity's t must be non-decreasing",
+                          where=f"line {line}")
+
+    # -- GPX ---------------------------------------------------------------------------------------------
+    def _gpx(self) -> Iterator[TrajectoryChunk]:
+        from tankcd_cli.io.gpx import read_gpx
+
+        if self.path == "-":
+            raise InputError("<stdin>", "a GPX file is read from a file, not from standard input")
+        if self.convert:
+            _check_crs(self.crs, self.path)
+        g = read_gpx(self.path)
+        self.start = g.start
+        names = _Names(_track_names(g.track_names))
+        n = len(g)
+        codes = g.track.astype(np.int64)
+        piece_start = np.r_[True, g.piece[1:] != g.piece[:-1]]
+        order = _Order()
+        _, bad = order.check(codes, g.t, g.line, len(names.list))
+        heading = _fill_by_entity(g.heading, codes)
+        ends = n if bad < 0 else bad
+        for lo in range(0, ends, self.chunk_rows):
+            hi = min(lo + self.chunk_rows, ends)
+            if self.convert:
+                from tankcd_cli.io.geodesy import to_terrain_crs
+
+                x, y, yaw = to_terrain_crs(g.lon[lo:hi], g.lat[lo:hi], self.crs, heading=heading[lo:hi],
+                                           source=self.path)
+                yaw = np.degrees(yaw)
+                yaw[np.isnan(heading[lo:hi])] = 0.0  # a track that never moves: no heading to give
+            else:
+                x, y, yaw = g.lon[lo:hi], g.lat[lo:hi], np.degrees(heading[lo:hi])
+            top = int(codes[hi - 1]) + 1  # tracks come in file order: the names seen so far
+            zeros = np.zeros(hi - lo)
+            yield TrajectoryChunk(np.arange(lo, hi), int(g.line[lo]), g.t[lo:hi], x, y, yaw, zeros, zeros, False,
+                                  g.line[lo:hi], codes[lo:hi], tuple(names.list[:top]), piece_start[lo:hi], True,
+                                  "line")
+        if bad >= 0:
+            k = bad
+            prev = order.last_t[codes[k]]
+            raise InputError(self.path, f"track {names.list[codes[k]]!r}: time goes back ({float(g.t[k])!r} s after "
+                                        f"{float(prev)!r} s at line {int(order.last_line[codes[k]])}): a track's "
+                                        "segments must follow one another in time",
+                             where=f"trkpt {k + 1} (line {int(g.line[k])})")
+
+    # -- DIS captures --------------------------------------------------------------------------------------
+    def _capture(self) -> Iterator[TrajectoryChunk]:
+        from tankcd_cli.io.dis import DisCapture
+
+        if self.path == "-":
+            raise InputError("<stdin>", "a capture is read from a file, not from standard input")
+        if self.convert:
+            _check_crs(self.crs, self.path)
+        cap = DisCapture(self.path, block_pdus=self.chunk_rows)
+        self.counts = cap.counts
+        state = _CaptureState()
+        step = 0
+        for states in cap.blocks():
+            if self.start is None and cap._first_sec[0] >= 0:
+                self.start = _EPOCH + timedelta(seconds=int(cap._first_sec[0]), microseconds=round(
+                    float(cap._first_frac[0]) * 1e6))
+            self.skipped = cap.counts.skipped()
+            for chunk in state.take(self, states, step):
+                step += len(chunk)
+                yield chunk
+        self.counts = cap.counts
+        self.skipped = cap.counts.skipped()
+        for chunk in state.flush(self, step):
+            step += len(chunk)
+            yield chunk
+
+
+class _CaptureState:
+    """A capture's rows on their way out: held back ``REORDER_WINDOW`` s to put packets slightly out of
+    time order back in order, then checked (each entity's time), the turret and gun carried where a PDU
+    has none, and cut into chunks."""
+
+    def __init__(self):
+        self.names = _Names()
+        self.interner = None
+        self.order = _Order()
+        self.pending: dict | None = None
+        self.latest = -np.inf
+        self.last_turret = np.zeros(16)
+        self.last_gun = np.zeros(16)
+        self.has_turret = False
+
+    def _codes(self, ids: np.ndarray) -> np.ndarray:
+        """Codes of (N, 3) uint16 entity ids, through the compiled interner over their 6 bytes each."""
+        from tankcd_cli.io.csv_kernels import Interner
+
+        if self.interner is None:
+            self.interner = Interner()
+        n = len(ids)
+        raw = np.ascontiguousarray(ids, dtype=np.uint16).view(np.uint8).reshape(-1)
+        at = np.arange(0, 6 * n, 6, dtype=np.int64)
+        codes, first, _ = self.interner.codes(raw, np.column_stack([at, at + 6]), n)
+        for k in range(first, len(self.interner)):
+            site, app, ent = np.frombuffer(self.interner.name(k), np.uint16).tolist()
+            self.names.add(f"{site}:{app}:{ent}")  # the same order: the same codes
+        return codes
+
+    def take(self, reader: TrajectoryReader, states, step: int):
+        n = len(states)
+        if not n:
+            return
+        if reader.convert:
+            from tankcd_cli.io.dis import trajectory_columns
+
+            cols = trajectory_columns(states, reader.crs, source=reader.path)
+            block = {"t": states.t, "x": cols["x"], "y": cols["y"], "yaw_deg": cols["yaw_deg"],
+                     "turret_deg": cols["turret_deg"], "gun_deg": cols["gun_deg"]}
+        else:
+            from tankcd_cli.io.dis import articulation_angles
+
+            turret, gun = articulation_angles(states.turret_azimuth, states.gun_elevation)
+            nan = np.full(n, np.nan)
+            block = {"t": states.t, "x": nan, "y": nan, "yaw_deg": nan, "turret_deg": np.degrees(turret),
+                     "gun_deg": np.degrees(gun)}
+        block["packet"] = states.packet
+        block["code"] = self._codes(states.entity_id)
+        if self.pending is not None:
+            block = {k: np.concatenate([self.pending[k], v]) for k, v in block.items()}
+        t = block["t"]
+        if np.any(t[1:] < t[:-1]):
+            idx = np.argsort(t, kind="stable")
+            block = {k: v[idx] for k, v in block.items()}
+            t = block["t"]
+        self.latest = max(self.latest, float(states.t.max()))
+        cut = int(np.searchsorted(t, self.latest - REORDER_WINDOW, side="left"))
+        self.pending = {k: v[cut:] for k, v in block.items()}
+        yield from self._emit(reader, {k: v[:cut] for k, v in block.items()}, step)
+
+    def flush(self, reader: TrajectoryReader, step: int):
+        if self.pending is not None:
+            block, self.pending = self.pending, None
+            yield from self._emit(reader, block, step)
+
+    def _emit(self, reader: TrajectoryReader, block: dict, step: int):
+        n = len(block["t"])
+        if not n:
+            return
+        codes = block["code"]
+        ncodes = len(self.names.list)
+        piece, bad = self.order.check(codes, block["t"], block["packet"], ncodes)
+        k = n if bad < 0 else bad
+        if len(self.last_turret) < ncodes:
+            grow = ncodes - len(self.last_turret)
+            self.last_turret = np.r_[self.last_turret, np.zeros(grow)]
+            self.last_gun = np.r_[self.last_gun, np.zeros(grow)]
+        self.has_turret = self.has_turret or bool(np.isfinite(block["turret_deg"][:k]).any()
+                                                  or np.isfinite(block["gun_deg"][:k]).any())
+        turret = _carry(block["turret_deg"][:k], codes[:k], self.last_turret)
+        gun = _carry(block["gun_deg"][:k], codes[:k], self.last_gun)
+        names = self.names.tuple()
+        for lo in range(0, k, reader.chunk_rows):
+            hi = min(lo + reader.chunk_rows, k)
+            yield TrajectoryChunk(np.arange(step + lo, step + hi), int(block["packet"][lo]), block["t"][lo:hi],
+                                  block["x"][lo:hi], block["y"][lo:hi], block["yaw_deg"][lo:hi], turret[lo:hi],
+                                  gun[lo:hi], self.has_turret, block["packet"][lo:hi], codes[lo:hi], names,
+                                  piece[lo:hi], True, "packet")
+        if bad >= 0:
+            code = int(codes[bad])
+            prev = float(self.order.last_t[code])
+            raise InputError(reader.path, f"entity {self.names.list[code]!r}: capture time goes back "
+                                          f"{prev - float(block['t'][bad]):.6f} s (t {float(block['t'][bad])!r} after "
+                                          f"{prev!r} at packet {int(self.order.last_line[code])}), more than the "
+                                          f"{REORDER_WINDOW:g} s this reader puts back in order; sort the capture by "
+                                          "time first (Wireshark's reordercap does)",
+                             where=f"packet {int(block['packet'][bad])}")
+
+
+def _carry(values: np.ndarray, codes: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """NaN values replaced by the same entity's value before them (``last[code]`` before its first row in
+    these; ``last`` updated to each entity's last value)."""
+    from tankcd_cli.io.csv_kernels import carry
+
+    out = np.array(values, dtype=np.float64)
+    carry(np.ascontiguousarray(codes, dtype=np.int64), out, last)
+    return out
+
+
+def _fill_by_entity(values: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """NaN values filled from the same entity's nearest known value before them, else after them (NaN where
+    the entity has none); the entities' rows contiguous."""
+    n = len(values)
+    out = np.array(values, dtype=np.float64)
+    known = ~np.isnan(out)
+    if known.all() or not n:
+        return out
+    idx = np.arange(n)
+    start = np.r_[True, codes[1:] != codes[:-1]]
+    first = np.maximum.accumulate(np.where(start, idx, 0))
+    last = np.minimum.accumulate(np.where(np.r_[start[1:], True], idx, n)[::-1])[::-1]
+    before = np.maximum.accumulate(np.where(known, idx, -1))
+    after = np.minimum.accumulate(np.where(known, idx, n)[::-1])[::-1]
+    use = np.where(before >= first, before, np.where(after <= last, after, -1))
+    ok = use >= 0
+    out[ok] = out[use[ok]]
+    return out
+
+
+def _track_names(raw: list) -> list:
+    """GPX track names as entity ids: a track's name without commas, quotes or control characters
+    ('_' instead), ``trackK`` (K from 1) for a track without one; a name already taken gains ``_2``, ``_3``..."""
+    import re
+
+    names, taken = [], set()
+    for k, name in enumerate(raw):
+        base = re.sub(r"[,\"'\x00-\x1f\x7f]", "_", name).strip() or f"track{k + 1}"
+        got, j = base, 2
+        while got in taken:
+            got, j = f"{base}_{j}", j + 1
+        taken.add(got)
+        names.append(got)
+    return names
+
+
+def _check_crs(crs: str | None, source: str) -> None:
+    """Refuse (InputError naming ``source``) a terrain without a CRS, or with one pyproj cannot read or that is
+    not projected, before any row is read."""
+    from tankcd_cli.io.geodesy import project
+
+    project(np.zeros(0), np.zeros(0), crs or "", source=source)
+
+
+def _geographic(lon, lat, heading_deg, compass: bool, crs: str, source: str):
+    """lon, lat, heading (deg) -> x, y, yaw_deg in the terrain's CRS, and the first row that has no place
+    there (-1 for none)."""
+    from tankcd_cli.io.geodesy import to_terrain_crs
+
+    h = np.radians(heading_deg)
+    x, y, yaw = to_terrain_crs(lon, lat, crs, heading=h if compass else None, enu_yaw=None if compass else h,
+                               source=source)
+    yaw = np.degrees(yaw)
+    bad = np.flatnonzero(~(np.isfinite(x) & np.isfinite(y) & np.isfinite(yaw)))
+    return x, y, yaw, (int(bad[0]) if len(bad) else -1)
+
+
+def read_trajectory(path: str, chunk_rows: int = 65536, part: TrajectoryPart | None = None, crs: str | None = None,
+                    fmt: str | None = None) -> TrajectoryReader:
+    """The chunks of a trajectory input in its order (only ``part``'s rows of a CSV, if given: steps and
+    line numbers stay those of the whole file), as a :class:`TrajectoryReader` (an iterator).
+
+    ``crs``: the terrain's CRS (WKT, or anything pyproj takes; None or empty: the terrain has none).
+    Geographic inputs (a CSV in lon, lat; GPX; DIS captures) are converted to it, and refused
+    (InputError naming the file) without one. ``fmt``: csv, gpx, pcap or pcapng (default: by suffix)."""
+    return TrajectoryReader(path, chunk_rows, part, crs, fmt)
+
+
+# -- parts of a CSV ------------------------------------------------------------------------------------------
+def _csv_layout(path: str):
+    from tankcd_cli.io.trajectory_csv import read_layout
+
+    name, fh = open_input(path, text=False)
+    with fh:
+        return read_layout(fh, name)
+
+
+def lead_row(path: str, part: TrajectoryPart, crs: str | None = None) -> TrajectoryChunk | None:
+    """The rows just before ``part``, where its first intervals of motion start, or None for a part that
+    starts the file.
+
+    Without an entity column: the data row just before the part (one row, with its step and line).
+    With one: each entity's last row before the part (one row each, in file order; its entity
+    code is this chunk's own: match entities by ``entity_names``), found by reading the file from
+    its start to the part (the cost grows with what lies before the part)."""
     if part.step_offset == 0:
         return None
+    lay = _csv_layout(path)
+    if lay.entity:
+        return _lead_rows_by_entity(path, part, lay, crs)
     name, fh = open_input(path, text=False)
     try:
-        header = b""
-        while not header.strip():
-            line = fh.readline()
-            if not line:
-                return None
-            header = line
-        body_start = fh.tell()
+        body_start = lay.body_start
         back = 4096
         while True:  # the last line with content before the part's first byte
             lo = max(body_start, part.start - back)
@@ -80,72 +592,64 @@ def lead_row(path: str, part: TrajectoryPart) -> TrajectoryChunk | None:
                 return None
             back *= 4
         last = lines[-1]
+        at = data.rindex(last)
         # the lines after it before the part (its own line break ends it: that is not one)
-        gap = data[data.rindex(last) + len(last):].count(b"\n") - 1
-        text = header.decode("utf-8-sig") + last.decode("utf-8") + "\n"
-    except UnicodeDecodeError:
-        raise InputError(name, "not UTF-8 text (a trajectory is a CSV file)") from None
+        gap = data[at + len(last):].count(b"\n") - 1
     finally:
         fh.close()
     line_before = part.line_offset - gap  # the lead row's own line in the whole file
-    chunks = list(_chunks(io.StringIO(text, newline=""), name, 1, part.step_offset - 1, line_before - 1))
+    start = lo + at
+    end = start + len(last) + (1 if start + len(last) < part.start else 0)
+    lead = TrajectoryPart(start, end, line_before - 1, part.step_offset - 1, 1)
+    chunks = list(TrajectoryReader(path, 1, lead, crs))
     return chunks[0] if chunks else None
 
 
-def read_trajectory(path: str, chunk_rows: int = 65536, part: TrajectoryPart | None = None) -> Iterator[TrajectoryChunk]:
-    """Yield validated chunks of a trajectory CSV in file order (only ``part``'s rows, if given:
-    steps and line numbers stay those of the whole file)."""
-    if part is not None:
-        yield from _part_chunks(path, chunk_rows, part)
-        return
-    name, fh = open_input(path, text=True)
-    try:
-        yield from _chunks(fh, name, chunk_rows)
-    except UnicodeDecodeError:
-        raise InputError(name, "not UTF-8 text (a trajectory is a CSV file)") from None
-    finally:
-        if path != "-":
-            fh.close()
+def _lead_rows_by_entity(path: str, part: TrajectoryPart, lay, crs) -> TrajectoryChunk | None:
+    before = TrajectoryPart(lay.body_start, part.start, lay.header_line, 0, part.step_offset)
+    last: dict = {}
+    chunks = []
+    for k, chunk in enumerate(TrajectoryReader(path, 65536, before, crs)):
+        rev = chunk.entity[::-1]
+        codes, at = np.unique(rev, return_index=True)
+        for code, j in zip(codes.tolist(), (len(rev) - 1 - at).tolist()):
+            last[code] = (k, j)
+        chunks.append(chunk)
+        names = chunk.entity_names
+        keep = {kk for kk, _ in last.values()}
+        chunks = [c if i in keep else None for i, c in enumerate(chunks)]
+    if not last:
+        return None
+    picks = sorted(last.items(), key=lambda kv: (kv[1][0], kv[1][1]))
+    rows = [(chunks[k], j) for _, (k, j) in picks]
 
+    def col(field_name):
+        return np.array([getattr(c, field_name)[j] for c, j in rows])
 
-def _part_chunks(path: str, chunk_rows: int, part: TrajectoryPart) -> Iterator[TrajectoryChunk]:
-    import io
-
-    name, fh = open_input(path, text=False)
-    try:
-        header = b""
-        while not header.strip():
-            line = fh.readline()
-            if not line:
-                break
-            header = line
-        fh.seek(part.start)
-        body = fh.read(part.end - part.start)
-        try:
-            text = header.decode("utf-8-sig") + body.decode("utf-8")
-        except UnicodeDecodeError:
-            raise InputError(name, "not UTF-8 text (a trajectory is a CSV file)") from None
-    finally:
-        fh.close()
-    yield from _chunks(io.StringIO(text, newline=""), name, chunk_rows, part.step_offset, part.line_offset)
+    return TrajectoryChunk(col("step"), int(rows[0][0].line[rows[0][1]]), col("t"), col("x"), col("y"),
+                           col("yaw_deg"), col("turret_deg"), col("gun_deg"), rows[0][0].has_turret, col("line"),
+                           col("entity").astype(np.int64), names, np.zeros(len(rows), bool), True, "line")
 
 
 def split_trajectory(path: str, lines_per_part: int, block: int = 1 << 22) -> list[TrajectoryPart]:
-    """Cut a trajectory file into parts of ``lines_per_part`` lines after its header, counting each
+    """Cut a trajectory CSV into parts of ``lines_per_part`` lines after its header, counting each
     part's data rows (lines with content) so that every part knows its first step. One pass over
-    the file in blocks: memory does not grow with it."""
+    the file in blocks: memory does not grow with it. Only a CSV is cut (InputError otherwise).
+
+    With an entity column the parts cut across the entities' rows: a part's first row of an
+    entity is marked ``piece_start`` in the part's chunks whether or not the entity had rows
+    before it; ``lead_row`` says which had."""
+    if trajectory_format(path) != "csv":
+        raise InputError(path, "only a trajectory CSV is cut into parts")
     parts: list[TrajectoryPart] = []
+    try:
+        lay = _csv_layout(path)
+    except InputError:
+        return []
     name, fh = open_input(path, text=False)
     with fh:
-        offset = lines = 0
-        while True:  # the header: the first line with content
-            line = fh.readline()
-            if not line:
-                return []
-            offset += len(line)
-            lines += 1
-            if line.strip():
-                break
+        fh.seek(lay.body_start)
+        offset, lines = lay.body_start, lay.header_line
         start, start_line, step = offset, lines, 0
         rows = count = 0
         has = False  # the line in progress has content
@@ -182,31 +686,127 @@ def split_trajectory(path: str, lines_per_part: int, block: int = 1 << 22) -> li
     return parts
 
 
-def _chunks(fh, name: str, chunk_rows: int, first_step: int = 0,
-            line_offset: int | None = None) -> Iterator[TrajectoryChunk]:
-    from tankcd_cli.io.csv_columns import numeric_chunks
+# -- what an input holds (for ``info``) ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class EntitySpan:
+    """One entity of a trajectory: its rows, its time span (s, as the chunks' ``t``), where its first and
+    last rows are (``line``: a line or a packet) and its pieces of motion."""
 
-    step = first_step
-    last_t = -np.inf
-    for rows, wanted, values in numeric_chunks(fh, name, REQUIRED, OPTIONAL, chunk_rows, line_offset=line_offset):
-        t = values[:, 0]
-        order_bad = np.flatnonzero(np.diff(np.concatenate([[last_t], t])) < 0)
-        error = None
-        if len(order_bad):
-            k = int(order_bad[0])
-            prev = last_t if k == 0 else t[k - 1]
-            error = InputError(name, f"time goes back ({float(t[k])!r} after {float(prev)!r}); "
-                                     "t must be non-decreasing",
-                               where=f"line {rows[k]} column t")
-            values, rows, t = values[:k], rows[:k], t[:k]
-            if k == 0:
-                raise error
-        last_t = t[-1]
-        n = len(t)
-        turret = values[:, wanted.index("turret_deg")] if "turret_deg" in wanted else np.zeros(n)
-        gun = values[:, wanted.index("gun_deg")] if "gun_deg" in wanted else np.zeros(n)
-        yield TrajectoryChunk(np.arange(step, step + n), rows[0], t, values[:, 1], values[:, 2], values[:, 3],
-                              turret, gun, any(c in wanted for c in OPTIONAL), np.asarray(rows[:n]))
-        step += n
-        if error is not None:
-            raise error
+    name: str
+    rows: int
+    t_first: float
+    t_last: float
+    first_line: int
+    last_line: int
+    pieces: int
+
+
+@dataclass(frozen=True)
+class TrajectoryInfo:
+    """A trajectory input described (``trajectory_info``).
+
+    format : csv, gpx, pcap or pcapng; coordinates : ``projected`` (x, y in the terrain's CRS),
+    ``geographic`` (a CSV's lon, lat; GPX), ``ecef`` (a capture); where : "line" or "packet";
+    rows : all rows; t_first, t_last : over all rows (NaN without rows); start : the instant t
+    counts from, where the input has one (UTC); has_entity, has_turret : as the chunks';
+    entities : one :class:`EntitySpan` each, in order of first appearance; skipped : what was passed
+    over, by name (a capture's packets and PDUs, a CSV's comment and blank lines); columns : the
+    CSV header's names as written (empty for other formats)."""
+
+    path: str
+    format: str
+    coordinates: str
+    where: str
+    rows: int
+    t_first: float
+    t_last: float
+    start: datetime | None
+    has_entity: bool
+    has_turret: bool
+    entities: tuple
+    skipped: dict = field(default_factory=dict)
+    columns: tuple = ()
+
+
+def trajectory_info(path: str, fmt: str | None = None, chunk_rows: int = 65536) -> TrajectoryInfo:
+    """Read a trajectory input once (no terrain or CRS needed: nothing is converted) and describe it.
+    Raises InputError as ``read_trajectory`` does."""
+    reader = TrajectoryReader(path, chunk_rows, None, None, fmt, convert=False)
+    rows = np.zeros(0, np.int64)
+    pieces = np.zeros(0, np.int64)
+    t_first = np.zeros(0)
+    t_last = np.zeros(0)
+    l_first = np.zeros(0, np.int64)
+    l_last = np.zeros(0, np.int64)
+    has_entity = has_turret = False
+    names: tuple = ()
+    for chunk in reader:
+        names = chunk.entity_names
+        m = len(names)
+        if len(rows) < m:
+            grow = m - len(rows)
+            rows, pieces = np.r_[rows, np.zeros(grow, np.int64)], np.r_[pieces, np.zeros(grow, np.int64)]
+            t_first, t_last = np.r_[t_first, np.full(grow, np.nan)], np.r_[t_last, np.full(grow, np.nan)]
+            l_first, l_last = np.r_[l_first, np.zeros(grow, np.int64)], np.r_[l_last, np.zeros(grow, np.int64)]
+        codes = chunk.entity
+        rows += np.bincount(codes, minlength=m)
+        pieces += np.bincount(codes[chunk.piece_start], minlength=m)
+        u, at = np.unique(codes, return_index=True)
+        new = np.isnan(t_first[u])
+        t_first[u[new]], l_first[u[new]] = chunk.t[at[new]], chunk.line[at[new]]
+        rev = codes[::-1]
+        u, at = np.unique(rev, return_index=True)
+        j = len(codes) - 1 - at
+        t_last[u], l_last[u] = chunk.t[j], chunk.line[j]
+        has_entity |= chunk.has_entity
+        has_turret |= chunk.has_turret
+    coords = {"gpx": "geographic", "pcap": "ecef", "pcapng": "ecef"}.get(
+        reader.format, "geographic" if reader.geographic else "projected")
+    entities = tuple(EntitySpan(names[k], int(rows[k]), float(t_first[k]), float(t_last[k]), int(l_first[k]),
+                                int(l_last[k]), int(pieces[k])) for k in range(len(names)))
+    columns = reader.columns
+    total = int(rows.sum())
+    return TrajectoryInfo(path=path, format=reader.format, coordinates=coords, where=reader.where, rows=total,
+                          t_first=float(np.nanmin(t_first)) if total else float("nan"),
+                          t_last=float(np.nanmax(t_last)) if total else float("nan"), start=reader.start,
+                          has_entity=has_entity, has_turret=has_turret, entities=entities,
+                          skipped=dict(reader.skipped), columns=columns)
+
+
+# -- export ------------------------------------------------------------------------------------------------------
+_EXPORT_DECIMALS = np.array([9, 6, 6, 9, 9, 9])  # t (ns), x, y (um), angles (1e-9 deg)
+
+
+def export_trajectory(path: str, out: str, crs: str | None = None, fmt: str | None = None,
+                      chunk_rows: int = 65536) -> dict:
+    """Write any trajectory input as the trajectory CSV tankcd reads: ``t,entity,x,y,yaw_deg,turret_deg,
+    gun_deg`` in the terrain's CRS (``crs`` as ``read_trajectory`` takes it), rows in the reader's order,
+    t to 1 ns, positions to 1 um, angles to 1e-9 deg. ``out``: a file (written beside and renamed when
+    complete: an error leaves nothing) or '-'. Returns {"rows", "entities", "skipped"}."""
+    from tankcd_cli.io.atomic import output_text
+
+    reader = read_trajectory(path, chunk_rows, crs=crs, fmt=fmt)
+    rows = 0
+    with output_text(out, ".csv", newline="") as fh:
+        fh.write(",".join(EXPORT_COLUMNS) + "\n")
+        for chunk in reader:
+            fh.write(_export_text(chunk))
+            rows += len(chunk)
+    return {"rows": rows, "entities": len(reader.entity_names), "skipped": dict(reader.skipped)}
+
+
+def _export_text(chunk: TrajectoryChunk) -> str:
+    from tankcd_cli.io.fixed_text import table_text
+
+    numbers = np.column_stack([chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.turret_deg, chunk.gun_deg])
+    names = list(chunk.entity_names)
+    text = None
+    if all(n.isascii() for n in names):
+        kinds = np.array([0, 1, 0, 0, 0, 0, 0])
+        index = np.array([0, 0, 1, 2, 3, 4, 5])
+        text = table_text(numbers, _EXPORT_DECIMALS, chunk.entity.reshape(-1, 1), names, kinds, index)
+    if text is None:  # a name beyond ASCII, or a number too large for fixed point
+        label = np.asarray(names, dtype=object)[chunk.entity]
+        text = "".join(f"{r[0]:.9f},{e},{r[1]:.6f},{r[2]:.6f},{r[3]:.9f},{r[4]:.9f},{r[5]:.9f}\n"
+                       for r, e in zip(numbers.tolist(), label.tolist()))
+    return text

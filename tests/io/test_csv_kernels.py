@@ -40,3 +40,42 @@ def test_inputs_it_takes():
     values, ok = parse_table(np.zeros(0, np.uint8), 0, 3, POW10)
     assert ok is True and values.shape == (0, 3)
     assert parse_table(np.zeros(0, np.uint8), 1, 3, POW10)[1] is False
+
+
+# -- the trajectory kernels: the interner, each entity's order, the carry ------------------------------------------
+def test_the_interner_codes_in_order_of_first_appearance_across_calls_and_growth():
+    from tankcd_cli.io.csv_kernels import Interner
+
+    rng = np.random.default_rng(3)
+    words = [f"id{k}".encode() for k in range(5000)] + [b"", b"\xc3\x9c", b"a" * 300]
+    interner, seen = Interner(), {}
+    for _ in range(6):
+        pick = [words[int(k)] for k in rng.integers(0, len(words), 3000)]
+        buf = np.frombuffer(b"".join(pick), np.uint8)
+        ends = np.cumsum([len(w) for w in pick])
+        span = np.column_stack([ends - [len(w) for w in pick], ends]).astype(np.int64)
+        codes, first, first_rows = interner.codes(buf, span, len(pick))
+        assert first == len(seen)
+        want = [seen.setdefault(w, len(seen)) for w in pick]
+        assert codes.tolist() == want and len(interner) == len(seen)
+        new = sorted(set(want) - set(range(first)))
+        assert [want[r] for r in first_rows.tolist()] == new  # each new code's first row
+    assert [interner.name(k) for k in range(len(seen))] == list(seen)
+    with pytest.raises(IndexError):
+        interner.name(len(seen))
+
+
+def test_entity_order_and_carry():
+    from tankcd_cli.io.csv_kernels import carry, entity_order
+
+    codes = np.array([0, 1, 0, 2, 1, 0], np.int64)
+    t = np.array([1.0, 5.0, 1.0, 0.0, 4.0, 2.0])
+    last_t, last_line, seen = np.full(3, np.nan), np.zeros(3, np.int64), np.zeros(3, np.uint8)
+    piece = np.zeros(6, np.uint8)
+    bad = entity_order(codes, t, np.arange(10, 16, dtype=np.int64), last_t, last_line, seen, piece)
+    assert bad == 4 and piece[:4].tolist() == [1, 1, 0, 1]
+    assert last_t.tolist() == [1.0, 5.0, 0.0] and last_line.tolist() == [12, 11, 13]
+    v = np.array([np.nan, 2.0, np.nan, np.nan, np.nan, 3.0])
+    last = np.array([7.0, 0.0, 0.0])
+    carry(codes, v, last)
+    assert v.tolist() == [7.0, 2.0, 7.0, 0.0, 2.0, 3.0] and last.tolist() == [3.0, 2.0, 0.0]
