@@ -53,7 +53,8 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     classified tile by tile into the grid layout, in memory that does not grow
     with the DEM. TERRAIN may be - for standard input (give --format).
     """
-    from tankcd_cli.terrain.open import OptionError, classify_file
+    from tankcd_cli import api
+    from tankcd_cli.terrain.open import OptionError
     from tankcd_cli.terrain.regions import Thresholds
     from tankcd_cli.vehicle import vehicle_preset
 
@@ -98,7 +99,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
 
     try:
         ctx = click.get_current_context()
-        done = classify_file(terrain, output, method=method, up=up, fmt=fmt, vehicle=vehicle_preset(vehicle_name),
+        done = api.classify(terrain, output, method=method, up=up, fmt=fmt, vehicle=vehicle_name,
                              thresholds=user_thresholds, crs=crs, band=band,
                              tile=tile if given(ctx, "tile") else None, jobs=jobs if given(ctx, "jobs") else None,
                              scheduler=scheduler,

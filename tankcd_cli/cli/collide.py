@@ -26,43 +26,29 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     pose of POSES and report each obstacle it touches, one JSON event per contact, with the
     fields of replay's obstacle events (step, t, kind, a, b, point, contacts). The trees are
     built with the scene's [collision] settings, which the closing line names."""
-    from tankcd_cli.collision.obstacles import (
-        collide_obstacles,
-        load_obstacles,
-        scene_vehicle_body,
-    )
+    import json
+
+    from tankcd_cli import api
     from tankcd_cli.io.atomic import output_text
-    from tankcd_cli.io.events import event_line
-    from tankcd_cli.io.poses_csv import read_poses
     from tankcd_cli.scene import load_scene
 
     report.kernels()
     step = report.progress("collide")
     sc = load_scene(scene)
     refuse_clashes({"--poses": poses_path, "--scene": scene, **scene_inputs(sc)}, {"--events": events_path})
-    obstacles = load_obstacles(sc, cache=not no_cache, progress=step)
-    body = scene_vehicle_body(sc)
     c = sc.collision
     method = f"trees: k {c.k}, aabb levels {c.aabb_levels}, split {c.split}, leaf size {c.leaf_size}"
     totals = {"rows": 0, "skipped": 0, "collisions": 0, "node_tests": 0, "tri_tests": 0}
-
-    def run(out):
-        for stp, t, R, pos, valid in read_poses(poses_path):
-            totals["rows"] += len(stp)
-            totals["skipped"] += int((~valid).sum())
-            idx = valid.nonzero()[0]
-            hits = collide_obstacles(body, obstacles, R[idx], pos[idx], all_contacts=all_contacts)
-            totals["node_tests"] += hits.node_tests
-            totals["tri_tests"] += hits.tri_tests
-            for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts):
-                i = idx[p]
-                out.write(event_line(stp[i], t[i], "obstacle", body.part_names[part], obstacles[o].name,
-                                     point=[round(float(v), 4) for v in point], contacts=int(n)))
-                totals["collisions"] += 1
-            out.flush()
-
     with output_text(events_path, ".jsonl") as out:
-        run(out)
+        for events, stats in api.collide_chunks(scene, poses_path, all_contacts, cache=not no_cache, progress=step):
+            totals["rows"] += stats.poses
+            totals["skipped"] += stats.skipped
+            totals["node_tests"] += stats.node_tests
+            totals["tri_tests"] += stats.tri_tests
+            totals["collisions"] += len(events)
+            out.write("".join(json.dumps(e, separators=(",", ":")) + "\n" for e in events))
+            out.flush()
+    obstacles = sc.obstacles
     report.info(f"collide: {totals['rows']:,} poses ({totals['skipped']} without a pose), {len(obstacles)} obstacles, "
                 f"{totals['collisions']} collisions; {totals['node_tests']:,} node-pair and {totals['tri_tests']:,} "
                 f"triangle tests; {method} ({report.elapsed():.2f} s)")

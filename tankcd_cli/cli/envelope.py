@@ -38,7 +38,8 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     fuel drums has the gun's own limit at every azimuth, and says so."""
     import numpy as np
 
-    from tankcd_cli.collision.internal import DRUMS, elevation_envelope, envelope_summary
+    from tankcd_cli import api
+    from tankcd_cli.collision.internal import DRUMS, envelope_summary
     from tankcd_cli.io.atomic import atomic_path, output_text
     from tankcd_cli.vehicle import vehicle_preset
 
@@ -51,7 +52,7 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     else:
         vehicle = vehicle_preset(vehicle_name)
     az = np.arange(0.0, 360.0 - 1e-9, step_deg)
-    env = elevation_envelope(vehicle, az, method=method)
+    env = api.gun_envelope(vehicle, az, method=method)
     lines = ["azimuth_deg,min_elevation_deg,limited_by,checked\n"]
     for a, e, lim, who, ok in zip(env["azimuth"], env["min_elevation"], env["limited"], env["blocked_by"], env["checked"]):
         by = DRUMS[who] if (lim or not np.isfinite(e)) and who >= 0 else "gun"

@@ -11,7 +11,6 @@ from tankcd_cli.cli.options import (
     no_parquet,
     no_stdin,
     refuse_clashes,
-    scene_inputs,
     vehicle_option,
     verbosity_options,
 )
@@ -105,17 +104,14 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     if fleet_mode:
         if png:
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
-        return _fleet(report, trajectories, scene, terrain, matcher, escalate, tolerance, vehicle_name, up, out_dir,
-                      jobs, scheduler, fail_on_collision, allow_off_terrain, summary_path, split_lines)
+        return _fleet(report, trajectories, scene, terrain, dict(matcher=matcher, escalate=escalate,
+                                                                 tolerance=tolerance, discrete=discrete),
+                      vehicle_name, up, out_dir, jobs, scheduler, fail_on_collision, allow_off_terrain, summary_path,
+                      split_lines)
     trajectory = trajectories[0]
-    import itertools
-
+    from tankcd_cli import api
     from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.io.trajectory import read_trajectory
-    from tankcd_cli.replay.pipeline import prepare
-    from tankcd_cli.replay.run import new_counts, summary, write_outputs
-    from tankcd_cli.terrain.open import open_terrain
-    from tankcd_cli.vehicle import vehicle_preset
+    from tankcd_cli.replay.world import WorldSpec, world_inputs
 
     if poses_path == "-" and "-" in (events_path, summary_path):
         raise click.UsageError("poses already go to stdout: give --poses FILE to send events or the summary there")
@@ -124,44 +120,30 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
     report.kernels()
     step = report.progress("replay")
-    sc = None
-    if scene:
-        from tankcd_cli.scene import load_scene
-
-        sc = load_scene(scene)
-        vehicle, terrain, up = sc.vehicle, sc.required_terrain(), sc.terrain_up
-    else:
-        vehicle = vehicle_preset(vehicle_name)
-    refuse_clashes({"TRAJECTORY": trajectory, "--scene": scene, "--terrain": terrain,
-                    **(scene_inputs(sc) if sc is not None else {})},
+    spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
+    refuse_clashes({"TRAJECTORY": trajectory, **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
-    opened = open_terrain(terrain, up=up, vehicle=vehicle, progress=step, cache=cache)
-    # the map draws a mesh's classes only when classified here (a mesh store read from disk: none)
-    surface, mesh_store = opened.surface, (opened.mesh_store if opened.classified else None)
-
-    chunks = read_trajectory(trajectory)
-    first = next(chunks, None)
-    turret_moves = bool(first is not None and first.has_turret)
-    setup = prepare(surface, vehicle, sc, turret_moves, progress=step)
-    setup.escalate, setup.tolerance, setup.continuous = escalate, tolerance, not discrete
-    counts = new_counts()
+    world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
     drawing = None
     if png:
         from tankcd_cli.replay.drawing import ReplayDrawing
 
         drawing = ReplayDrawing(colour_by=png_colour)
-
-    stream = itertools.chain([first] if first else [], chunks)
-    write_outputs(setup, stream, matcher, poses_path, events_path, counts, source=trajectory,
-                  on_chunk=lambda n: report.bar(f"replay: {n:,} rows"), observe=drawing.observe if drawing else None)
+    result = api.replay_to_files(trajectory, poses_path, events_path, world=world, matcher=matcher,
+                                 discrete=discrete, escalate=escalate, tolerance=tolerance,
+                                 progress=lambda n: report.bar(f"replay: {n:,} rows"),
+                                 observe=drawing.observe if drawing else None)
     report.bar(None)
-    result = summary(counts, setup, report.elapsed())
+    result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
     if drawing is not None:
         step(f"drawing {png}")
+        # the map draws a mesh's classes only when classified here (a mesh store read from disk: none)
+        opened = world.terrain
+        mesh_store = opened.mesh_store if opened.classified else None
         with atomic_path(png, ".png") as tmp:
-            drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(surface), setup.obstacles)
-    _report_summary(report, result.as_dict(), summary_path, setup.effects, counts["rows"])
-    _exit_on_failures(result.as_dict(), fail_on_collision, allow_off_terrain)
+            drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
+    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
+    _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 
 def _store_of(surface):
@@ -202,69 +184,54 @@ def _report_summary(report, result: dict, summary_path, effects: dict, rows: int
                     f"{between}; effects: {ran} ({report.elapsed():.2f} s)")
 
 
-def _exit_on_failures(result: dict, fail_on_collision: bool, allow_off_terrain: bool) -> None:
-    """--fail-on-collision: exit 1 on a collision, or on rows off the terrain unless allowed."""
+def _exit_on_failures(result, fail_on_collision: bool, allow_off_terrain: bool) -> None:
+    """--fail-on-collision: exit 1 on a collision (at a row or between rows), or on rows off the
+    terrain unless allowed (a ``ReplaySummary`` or a ``FleetSummary``)."""
     if not fail_on_collision:
         return
-    between = sum(v for k, v in result.get("between", {}).items() if k != "off_terrain")
-    off = result["off_terrain"] + result.get("between", {}).get("off_terrain", 0)
-    if sum(result["collisions"].values()) or between or (off and not allow_off_terrain):
+    off = result.off_terrain + result.between.get("off_terrain", 0)
+    if result.collided or (off and not allow_off_terrain):
         click.get_current_context().exit(EXIT_COLLISION)
 
 
-def _fleet(report, trajectories, scene, terrain, matcher, escalate, tolerance, vehicle_name, up, out_dir, jobs,
-           scheduler, fail_on_collision, allow_off_terrain, summary_path, split_lines):
+def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, jobs, scheduler,
+           fail_on_collision, allow_off_terrain, summary_path, split_lines):
     import json
-    import os
 
-    from tankcd_cli.replay.fleet import (
-        World,
-        classified_world,
-        expand_trajectories,
-        plan_tasks,
-        run_fleet,
-        write_summary,
-    )
+    from tankcd_cli import api
 
     if out_dir is None:
         raise click.UsageError("several trajectories need --out-dir (one poses and one events file each)")
     if "-" in trajectories:
         raise click.UsageError("a fleet reads files, not standard input")
-    paths = expand_trajectories(list(trajectories))
-    os.makedirs(out_dir, exist_ok=True)
-    tasks = plan_tasks(paths, out_dir, split_lines)
     report.kernels()
     step = report.progress("replay")
-    world = World(os.path.abspath(scene) if scene else None, os.path.abspath(terrain) if terrain else None,
-                  vehicle_name, up, matcher, escalate=escalate, tolerance=tolerance)
-    jobs = jobs or os.cpu_count() or 1
-    if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
-        world = classified_world(world, out_dir, step)
     finished = []
 
     def on_result(r):
         finished.append(r)
-        report.bar(f"replay: {len(finished)}/{len(tasks)} tasks")
+        report.bar(f"replay: {len(finished)} tasks done")
 
-    fleet = run_fleet(world, tasks, jobs, scheduler, progress=step, on_result=on_result)
+    fleet = api.replay_fleet(list(trajectories), out_dir, scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
+                             jobs=jobs, scheduler=scheduler, split_lines=split_lines, progress=step,
+                             on_result=on_result, **how)
     report.bar(None)
-    for failure in fleet["failures"]:
+    for failure in fleet.failures:
         click.echo(f"tankcd: error: {failure['error']}", err=True)
-    write_summary(os.path.join(out_dir, "fleet.json"), fleet)
-    brief = {k: v for k, v in fleet.items() if k != "results"}
+    brief = fleet.as_dict(results=False)
     _write_summary(summary_path, brief)
     if summary_path == SUMMARY_STDERR:
         click.echo(json.dumps(brief), err=True)
     else:
-        kinds = ", ".join(f"{k} {v}" for k, v in fleet["collisions"].items())
-        report.info(f"replay: {fleet['ok']}/{fleet['trajectories']} trajectories, {fleet['rows']:,} rows on "
-                    f"{fleet['ran_on']}; collisions: {kinds}; {fleet['failed']} failed; wrote {out_dir}/fleet.json "
-                    f"({report.elapsed():.2f} s)")
-    statuses = {f["status"] for f in fleet["failures"]}
+        kinds = ", ".join(f"{k} {v}" for k, v in fleet.collisions.items())
+        found = ", ".join(f"{k} {v}" for k, v in fleet.between.items() if v) or "none"
+        report.info(f"replay: {fleet.ok}/{fleet.trajectories} trajectories, {fleet.rows:,} rows on "
+                    f"{fleet.ran_on}; collisions at rows: {kinds}; between rows: {found}; {fleet.failed} failed; "
+                    f"wrote {out_dir}/fleet.json ({report.elapsed():.2f} s)")
+    statuses = {f["status"] for f in fleet.failures}
     ctx = click.get_current_context()
     if "internal_error" in statuses:
         ctx.exit(EXIT_INTERNAL)
     if "bad_input" in statuses:
         ctx.exit(EXIT_BAD_INPUT)
-    if fail_on_collision and (sum(fleet["collisions"].values()) or (fleet["off_terrain"] and not allow_off_terrain)):
-        ctx.exit(EXIT_COLLISION)
+    _exit_on_failures(fleet, fail_on_collision, allow_off_terrain)

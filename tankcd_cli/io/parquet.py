@@ -362,7 +362,7 @@ _EVENT_TYPED = {name for name, _ in EVENT_SCHEMA} - {"step", "t", "kind", "a", "
 
 def event_columns(events: Sequence) -> dict:
     """Columns (``EVENT_SCHEMA``) of events: objects with step, t, kind, a, b and a dict ``extra``
-    (``replay.pipeline.Event``), or dicts as in the JSON Lines."""
+    (``replay.records.Event``), or dicts as in the JSON Lines."""
     rows = [_event_dict(e) for e in events]
     n = len(rows)
     cols = {"step": np.array([int(r["step"]) for r in rows], dtype=np.int64),

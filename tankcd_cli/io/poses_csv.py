@@ -70,11 +70,12 @@ def format_rows_printf(step, t, poses, matcher_names, status_names) -> str:
 
 
 POSE_REQUIRED = ("x", "y", "z")
-POSE_OPTIONAL = ("step", "t", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz")
+POSE_OPTIONAL = ("step", "t", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "turret_deg", "gun_deg")
 
 
 def read_poses(path: str, chunk_rows: int = 65536):
-    """Yield (step (N,), t (N,), rotation (N, 3, 3), position (N, 3), valid (N,)) chunks of a poses CSV.
+    """Yield (step (N,), t (N,), rotation (N, 3, 3), position (N, 3), valid (N,), turret (N,),
+    gun (N,)) chunks of a poses CSV (turret and gun in radians: 0 without ``turret_deg``, ``gun_deg``).
 
     Needs x, y, z and either roll_deg, pitch_deg, yaw_deg or qw, qx, qy, qz. A row whose
     numbers are empty (a pose ``replay`` could not make: status off) is not valid and is skipped.
@@ -85,7 +86,7 @@ def read_poses(path: str, chunk_rows: int = 65536):
     from tankcd_cli.geometry.pose import rotation_matrix
 
     name, fh = open_input(path, text=True)
-    blank = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "t")
+    blank = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "t", "turret_deg", "gun_deg")
     first = 0
     try:
         for rows, wanted, values in numeric_chunks(fh, name, POSE_REQUIRED, POSE_OPTIONAL, chunk_rows, blank,
@@ -108,7 +109,9 @@ def read_poses(path: str, chunk_rows: int = 65536):
             step = col["step"].astype(np.int64) if "step" in col else np.arange(first, first + n)
             t = col.get("t", np.full(n, np.nan))
             first += n
-            yield step, t, R, position, valid
+            turret = np.radians(np.nan_to_num(col.get("turret_deg", np.zeros(n))))
+            gun = np.radians(np.nan_to_num(col.get("gun_deg", np.zeros(n))))
+            yield step, t, R, position, valid, turret, gun
     except UnicodeDecodeError:
         raise InputError(name, "not UTF-8 text (poses are a CSV file)") from None
     finally:
@@ -129,3 +132,33 @@ def _trajectory_hint(header: list, missing: list) -> str:
     if "z" in missing and {"x", "y", "yaw_deg"} <= set(header):
         return "this looks like a trajectory: `tankcd replay` turns it into poses (with z) that collide reads"
     return ""
+
+
+def pose_columns(step, t, poses) -> dict:
+    """The poses CSV's columns of a chunk as plain arrays (N,) each, keyed by ``COLUMNS``: numbers
+    at full precision (NaN where the CSV leaves a cell empty: no pose, or not measured), and
+    region, matcher and status as their names (str arrays). ``poses`` None gives empty columns."""
+    from tankcd_cli.names import NO_MATCHER, PLACED_BY, STATUS
+
+    if poses is None:
+        empty = {c: np.zeros(0) for c in COLUMNS}
+        empty["step"] = np.zeros(0, dtype=np.int64)
+        for c in ("region", "matcher", "status"):
+            empty[c] = np.zeros(0, dtype=str)
+        return empty
+    step = np.asarray(step, dtype=np.int64)
+    pos = np.asarray(poses.position, dtype=np.float64)
+    q = np.asarray(poses.quaternion, dtype=np.float64)
+    out = {"step": step, "t": np.asarray(t, dtype=np.float64), "x": pos[:, 0].copy(), "y": pos[:, 1].copy(),
+           "z": pos[:, 2].copy(), "roll_deg": np.degrees(poses.roll), "pitch_deg": np.degrees(poses.pitch),
+           "yaw_deg": np.degrees(poses.yaw), "qw": q[:, 0].copy(), "qx": q[:, 1].copy(), "qy": q[:, 2].copy(),
+           "qz": q[:, 3].copy()}
+    region = np.asarray(poses.region, dtype=np.int64)
+    status = np.asarray(poses.status, dtype=np.int64)
+    out["region"] = np.array(REGION_LABELS)[np.where((region >= 0) & (region < 3), region, 3)]
+    names = np.array([*PLACED_BY, NO_MATCHER])
+    out["matcher"] = names[np.where(status == STATUS.index("off"), len(PLACED_BY), np.asarray(poses.matcher))]
+    out["penetration"] = np.asarray(poses.penetration, dtype=np.float64).copy()
+    out["gap"] = np.asarray(poses.gap, dtype=np.float64).copy()
+    out["status"] = np.array(STATUS)[status]
+    return out

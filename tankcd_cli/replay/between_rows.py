@@ -120,9 +120,9 @@ class BetweenCounts:
             self.events = {"obstacle": 0, "internal": 0, "terrain": 0, "off_terrain": 0}
 
 
-def check_between(rows: Rows, setup, matcher: str, counts: BetweenCounts) -> tuple[list[BetweenEvent], np.ndarray]:
+def check_between(rows: Rows, run, matcher: str, counts: BetweenCounts) -> tuple[list[BetweenEvent], np.ndarray]:
     """The events that begin between consecutive rows of ``rows`` (one vehicle), for the effects
-    ``setup`` (``replay.pipeline.ReplaySetup``) enables; ``counts`` is updated. Also returns, per
+    ``run`` (``replay.pipeline.ReplayRun``) enables; ``counts`` is updated. Also returns, per
     obstacle (k,), whether the stretch of motion ending at the last row touched it (the state the
     next chunk's first stretch starts from, with the last row's own contacts)."""
     iv = row_intervals(rows.t, rows.x, rows.y, rows.yaw_deg, rows.turret_deg, rows.gun_deg)
@@ -134,32 +134,32 @@ def check_between(rows: Rows, setup, matcher: str, counts: BetweenCounts) -> tup
     # only intervals whose both rows have a pose carry a motion the ground defines
     placed = (rows.poses.status[a] != OFF) & (rows.poses.status[b] != OFF)
     counts.intervals += int(placed.sum())
-    n = substep_counts(iv.travel, iv.dyaw, substep_travel(setup.surface), MAX_TURN_DEG)
+    n = substep_counts(iv.travel, iv.dyaw, substep_travel(run.surface), MAX_TURN_DEG)
     n = np.where(placed, n, 1)
     owner, frac = substeps(iv, n)
     counts.substeps += len(owner)
     at = iv.at(owner, frac)
-    sub = match(setup.surface, setup.vehicle, at["x"], at["y"], np.radians(at["yaw_deg"]), matcher=matcher,
-                escalate=setup.escalate, tolerance=setup.tolerance, measure=False,
+    sub = match(run.surface, run.vehicle, at["x"], at["y"], np.radians(at["yaw_deg"]), matcher=matcher,
+                escalate=run.escalate, tolerance=run.tolerance, measure=False,
                 regions=matcher == "auto")
     # each interval's sequence of placements: its first row, its sub-steps, its second row
     first_sub = np.cumsum(n - 1) - (n - 1)
     events: list[BetweenEvent] = []
-    effects = setup.effects
-    if effects["terrain_contact"]:
-        events += _terrain(rows, setup, iv, a, owner, frac, at, sub, placed)
-    if effects["obstacles"] and setup.obstacles:
-        found, ending = _obstacles(rows, setup, iv, a, b, n, first_sub, owner, frac, at, sub, placed)
+    effects = run.effects
+    if effects.terrain_contact:
+        events += _terrain(rows, run, iv, a, owner, frac, at, sub, placed)
+    if effects.obstacles and run.obstacles:
+        found, ending = _obstacles(rows, run, iv, a, b, n, first_sub, owner, frac, at, sub, placed)
         events += found
-    if effects["internal"]:
-        events += _internal(rows, setup, iv, a)
+    if effects.internal:
+        events += _internal(rows, run, iv, a)
     for e in events:
         counts.events[e.kind] += 1
     events.sort(key=lambda e: (e.step, e.t))
     return events, ending
 
 
-def _terrain(rows, setup, iv, a, owner, frac, at, sub, placed):
+def _terrain(rows, run, iv, a, owner, frac, at, sub, placed):
     """The hull bottom at every sub-step; an event where contact (or leaving the terrain) begins."""
     from tankcd_cli.collision.terrain_contact import hull_bottom_contacts
     from tankcd_cli.tolerances import HULL_CONTACT
@@ -168,7 +168,7 @@ def _terrain(rows, setup, iv, a, owner, frac, at, sub, placed):
     hit = np.zeros(len(owner), dtype=bool)
     depth = np.zeros(len(owner))
     if len(good):
-        k, d = hull_bottom_contacts(setup.surface, setup.vehicle, at["x"][good], at["y"][good], sub.yaw[good],
+        k, d = hull_bottom_contacts(run.surface, run.vehicle, at["x"][good], at["y"][good], sub.yaw[good],
                                     sub.plane[good], sub.roll[good], sub.pitch[good], HULL_CONTACT)
         hit[good[k]] = True
         depth[good[k]] = d
@@ -191,12 +191,12 @@ def _terrain(rows, setup, iv, a, owner, frac, at, sub, placed):
     return events
 
 
-def _obstacles(rows, setup, iv, a, b, n, first_sub, owner, frac, at, sub, placed):
+def _obstacles(rows, run, iv, a, b, n, first_sub, owner, frac, at, sub, placed):
     """Every rigid sub-step of every interval against the obstacles; an event per (sub-step,
     obstacle) where a contact begins (the sub-step's start not already touching that obstacle)."""
     from tankcd_cli.collision.obstacles import collide_obstacles, obstacles_along
 
-    body, obstacles = setup.body, setup.obstacles
+    body, obstacles = run.body, run.obstacles
     k = len(obstacles)
     # the sub-steps' own contacts (the rows' are known), for the state at each segment's start
     sub_touch = np.zeros((len(owner), k), dtype=bool)
@@ -258,14 +258,14 @@ def _obstacles(rows, setup, iv, a, b, n, first_sub, owner, frac, at, sub, placed
     return events, ending
 
 
-def _internal(rows, setup, iv, a):
+def _internal(rows, run, iv, a):
     """The gun along each interval's angle path, for intervals whose first row is clear of the drums."""
     from tankcd_cli.collision.internal import DRUMS, first_gun_contacts
 
     moving = np.flatnonzero(((iv.dturret != 0) | (iv.dgun != 0)) & ~rows.internal[a])
     if len(moving) == 0:
         return []
-    found, s, drum = first_gun_contacts(setup.vehicle, np.radians(iv.turret0[moving]), np.radians(iv.dturret[moving]),
+    found, s, drum = first_gun_contacts(run.vehicle, np.radians(iv.turret0[moving]), np.radians(iv.dturret[moving]),
                                         np.radians(iv.gun0[moving]), np.radians(iv.dgun[moving]))
     events = []
     for j in np.flatnonzero(found & (s > 0)):

@@ -23,20 +23,21 @@ from dataclasses import asdict, dataclass
 from typing import Callable
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.replay.records import KINDS, ReplayOptions
+from tankcd_cli.replay.world import WorldSpec
 
 
 @dataclass(frozen=True)
-class World:
-    """What every task of a fleet replays against (paths, so that it travels as text)."""
+class FleetWorld:
+    """What every task of a fleet replays against, as text (it travels to the workers): the world's
+    spec and the replay's options."""
 
-    scene: str | None
-    terrain: str | None
-    vehicle: str = "t72"
-    up: str | None = None  # None: the terrain format's convention
-    matcher: str = "auto"
-    escalate: bool | None = None  # as ``match`` takes it (None: auto escalates)
-    tolerance: float | None = None  # the certificate's, m (None: derived from the vehicle)
-    store: str | None = None  # the terrain as a classified store, when it had to be classified for the fleet
+    spec: WorldSpec
+    options: ReplayOptions = ReplayOptions()
+
+    def describe(self) -> dict:
+        """fleet.json's ``world``: the spec's fields and the options'."""
+        return {**asdict(self.spec), **{k: v for k, v in asdict(self.options).items() if k != "chunk_rows"}}
 
 
 @dataclass(frozen=True)
@@ -133,116 +134,133 @@ def _split(task: Task, split_lines: int) -> list[Task]:
 
 # --- the per-process world ----------------------------------------------------------------
 
-_LOADED: dict = {}  # World -> (surface, vehicle, scene, setup cache): one per process, loaded on first use
+_LOADED: dict = {}  # WorldSpec -> World: one per process, loaded on first use
 _LOADING = threading.Lock()  # a Dask worker runs tasks in threads: one of them loads, the others wait
 
 
-def load_world(world: World, progress: Callable[[str], None] | None = None):
-    """The world's surface, vehicle and scene, loaded once per process."""
+def load_world_once(spec: WorldSpec, progress: Callable[[str], None] | None = None):
+    """The world of ``spec``, loaded once per process (a new spec replaces the old one)."""
     with _LOADING:
-        return _load_world_locked(world, progress)
+        if spec not in _LOADED:
+            world = spec.load(progress)
+            _LOADED.clear()
+            _LOADED[spec] = world
+        return _LOADED[spec]
 
 
-def _load_world_locked(world: World, progress):
-    if world not in _LOADED:
-        from tankcd_cli.terrain.open import open_terrain
-        from tankcd_cli.vehicle import vehicle_preset
+@dataclass
+class TaskResult:
+    """What one task (a trajectory, or a part of one) did: its outputs, its status (``ok``,
+    ``bad_input``, ``internal_error``) and error line, the replay's summary (``ReplaySummary``;
+    None where it failed), the first row's line and the first and last times (what joining parts
+    checks), the worker's pid(s), the task's seconds and, for a joined trajectory, its parts."""
 
-        scene = None
-        if world.scene:
-            from tankcd_cli.scene import load_scene
+    trajectory: str
+    poses: str
+    events: str
+    status: str = "ok"
+    error: str | None = None
+    summary: object = None
+    first_line: int | None = None
+    t_first: float | None = None
+    t_last: float | None = None
+    pid: object = None
+    task_seconds: float = 0.0
+    parts: int | None = None
 
-            scene = load_scene(world.scene)
-            vehicle, terrain, up = scene.vehicle, scene.required_terrain(), scene.terrain_up
-        else:
-            vehicle, terrain, up = vehicle_preset(world.vehicle), world.terrain, world.up
-        surface = open_terrain(world.store or terrain, up=up, vehicle=vehicle, progress=progress).surface
-        _LOADED.clear()  # one world per process: a new one replaces the old
-        _LOADED[world] = (surface, vehicle, scene, _setups(surface, vehicle, scene, world.escalate, world.tolerance))
-    return _LOADED[world]
-
-
-def _setups(surface, vehicle, scene, escalate: bool | None = None, tolerance: float | None = None) -> dict:
-    """The replay setups for trajectories without and with turret columns (obstacle trees loaded once)."""
-    import dataclasses
-
-    from tankcd_cli.replay.pipeline import prepare
-    from tankcd_cli.scene import effects_of
-
-    still = prepare(surface, vehicle, scene, turret_moves=False)
-    still.escalate, still.tolerance = escalate, tolerance
-    moving = dataclasses.replace(still, effects=effects_of(scene, vehicle, True),
-                                 seconds={k: 0.0 for k in still.seconds})
-    return {False: still, True: moving}
-
-
-def classified_world(world: World, out_dir: str, progress: Callable[[str], None] | None = None) -> World:
-    """The world with its terrain as a store: a mesh or DEM is classified once, in a child process
-    (so that no compiled kernel has started threads in a parent about to fork), into out_dir."""
-    import subprocess
-    import sys
-
-    from tankcd_cli.terrain.store import is_hdf5
-
-    if world.scene:
-        from tankcd_cli.scene import load_scene
-
-        scene = load_scene(world.scene)
-        terrain, up = scene.terrain_path, scene.terrain_up
-    else:
-        terrain, up = world.terrain, world.up
-    if terrain is None or is_hdf5(terrain):
-        return world
-    store = os.path.join(out_dir, ".fleet-terrain.h5")
-    (progress or (lambda s: None))(f"classifying {terrain} once for the fleet")
-    args = [sys.executable, "-m", "tankcd_cli", "-q", "classify", terrain, "-o", store] + (["--up", up] if up else [])
-    if not world.scene:
-        args += ["--vehicle", world.vehicle]
-    proc = subprocess.run(args, capture_output=True, text=True)
-    if proc.returncode != 0:
-        message = (proc.stderr.strip().splitlines() or ["classification failed"])[-1]
-        raise InputError(terrain, message.removeprefix("tankcd: error: ").removeprefix(f"{terrain}: "))
-    import dataclasses
-
-    return dataclasses.replace(world, store=store)
+    def as_dict(self) -> dict:
+        """As a line of fleet.json's ``results``: the summary's fields beside the task's."""
+        out = {"trajectory": self.trajectory, "poses": self.poses, "events": self.events, "pid": self.pid,
+               "status": self.status, "task_seconds": self.task_seconds}
+        if self.parts is not None:
+            out["parts"] = self.parts
+        if self.summary is not None:
+            out.update(self.summary.as_dict())
+            out.update(first_line=self.first_line, t_first=self.t_first, t_last=self.t_last)
+        if self.error is not None:
+            out["error"] = self.error
+        return out
 
 
-def run_task(world: World, task: Task, kernel_threads: int | None = None) -> dict:
-    """Replay one trajectory of the fleet; never raises: a failure is reported in the result.
+def run_task(world: FleetWorld, task: Task, kernel_threads: int | None = None) -> TaskResult:
+    """Replay one trajectory of the fleet (``replay.run.run_replay``); never raises: a failure is
+    reported in the result.
 
     kernel_threads : threads for the compiled kernels of this task (OpenMP's setting is per calling
     thread, and a Dask worker runs tasks in its own threads); None keeps the process's setting.
     """
-    from tankcd_cli.replay.run import replay_to_files
+    from tankcd_cli.replay.records import ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
 
     if kernel_threads is not None:
         _worker_threads(kernel_threads)
     start = time.perf_counter()
-    result = {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": os.getpid()}
+    result = TaskResult(task.trajectory, task.poses, task.events, pid=os.getpid())
     try:
-        surface, vehicle, scene, setups = load_world(world)
+        loaded = load_world_once(world.spec)
         if task.part is not None:
             os.makedirs(os.path.dirname(task.poses), exist_ok=True)
-        result.update(replay_to_files(surface, vehicle, scene, task.trajectory, task.poses, task.events,
-                                      world.matcher, setups, part=task.part))
-        if task.part is not None and result["rows"] != task.part.rows:
-            raise RuntimeError(f"part of {task.trajectory} read {result['rows']} rows, the split counted "
+        ends = {}
+
+        def remember(chunk, poses, events):
+            if "first_line" not in ends and len(chunk):
+                ends.update(first_line=int(chunk.line[0]), t_first=float(chunk.t[0]))
+            if len(chunk):
+                ends["t_last"] = float(chunk.t[-1])
+
+        result.summary = run_replay(loaded, task.trajectory, ReplayOutputs(task.poses, task.events), world.options,
+                                    part=task.part, observe=remember)
+        result.first_line, result.t_first, result.t_last = (ends.get(k) for k in ("first_line", "t_first", "t_last"))
+        if task.part is not None and result.summary.rows != task.part.rows:
+            raise RuntimeError(f"part of {task.trajectory} read {result.summary.rows} rows, the split counted "
                                f"{task.part.rows}")
-        result["status"] = "ok"
     except InputError as exc:
-        result.update(status="bad_input", error=exc.one_line())
+        result.status, result.error, result.summary = "bad_input", exc.one_line(), None
     except Exception as exc:  # noqa: BLE001 - a bug in one task must not stop the fleet; it is reported
         from tankcd_cli.errors import printable
 
-        result.update(status="internal_error", error=printable(f"{type(exc).__name__}: {exc}".splitlines()[0]))
-    result["task_seconds"] = round(time.perf_counter() - start, 3)
+        result.status, result.summary = "internal_error", None
+        result.error = printable(f"{type(exc).__name__}: {exc}".splitlines()[0])
+    result.task_seconds = round(time.perf_counter() - start, 3)
     return result
+
+
+@dataclass
+class FleetSummary:
+    """A fleet's closing summary (docs/formats.md, "fleet.json"): counts summed over the
+    trajectories that finished, the failures, where it ran, and every trajectory's result."""
+
+    trajectories: int
+    tasks: int
+    ok: int
+    failed: int
+    rows: int
+    collisions: dict
+    between: dict
+    off_terrain: int
+    seconds: float
+    rows_per_second: float | None
+    ran_on: str
+    world: dict
+    failures: list
+    results: list
+
+    @property
+    def collided(self) -> bool:
+        return bool(sum(self.collisions.values()) or sum(v for k, v in self.between.items() if k != "off_terrain"))
+
+    def as_dict(self, results: bool = True) -> dict:
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "results"}
+        if results:
+            out["results"] = [r.as_dict() for r in self.results]
+        return out
 
 
 # --- fan-out ------------------------------------------------------------------------------
 
-def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | None = None,
-              progress: Callable[[str], None] | None = None, on_result: Callable[[dict], None] | None = None) -> dict:
+def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: str | None = None,
+              progress: Callable[[str], None] | None = None,
+              on_result: Callable[[TaskResult], None] | None = None) -> FleetSummary:
     """Run every task (in-process, in ``jobs`` forked processes, or on the Dask cluster at
     ``scheduler``) and return the fleet summary."""
     start = time.perf_counter()
@@ -253,7 +271,7 @@ def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | N
         results = _on_dask(world, tasks, scheduler, say, done)
         how = f"dask at {scheduler}"
     elif jobs <= 1 or len(tasks) == 1:
-        load_world(world, say)
+        load_world_once(world.spec, say)
         for task in tasks:
             results.append(run_task(world, task))
             done(results[-1])
@@ -263,49 +281,52 @@ def run_fleet(world: World, tasks: list[Task], jobs: int = 1, scheduler: str | N
         how = f"{jobs} processes"
     results = _join_parts(tasks, results)
     order = {path: k for k, path in enumerate(dict.fromkeys(t.trajectory for t in tasks))}
-    results.sort(key=lambda r: order[r["trajectory"]])
-    ok = [r for r in results if r["status"] == "ok"]
-    failed = [r for r in results if r["status"] != "ok"]
-    collisions = {k: sum(r["collisions"][k] for r in ok) for k in ("obstacle", "internal", "terrain")}
-    rows = sum(r["rows"] for r in ok)
+    results.sort(key=lambda r: order[r.trajectory])
+    ok = [r for r in results if r.status == "ok"]
+    failed = [r for r in results if r.status != "ok"]
+    rows = sum(r.summary.rows for r in ok)
     seconds = time.perf_counter() - start
-    return {"trajectories": len(results), "tasks": len(tasks), "ok": len(ok), "failed": len(failed), "rows": rows,
-            "collisions": collisions, "off_terrain": sum(r["off_terrain"] for r in ok),
-            "seconds": round(seconds, 3), "rows_per_second": round(rows / seconds, 1) if seconds > 0 else None,
-            "ran_on": how, "world": asdict(world),
-            "failures": [{"trajectory": r["trajectory"], "status": r["status"], "error": r["error"]} for r in failed],
-            "results": results}
+    between_kinds = ("obstacle", "internal", "terrain", "off_terrain")
+    return FleetSummary(
+        trajectories=len(results), tasks=len(tasks), ok=len(ok), failed=len(failed), rows=rows,
+        collisions={k: sum(r.summary.collisions[k] for r in ok) for k in KINDS},
+        between={k: sum(r.summary.between.get(k, 0) for r in ok) for k in between_kinds},
+        off_terrain=sum(r.summary.off_terrain for r in ok), seconds=round(seconds, 3),
+        rows_per_second=round(rows / seconds, 1) if seconds > 0 else None, ran_on=how, world=world.describe(),
+        failures=[{"trajectory": r.trajectory, "status": r.status, "error": r.error} for r in failed],
+        results=results)
 
 
-def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
+def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult]:
     """Join the parts of split trajectories, in order, into their whole outputs (atomically), after
     checking that time does not go back across a cut; one result per trajectory."""
     from tankcd_cli.io.atomic import atomic_path, committed_together
 
-    by_poses = {r["poses"]: r for r in results}
+    by_poses = {r.poses: r for r in results}
     part_outputs = {t.poses for t in tasks if t.part is not None}
-    whole = [r for r in results if r["poses"] not in part_outputs]
+    whole = [r for r in results if r.poses not in part_outputs]
     groups: dict = {}
     for t in tasks:
         if t.part is not None:
             groups.setdefault(t.whole_poses, []).append(t)
     for target, parts in groups.items():
         rs = [by_poses[t.poses] for t in parts]
-        first, error = parts[0], None
+        first, error, status = parts[0], None, "ok"
         for k, r in enumerate(rs):
             prev = rs[k - 1] if k else None
-            if prev is not None and prev["status"] == "ok" and r["status"] == "ok" and r["t_first"] is not None \
-                    and prev["t_last"] is not None and r["t_first"] < prev["t_last"]:
-                error = InputError(first.trajectory, f"time goes back ({r['t_first']!r} after {prev['t_last']!r}); "
+            if prev is not None and prev.status == "ok" and r.status == "ok" and r.t_first is not None \
+                    and prev.t_last is not None and r.t_first < prev.t_last:
+                error = InputError(first.trajectory, f"time goes back ({r.t_first!r} after {prev.t_last!r}); "
                                                      "t must be non-decreasing",
-                                   where=f"line {r['first_line']} column t").one_line()
+                                   where=f"line {r.first_line} column t").one_line()
                 status = "bad_input"
                 break
-            if r["status"] != "ok":
-                error, status = r["error"], r["status"]
+            if r.status != "ok":
+                error, status = r.error, r.status
                 break
-        joined = {"trajectory": first.trajectory, "poses": target, "events": first.whole_events, "parts": len(parts),
-                  "task_seconds": round(sum(r["task_seconds"] for r in rs), 3), "pid": sorted({r["pid"] for r in rs if r["pid"] is not None})}
+        joined = TaskResult(first.trajectory, target, first.whole_events, parts=len(parts),
+                            task_seconds=round(sum(r.task_seconds for r in rs), 3),
+                            pid=sorted({r.pid for r in rs if r.pid is not None}))
         try:
             if error is None:
                 with committed_together(), atomic_path(target, ".csv") as tmp_poses, \
@@ -313,14 +334,12 @@ def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
                     for k, t in enumerate(parts):
                         _append(tmp_poses, t.poses, skip_header=k > 0)
                         _append(tmp_events, t.events, skip_header=False)
-                joined.update(status="ok", rows=sum(r["rows"] for r in rs),
-                              collisions={k: sum(r["collisions"][k] for r in rs) for k in rs[0]["collisions"]},
-                              off_terrain=sum(r["off_terrain"] for r in rs), effects=rs[0]["effects"],
-                              seconds=round(sum(r["seconds"] for r in rs), 3))
+                joined.summary = _joined_summary([r.summary for r in rs])
+                joined.first_line, joined.t_first, joined.t_last = rs[0].first_line, rs[0].t_first, rs[-1].t_last
             else:
-                joined.update(status=status, error=error)
+                joined.status, joined.error = status, error
         except InputError as exc:
-            joined.update(status="bad_input", error=exc.one_line())
+            joined.status, joined.error = "bad_input", exc.one_line()
         finally:
             for t in parts:
                 for path in (t.poses, t.events):
@@ -333,6 +352,31 @@ def _join_parts(tasks: list[Task], results: list[dict]) -> list[dict]:
         except OSError:
             pass  # something else is in it (a killed worker's temporary file): leave it
     return whole
+
+
+def _joined_summary(summaries: list):
+    """One summary of a trajectory's parts: counts and seconds summed, the rest as the first part's."""
+    import dataclasses
+
+    first = summaries[0]
+
+    def summed(name):
+        return {k: sum(getattr(s, name).get(k, 0) for s in summaries) for k in getattr(first, name)}
+
+    matchers: dict = {}
+    for s in summaries:
+        for k, v in s.matchers.items():
+            matchers[k] = matchers.get(k, 0) + v
+    motion = dict(first.motion)
+    for key in ("intervals", "substeps"):
+        if key in motion:
+            motion[key] = sum(s.motion.get(key, 0) for s in summaries)
+    return dataclasses.replace(first, rows=sum(s.rows for s in summaries), collisions=summed("collisions"),
+                               off_terrain=sum(s.off_terrain for s in summaries), matchers=matchers,
+                               seconds=round(sum(s.seconds for s in summaries), 3),
+                               seconds_by_effect={k: round(sum(s.seconds_by_effect.get(k, 0.0) for s in summaries), 3)
+                                                  for k in first.seconds_by_effect},
+                               between=summed("between"), motion=motion)
 
 
 def _append(target: str, source: str, skip_header: bool) -> None:
@@ -350,7 +394,7 @@ def _on_processes(world, tasks, jobs, say, done):
 
     # the parent loads the world with numpy only (no compiled kernel has started threads yet),
     # then forks: the workers see the same arrays, shared copy-on-write and never written
-    load_world(world, say)
+    load_world_once(world.spec, say)
     context = multiprocessing.get_context("fork")
     results = []
     threads = max(1, (os.cpu_count() or 1) // jobs)
@@ -367,11 +411,10 @@ def _on_processes(world, tasks, jobs, say, done):
     return results
 
 
-def _lost(task: Task, exc: BaseException) -> dict:
+def _lost(task: Task, exc: BaseException) -> TaskResult:
     """The result of a task whose worker died under it."""
-    return {"trajectory": task.trajectory, "poses": task.poses, "events": task.events, "pid": None,
-            "status": "internal_error", "task_seconds": 0.0,
-            "error": f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300]}
+    return TaskResult(task.trajectory, task.poses, task.events, status="internal_error",
+                      error=f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300])
 
 
 def _worker_threads(threads: int) -> None:
@@ -409,10 +452,11 @@ def _on_dask(world, tasks, scheduler, say, done):
     return results
 
 
-def write_summary(path: str, fleet: dict) -> None:
+def write_summary(path: str, fleet: FleetSummary) -> None:
+    """fleet.json, written atomically."""
     from tankcd_cli.io.atomic import atomic_path
 
     with atomic_path(path, ".json") as tmp:
         with open(tmp, "w") as fh:
-            json.dump(fleet, fh, indent=2, default=str)
+            json.dump(fleet.as_dict(), fh, indent=2, default=str)
             fh.write("\n")

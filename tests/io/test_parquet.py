@@ -171,7 +171,7 @@ def test_every_kind_of_column(tmp_path):
 
 
 def test_events_typed_columns_and_the_rest_as_json(tmp_path):
-    from tankcd_cli.replay.pipeline import Event
+    from tankcd_cli.replay.records import Event
 
     events = [
         Event(3, 0.3, "obstacle", "hull", "wall", {"point": [1.0, 2.0, 3.5], "contacts": 4}),

@@ -169,20 +169,19 @@ def test_a_near_miss_beside_a_wall(run, tmp_path, gap, hit):
 
 
 def test_a_contact_across_a_chunk_boundary_is_reported_once(tmp_path):
-    from tankcd_cli.io.trajectory import read_trajectory
-    from tankcd_cli.replay.pipeline import prepare, replay_chunks
-    from tankcd_cli.scene import load_scene
-    from tankcd_cli.terrain.open import open_terrain
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.world import WorldSpec
 
     _wall_scene(tmp_path, [50.0, 10.0, 95.0], [50.2, 50.0, 105.0])
     (tmp_path / "t.csv").write_text("t,x,y,yaw_deg\n" + "".join(f"{k},{30 + 15 * k},30,0\n" for k in range(4)))
-    scene = load_scene(str(tmp_path / "scene.toml"))
-    surface = open_terrain(scene.required_terrain(), vehicle=scene.vehicle).surface
+    world = WorldSpec(scene=str(tmp_path / "scene.toml")).load()
 
     def events_with(chunk_rows):
-        setup = prepare(surface, scene.vehicle, scene)
-        return [(e.step, e.kind, e.b, round(e.t, 6), e.extra.get("between")) for _, _, evs in
-                replay_chunks(setup, read_trajectory(str(tmp_path / "t.csv"), chunk_rows=chunk_rows)) for e in evs]
+        seen = []
+        run_replay(world, str(tmp_path / "t.csv"), ReplayOutputs(None, None), ReplayOptions(chunk_rows=chunk_rows),
+                   observe=lambda chunk, poses, evs: seen.extend(evs))
+        return [(e.step, e.kind, e.b, round(e.t, 6), e.between) for e in seen]
 
     whole = events_with(100)
     # rows at x = 30, 45, 60, 75: the hull's front (3.43 m ahead) first reaches the wall between rows 1 and 2

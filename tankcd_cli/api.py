@@ -1,0 +1,338 @@
+"""tankcd as a library: the functions the command line calls, for notebooks and simulators.
+
+```python
+from tankcd_cli import api
+
+terrain = api.open_terrain("battlefield.h5")           # a store, or any terrain input (classified on the fly)
+poses = api.place(terrain, x, y, yaw_deg)              # dict of arrays keyed by the poses CSV's columns
+poses, events = api.replay("patrol.csv", scene="scene.toml")     # or terrain=...; or a dict of arrays
+summary = api.replay_to_files("patrol.csv", poses="poses.csv", events="events.jsonl", scene="scene.toml")
+store = api.classify("dem.tif", "dem.h5")              # the terrain store, as `tankcd classify` writes it
+events = api.collide("scene.toml", poses)              # the vehicle at given poses against the obstacles
+envelope = api.gun_envelope("t72")                     # the lowest safe gun elevation per turret azimuth
+```
+
+Conventions are the command line's (docs/formats.md): metres, seconds, degrees in and out (radians
+only inside); x east, y north, z up in the terrain's CRS; ``yaw_deg`` counter-clockwise from east;
+REP 103 attitudes. Arrays are numpy arrays (N,); a scalar where an array is taken is one row.
+Bad input raises ``tankcd_cli.errors.InputError`` (the command line's exit 3) with one line naming
+what is wrong; set-up slips are ``tankcd_cli.errors.SetupWarning`` warnings (turn them into errors
+with ``warnings.simplefilter("error", SetupWarning)``, the command line's ``--strict``).
+
+Importing this module imports numpy only; each function imports what it uses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_fleet",
+           "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
+
+TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
+
+
+def vehicle(vehicle="t72", **dimensions):
+    """A :class:`~tankcd_cli.vehicle.Vehicle`: a preset by name ("t72", "t55", "m1"), or a
+    ``Vehicle`` as it is, with any dimension overridden (metres; ``fuel_drums`` a bool)."""
+    return _as_vehicle(vehicle, **dimensions)
+
+
+def _as_vehicle(vehicle, **dimensions):
+    import dataclasses
+
+    from tankcd_cli.vehicle import Vehicle, vehicle_preset
+
+    if isinstance(vehicle, Vehicle):
+        return dataclasses.replace(vehicle, **dimensions) if dimensions else vehicle
+    try:
+        return vehicle_preset(str(vehicle), **dimensions)
+    except ValueError as exc:
+        from tankcd_cli.errors import InputError
+
+        raise InputError("vehicle", str(exc)) from None
+
+
+def open_terrain(path: str, up: str | None = None, vehicle="t72", cache: bool = False,
+                 progress: Callable[[str], None] | None = None):
+    """A terrain opened for queries (``terrain.open.OpenedTerrain``: ``.surface``, ``.layout``
+    "grid" or "mesh", ``.store_path``): a store is opened for windowed reads; a DEM or a mesh is
+    classified on the fly (with ``cache``, into ``<stem>.h5`` beside it, reused while the input's
+    SHA-256 matches). ``up``: a mesh's up axis ("z" or "y"; None: the format's convention);
+    ``vehicle``: whose footprint sizes the classes of a terrain classified here."""
+    from tankcd_cli.terrain.open import open_terrain as _open
+
+    return _open(path, up=up, vehicle=_as_vehicle(vehicle), progress=progress, cache=cache)
+
+
+def classify(terrain: str, output: str | None = None, method: str = "auto", up: str | None = None, vehicle="t72",
+             thresholds=None, fmt: str | None = None, crs: str | None = None, band: int | None = None,
+             tile: int | None = None, jobs: int | None = None, scheduler: str | None = None,
+             progress: Callable[[str], None] | None = None, **hooks):
+    """Classify any terrain input into a store (default: ``terrain``'s stem + ``.h5``), as
+    ``tankcd classify`` does: mean curvature per vertex or post, then flat / general / uneven
+    classes. Returns ``terrain.open.ClassifiedFile`` (``.output``, ``.layout``, ``.attrs`` with
+    the area shares). ``thresholds``: (flat, uneven) in 1/m (or a ``terrain.regions.Thresholds``),
+    overriding the vehicle's. An option that does not apply to the input (``up="y"`` for a DEM,
+    ``tile`` for a mesh) is a ``terrain.open.OptionError`` (a ValueError). ``hooks``:
+    ``classify_file``'s ``tile_progress``, ``on_grid``, ``before_commit`` (what the command line
+    draws and reports). ``fmt``: the input's format where its name does not say (``-``: stdin)."""
+    import os
+
+    from tankcd_cli.terrain.open import classify_file
+    from tankcd_cli.terrain.regions import Thresholds
+
+    if output is None:
+        output = os.path.splitext(terrain)[0] + ".h5"
+    limits = thresholds
+    if thresholds is not None and not isinstance(thresholds, Thresholds):
+        limits = Thresholds(float(thresholds[0]), float(thresholds[1]), derivation="given by the caller")
+    return classify_file(terrain, output, method=method, up=up, fmt=fmt, vehicle=_as_vehicle(vehicle),
+                         thresholds=limits, crs=crs, band=band, tile=tile, jobs=jobs, scheduler=scheduler,
+                         progress=progress, **hooks)
+
+
+def place(terrain, x, y, yaw_deg, matcher: str = "auto", vehicle="t72", escalate: bool | None = None,
+          tolerance: float | None = None) -> dict:
+    """Place the vehicle on ``terrain`` (``open_terrain``'s, or a path) with its footprint centre at
+    (x, y) m heading ``yaw_deg``: a dict of arrays keyed by the poses CSV's columns (``step`` counts
+    from 0, ``t`` is NaN; region, matcher and status as names; NaN where a row has no pose).
+
+    matcher : ``auto`` (by the region class under the footprint, escalated by the reference's
+        certificate), ``two_point``, ``four_point``, ``six_point``, ``wheel_stations``, ``reference``
+    escalate, tolerance : as ``replay``'s (None: escalate ``auto`` only, tolerance from the vehicle)
+    """
+    from tankcd_cli.io.poses_csv import pose_columns
+    from tankcd_cli.matching.match import match
+    from tankcd_cli.names import MATCHER_CHOICES
+
+    if matcher not in MATCHER_CHOICES:
+        raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
+    if isinstance(terrain, str):
+        terrain = open_terrain(terrain, vehicle=vehicle)
+    x, y, yaw = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (x, y, yaw_deg)))
+    poses = match(terrain.surface, _as_vehicle(vehicle), x, y, np.radians(yaw), matcher=matcher,
+                  escalate=escalate, tolerance=tolerance)
+    return pose_columns(np.arange(len(x)), np.full(len(x), np.nan), poses)
+
+
+def load_world(scene: str | None = None, terrain: str | None = None, vehicle: str = "t72", up: str | None = None,
+               cache: bool = False, progress: Callable[[str], None] | None = None):
+    """The world a replay runs in (``replay.world.World``), loaded once: from a scene (its terrain,
+    vehicle, obstacles) or a terrain and a vehicle preset. Give it to ``replay`` as ``world=`` to
+    replay many trajectories without loading the terrain and trees again."""
+    from tankcd_cli.replay.world import WorldSpec
+
+    return WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle, up=up, cache=cache).load(progress)
+
+
+def _world(world, scene, terrain, vehicle, up, cache, progress):
+    if world is not None:
+        return world
+    if (scene is None) == (terrain is None):
+        raise ValueError("give scene= or terrain= (one of them), or world=")
+    return load_world(scene, terrain, vehicle, up, cache, progress)
+
+
+def _options(matcher, escalate, tolerance, discrete):
+    from tankcd_cli.names import MATCHER_CHOICES
+    from tankcd_cli.replay.records import ReplayOptions
+
+    if matcher not in MATCHER_CHOICES:
+        raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
+    return ReplayOptions(matcher=matcher, escalate=escalate, tolerance=tolerance, continuous=not discrete)
+
+
+def replay(trajectory, scene: str | None = None, terrain: str | None = None, vehicle: str = "t72",
+           matcher: str = "auto", discrete: bool = False, escalate: bool | None = None,
+           tolerance: float | None = None, world=None, up: str | None = None, cache: bool = False):
+    """Replay a trajectory and keep the results in memory: (poses, events).
+
+    trajectory : a path (a trajectory CSV, a geographic CSV, GPX or a DIS capture: the command
+        line's inputs) or a dict of arrays with ``t``, ``x``, ``y``, ``yaw_deg`` and optionally
+        ``turret_deg``, ``gun_deg`` (metres, seconds, degrees; ``t`` never decreasing)
+    scene or terrain (with ``vehicle``) : the world, or ``world`` from ``load_world``
+    discrete : check the rows only (default: every effect along the motion between rows too)
+    Returns poses, a dict of arrays keyed by the poses CSV's columns, and events, a list of dicts
+    as the events JSON Lines' lines (``between``: a contact that began between rows).
+    """
+    from tankcd_cli.replay.run import replay_rows
+
+    w = _world(world, scene, terrain, vehicle, up, cache, None)
+    chunks = trajectory if isinstance(trajectory, str) else trajectory_chunks(trajectory)
+    return replay_rows(w, chunks, _options(matcher, escalate, tolerance, discrete))
+
+
+def replay_to_files(trajectory, poses: str | None = "-", events: str | None = None, scene: str | None = None,
+                    terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto",
+                    discrete: bool = False, escalate: bool | None = None, tolerance: float | None = None,
+                    world=None, up: str | None = None, cache: bool = False,
+                    progress: Callable[[int], None] | None = None, observe: Callable | None = None):
+    """Replay a trajectory streamed to files, as ``tankcd replay`` does: the poses CSV (``-``
+    standard output, None: none) and the events JSON Lines (None: only counted), written under
+    temporary names and renamed together when complete; memory bounded by the chunk whatever the
+    trajectory's length. Returns the closing summary (``replay.records.ReplaySummary``).
+    ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk."""
+    from tankcd_cli.replay.records import ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    w = _world(world, scene, terrain, vehicle, up, cache, None)
+    chunks = trajectory if isinstance(trajectory, str) else trajectory_chunks(trajectory)
+    return run_replay(w, chunks, ReplayOutputs(poses, events), _options(matcher, escalate, tolerance, discrete),
+                      progress=progress, observe=observe)
+
+
+def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, terrain: str | None = None,
+                 vehicle: str = "t72", up: str | None = None, matcher: str = "auto", discrete: bool = False,
+                 escalate: bool | None = None, tolerance: float | None = None, jobs: int | None = None,
+                 scheduler: str | None = None, split_lines: int | None = 1_000_000,
+                 progress: Callable[[str], None] | None = None, on_result: Callable | None = None):
+    """Replay many trajectories (paths, globs, ``@lists``) as ``tankcd replay ... --out-dir`` does: each
+    into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl``, in ``jobs`` processes (default: the
+    cores) or on the Dask cluster at ``scheduler``, long ones in parts of ``split_lines`` lines;
+    writes ``out_dir/fleet.json`` and returns its ``replay.fleet.FleetSummary``. A failing
+    trajectory does not stop the others (its result says why)."""
+    import os
+
+    from tankcd_cli.replay.fleet import FleetWorld, expand_trajectories, plan_tasks, run_fleet, write_summary
+    from tankcd_cli.replay.world import WorldSpec, classify_once
+
+    paths = expand_trajectories(list(trajectories))
+    os.makedirs(out_dir, exist_ok=True)
+    tasks = plan_tasks(paths, out_dir, split_lines)
+    spec = WorldSpec(scene=os.path.abspath(scene) if scene else None,
+                     terrain=os.path.abspath(terrain) if terrain else None, vehicle=vehicle, up=up)
+    jobs = jobs or os.cpu_count() or 1
+    if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
+        spec = classify_once(spec, out_dir, progress)
+    fleet = run_fleet(FleetWorld(spec, _options(matcher, escalate, tolerance, discrete)), tasks, jobs, scheduler,
+                      progress=progress, on_result=on_result)
+    write_summary(os.path.join(out_dir, "fleet.json"), fleet)
+    return fleet
+
+
+def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
+    """A dict of arrays (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``) as the
+    chunks a replay streams, checked as a CSV's rows are: every value finite, ``t`` never
+    decreasing (an InputError names the first bad row, counting from 0)."""
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.io.trajectory import TrajectoryChunk
+
+    missing = [c for c in TRAJECTORY_COLUMNS[:4] if c not in columns]
+    if missing:
+        raise InputError("trajectory", f"needs the columns {', '.join(TRAJECTORY_COLUMNS[:4])} (missing: "
+                                       f"{', '.join(missing)})")
+    n = len(np.atleast_1d(columns["t"]))
+    has_turret = any(c in columns for c in ("turret_deg", "gun_deg"))
+    cols = {}
+    for name in TRAJECTORY_COLUMNS:
+        if name in columns:
+            values = np.atleast_1d(np.asarray(columns[name], dtype=float))
+            if values.shape != (n,):
+                raise InputError("trajectory", f"column {name} has {values.size} values, t has {n}")
+        else:
+            values = np.zeros(n)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if len(bad):
+            raise InputError("trajectory", f"{name} is not a finite number ({values[bad[0]]!r})",
+                             where=f"row {int(bad[0])}")
+        cols[name] = values
+    back = np.flatnonzero(np.diff(cols["t"]) < 0)
+    if len(back):
+        k = int(back[0]) + 1
+        raise InputError("trajectory", f"time goes back ({cols['t'][k]!r} after {cols['t'][k - 1]!r}); t must be "
+                                       "non-decreasing", where=f"row {k}")
+
+    def chunks():
+        for start in range(0, n, chunk_rows):
+            sl = slice(start, min(start + chunk_rows, n))
+            step = np.arange(sl.start, sl.stop)
+            yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl], cols["yaw_deg"][sl],
+                                  cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret, step.copy())
+
+    return chunks()
+
+
+@dataclass
+class CollideStats:
+    """What ``collide_chunks`` did over a chunk: poses read, poses without a pose (skipped), and
+    the node-pair and triangle-pair tests of the tree walks."""
+
+    poses: int = 0
+    skipped: int = 0
+    node_tests: int = 0
+    tri_tests: int = 0
+
+
+def collide(scene: str, poses, all_contacts: bool = False) -> list:
+    """The scene's vehicle at given poses against its obstacles: a list of events (dicts as the
+    events JSON Lines' lines), one per pose and obstacle in contact.
+
+    poses : a path to a poses CSV, or a dict of arrays with ``x``, ``y``, ``z`` and either
+        ``roll_deg``, ``pitch_deg``, ``yaw_deg`` or ``qw``, ``qx``, ``qy``, ``qz`` (optional ``step``,
+        ``t``, ``turret_deg``, ``gun_deg``: the turret and gun turned so): what ``place`` and
+        ``replay`` return
+    """
+    return [e for events, _ in collide_chunks(scene, poses, all_contacts) for e in events]
+
+
+def collide_chunks(scene: str, poses, all_contacts: bool = False, cache: bool = True,
+                   progress: Callable[[str], None] | None = None):
+    """``collide`` chunk by chunk, for poses files of any length: yields (events, CollideStats).
+    ``cache``: keep the obstacles' trees beside the scene (``.tankcd-cache/``) and reuse them."""
+    from tankcd_cli.collision.obstacles import collide_obstacles, load_obstacles, scene_vehicle_body
+    from tankcd_cli.geometry.motion import quaternion_matrix
+    from tankcd_cli.geometry.pose import rotation_matrix
+    from tankcd_cli.scene import load_scene
+
+    sc = load_scene(scene)
+    obstacles = load_obstacles(sc, cache=cache, progress=progress)
+    body = scene_vehicle_body(sc)
+    if isinstance(poses, str):
+        from tankcd_cli.io.poses_csv import read_poses
+
+        chunks = read_poses(poses)
+    else:
+        p = {k: np.atleast_1d(np.asarray(v)) for k, v in poses.items()}
+        n = len(p["x"])
+        if all(k in p for k in ("qw", "qx", "qy", "qz")):
+            R = quaternion_matrix(np.column_stack([p[k].astype(float) for k in ("qw", "qx", "qy", "qz")]))
+        else:
+            R = rotation_matrix(*(np.radians(p[k].astype(float)) for k in ("roll_deg", "pitch_deg", "yaw_deg")))
+        pos = np.column_stack([p[k].astype(float) for k in ("x", "y", "z")])
+        valid = np.isfinite(pos).all(axis=1) & np.isfinite(R.reshape(n, 9)).all(axis=1)
+        chunks = [(p.get("step", np.arange(n)), p.get("t", np.full(n, np.nan)), R, pos, valid,
+                   np.radians(p.get("turret_deg", np.zeros(n)).astype(float)),
+                   np.radians(p.get("gun_deg", np.zeros(n)).astype(float)))]
+    for step, t, R, pos, valid, turret, gun in chunks:
+        idx = np.flatnonzero(valid)
+        hits = collide_obstacles(body, obstacles, R[idx], pos[idx], turret[idx], gun[idx], all_contacts=all_contacts)
+        events = []
+        for k, o, part, point, n_contacts in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts):
+            i = idx[k]
+            ti = float(t[i])
+            events.append({"step": int(step[i]), "t": None if not np.isfinite(ti) else round(ti, 6),
+                           "kind": "obstacle", "a": body.part_names[part], "b": obstacles[o].name,
+                           "point": [round(float(c), 4) for c in point], "contacts": int(n_contacts)})
+        yield events, CollideStats(len(valid), int((~valid).sum()), hits.node_tests, hits.tri_tests)
+
+
+def gun_envelope(vehicle="t72", azimuth_deg=None, method: str = "exact", resolution_deg: float = 0.01) -> dict:
+    """The lowest safe gun elevation at each turret azimuth (deg; default every degree): a dict of
+    arrays ``azimuth``, ``min_elevation`` (NaN where even full elevation touches a drum),
+    ``limited`` (a drum sets the limit), ``blocked_by`` (drum index, -1), ``checked`` (every
+    elevation above the limit was tested clear on a 0.25 deg grid). ``vehicle``: a preset name, a
+    ``Vehicle``, or a scene path (its ``[vehicle]``)."""
+    from tankcd_cli.collision.internal import elevation_envelope
+
+    if isinstance(vehicle, str) and vehicle.lower().endswith(".toml"):
+        from tankcd_cli.scene import load_scene
+
+        v = load_scene(vehicle).vehicle
+    else:
+        v = _as_vehicle(vehicle)
+    az = np.arange(0.0, 360.0, 1.0) if azimuth_deg is None else np.atleast_1d(np.asarray(azimuth_deg, dtype=float))
+    return elevation_envelope(v, az, resolution_deg=resolution_deg, method=method)

@@ -1,0 +1,145 @@
+"""The records a replay is made of and gives back: its options, outputs, events, counts and summary."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+KINDS = ("obstacle", "internal", "terrain")  # the collision kinds (off_terrain is no collision)
+EVENT_KINDS = KINDS + ("off_terrain",)
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """How a replay runs.
+
+    matcher : one of ``names.MATCHER_CHOICES`` (``auto``: by the region class under the footprint)
+    escalate : check key-point poses against the reference's certificate and solve those that fail
+        it by the reference (None: for ``auto`` only)
+    tolerance : the certificate's height tolerance at the footprint's corners, m (None: derived
+        from the vehicle, ``matching.match.escalation_tolerance``)
+    continuous : check every effect along the motion between rows too (False: the rows only)
+    chunk_rows : rows read, matched and written at a time (memory follows it)
+    """
+
+    matcher: str = "auto"
+    escalate: bool | None = None
+    tolerance: float | None = None
+    continuous: bool = True
+    chunk_rows: int = 65536
+
+
+@dataclass(frozen=True)
+class ReplayOutputs:
+    """Where a replay writes: the poses CSV (``-`` for stdout, None: not written) and the events
+    JSON Lines (None: only counted). Both are written under temporary names and renamed into
+    place together when complete."""
+
+    poses: str | None = "-"
+    events: str | None = None
+
+
+@dataclass
+class Event:
+    """One event: the row's step, the time (s), the kind (``EVENT_KINDS``), the two parts, and what
+    the kind carries (a point, a depth, angles, ``between`` for a contact that began between rows)."""
+
+    step: int
+    t: float
+    kind: str
+    a: str
+    b: str
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def between(self) -> bool:
+        return bool(self.extra.get("between"))
+
+    def as_dict(self) -> dict:
+        """As a line of the events file: step, t, kind, a, b, then the kind's fields."""
+        t = None if self.t is None or not np.isfinite(self.t) else round(float(self.t), 6)
+        return {"step": int(self.step), "t": t, "kind": self.kind, "a": self.a, "b": self.b, **self.extra}
+
+
+@dataclass
+class ReplayCounts:
+    """What a replay has seen so far: rows, poses per status and per matcher (code counts), events
+    at rows and between rows per kind, and the trajectory's extent [x min, y min, x max, y max]."""
+
+    rows: int = 0
+    status: np.ndarray = None
+    matcher: np.ndarray = None
+    at_rows: dict = field(default_factory=lambda: dict.fromkeys(EVENT_KINDS, 0))
+    between: dict = field(default_factory=lambda: dict.fromkeys(EVENT_KINDS, 0))
+    extent: list = field(default_factory=lambda: [np.inf, np.inf, -np.inf, -np.inf])
+
+    def __post_init__(self):
+        from tankcd_cli.names import PLACED_BY, STATUS
+
+        if self.status is None:
+            self.status = np.zeros(len(STATUS), dtype=np.int64)
+        if self.matcher is None:
+            self.matcher = np.zeros(len(PLACED_BY), dtype=np.int64)
+
+    def add(self, chunk, poses, events) -> None:
+        from tankcd_cli.names import PLACED_BY, STATUS
+
+        self.rows += len(chunk)
+        self.status += np.bincount(poses.status, minlength=len(STATUS))
+        self.matcher += np.bincount(poses.matcher, minlength=len(PLACED_BY))
+        for e in events:
+            (self.between if e.between else self.at_rows)[e.kind] += 1
+        if len(chunk):
+            with np.errstate(invalid="ignore"):
+                self.extent[0] = min(self.extent[0], float(np.fmin.reduce(chunk.x)))
+                self.extent[1] = min(self.extent[1], float(np.fmin.reduce(chunk.y)))
+                self.extent[2] = max(self.extent[2], float(np.fmax.reduce(chunk.x)))
+                self.extent[3] = max(self.extent[3], float(np.fmax.reduce(chunk.y)))
+
+    @property
+    def off_terrain_rows(self) -> int:
+        """Rows whose pose is not wholly on the terrain (status off or partly off)."""
+        from tankcd_cli.names import OK
+
+        return int(self.rows - self.status[OK])
+
+
+@dataclass
+class ReplaySummary:
+    """A replay's closing summary (docs/formats.md, "Replay summary").
+
+    rows : trajectory rows read (each gave a pose row)
+    collisions : events at the rows per kind (obstacle, internal, terrain)
+    off_terrain : rows whose footprint is not wholly on the terrain
+    effects : which effects ran; matchers : rows per matcher (what placed them)
+    seconds : the replay's time; seconds_by_effect : matching and each effect's share of it
+    mode : "continuous" (every effect along the motion between rows too) or "discrete" (rows only)
+    between : contacts that began between rows, per kind (obstacle, internal, terrain, off_terrain)
+    motion : what the checks between rows did and their resolution (intervals, sub-steps placed,
+        the sub-steps' largest travel and turn, obstacles' pass and time bounds, the gun's step)
+    """
+
+    rows: int
+    collisions: dict
+    off_terrain: int
+    effects: dict
+    matchers: dict
+    seconds: float
+    seconds_by_effect: dict
+    mode: str = "continuous"
+    between: dict = field(default_factory=dict)
+    motion: dict = field(default_factory=dict)
+
+    @property
+    def collided(self) -> bool:
+        """Whether any collision was found, at a row or between rows."""
+        return bool(sum(self.collisions.values()) or sum(v for k, v in self.between.items() if k != "off_terrain"))
+
+    @property
+    def off_terrain_anywhere(self) -> int:
+        """Rows off the terrain, plus stretches of motion that left it between rows."""
+        return self.off_terrain + self.between.get("off_terrain", 0)
+
+    def as_dict(self) -> dict:
+        return asdict(self)

@@ -1,0 +1,136 @@
+"""tankcd_cli.api: the library face gives what the command line gives, for arrays and files alike."""
+
+import csv
+import io
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tankcd_cli import api
+from tankcd_cli.errors import InputError
+
+SAMPLE = Path(__file__).resolve().parent.parent / "sample_data"
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    out = tmp_path_factory.mktemp("api") / "battlefield.h5"
+    done = api.classify(str(SAMPLE / "battlefield.asc"), str(out))
+    assert done.layout == "grid" and Path(done.output) == out
+    return str(out)
+
+
+def _patrol(rows=200):
+    with open(SAMPLE / "patrol.csv") as fh:
+        data = list(csv.DictReader(fh))[:rows]
+    return {k: np.array([float(r[k]) for r in data]) for k in data[0]}
+
+
+def test_importing_the_api_stays_lean():
+    code = "import sys, tankcd_cli.api; print(sorted(m for m in ('scipy', 'matplotlib', 'trimesh', 'rasterio', " \
+           "'h5py') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_place_gives_the_poses_csv_columns_as_arrays(store):
+    from tankcd_cli.io.poses_csv import COLUMNS
+
+    terrain = api.open_terrain(store)
+    poses = api.place(terrain, [500050.0, 500060.0, 1e9], [4500050.0, 4500060.0, 0.0], [0.0, 45.0, 0.0])
+    assert list(poses) == list(COLUMNS)
+    assert poses["status"].tolist() == ["ok", "ok", "off"] and poses["matcher"][2] == "none"
+    assert np.isnan(poses["z"][2]) and np.isfinite(poses["z"][:2]).all()
+    q = np.column_stack([poses[k][:2] for k in ("qw", "qx", "qy", "qz")])
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0)
+    # a scalar is one row; a path is opened on the way; every matcher by name
+    one = api.place(store, 500050.0, 4500050.0, 0.0, matcher="reference")
+    assert one["matcher"].tolist() == ["reference"] and one["penetration"][0] < 1e-6
+    with pytest.raises(ValueError, match="unknown matcher"):
+        api.place(terrain, 0, 0, 0, matcher="three_point")
+
+
+def test_replay_of_arrays_is_the_replay_of_the_file_and_of_the_command(store, tmp_path, run):
+    columns = _patrol()
+    path = tmp_path / "patrol.csv"
+    with open(path, "w") as fh:
+        fh.write("t,x,y,yaw_deg,turret_deg,gun_deg\n")
+        for k in range(len(columns["t"])):
+            fh.write(",".join(repr(float(columns[c][k])) for c in ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg"))
+                     + "\n")
+    scene = str(SAMPLE / "scene.toml")
+    world = api.load_world(scene=scene)
+    from_arrays = api.replay(columns, world=world)
+    from_file = api.replay(str(path), world=world)
+    for k in from_arrays[0]:
+        np.testing.assert_array_equal(from_arrays[0][k], from_file[0][k])
+    assert from_arrays[1] == from_file[1]
+    # the command line's bytes are the API's values, printed
+    result = run("replay", path, "--scene", scene, "--events", "e.jsonl")
+    assert result.exit_code == 0, result.stderr
+    printed = list(csv.DictReader(io.StringIO(result.stdout)))
+    assert len(printed) == len(columns["t"])
+    np.testing.assert_allclose([float(r["z"]) for r in printed], from_file[0]["z"], atol=6e-5)
+    assert [r["matcher"] for r in printed] == from_file[0]["matcher"].tolist()
+    lines = [json.loads(line) for line in (tmp_path / "e.jsonl").read_text().splitlines()]
+    assert lines == from_file[1]
+
+
+def test_replay_to_files_streams_and_summarizes(store, tmp_path):
+    summary = api.replay_to_files(str(SAMPLE / "patrol.csv"), poses=str(tmp_path / "p.csv"),
+                                  events=str(tmp_path / "e.jsonl"), terrain=store, discrete=True)
+    assert summary.rows == 1144 and summary.mode == "discrete" and summary.between == {}
+    assert summary.effects == {"terrain_contact": True, "obstacles": False, "internal": True}  # a T-72: drums
+    assert len((tmp_path / "p.csv").read_text().splitlines()) == 1145
+
+
+def test_bad_trajectories_name_the_row():
+    good = {"t": [0.0, 1.0, 2.0], "x": [0.0, 1.0, 2.0], "y": [0.0, 0.0, 0.0], "yaw_deg": [0.0, 0.0, 0.0]}
+    with pytest.raises(InputError, match="row 2: time goes back"):
+        list(api.trajectory_chunks({**good, "t": [0.0, 1.0, 0.5]}))
+    with pytest.raises(InputError, match="row 1: y is not a finite number"):
+        list(api.trajectory_chunks({**good, "y": [0.0, np.nan, 0.0]}))
+    with pytest.raises(InputError, match="missing: yaw_deg"):
+        list(api.trajectory_chunks({k: v for k, v in good.items() if k != "yaw_deg"}))
+    with pytest.raises(InputError, match="column x has 2 values, t has 3"):
+        list(api.trajectory_chunks({**good, "x": [0.0, 1.0]}))
+    chunks = list(api.trajectory_chunks(good, chunk_rows=2))
+    assert [c.step.tolist() for c in chunks] == [[0, 1], [2]] and not chunks[0].has_turret
+    with pytest.raises(ValueError, match="scene= or terrain="):
+        api.replay(good)
+
+
+def test_collide_on_arrays_gives_the_events_of_collide_on_the_file(tmp_path, run):
+    scene = str(SAMPLE / "scene.toml")
+    columns = {k: v for k, v in _patrol(260).items() if k not in ("turret_deg", "gun_deg")}
+    poses, _ = api.replay(columns, scene=scene, discrete=True)
+    direct = api.collide(scene, poses)
+    assert direct and {e["b"] for e in direct} == {"wall"}
+    with open(tmp_path / "p.csv", "w") as fh:
+        fh.write("step,t,x,y,z,qw,qx,qy,qz\n")
+        for k in range(len(poses["x"])):
+            fh.write(",".join(repr(float(poses[c][k])) for c in ("step", "t", "x", "y", "z", "qw", "qx", "qy", "qz"))
+                     + "\n")
+    assert api.collide(scene, str(tmp_path / "p.csv")) == direct
+    result = run("collide", "--scene", scene, "--poses", "p.csv")
+    assert [json.loads(line) for line in result.stdout.splitlines()] == direct
+
+
+def test_the_gun_envelope_is_the_collision_layers(tmp_path):
+    from tankcd_cli.collision.internal import elevation_envelope
+    from tankcd_cli.vehicle import vehicle_preset
+
+    env = api.gun_envelope("t72", [0.0, 170.0, 180.0])
+    want = elevation_envelope(vehicle_preset("t72"), np.array([0.0, 170.0, 180.0]))
+    np.testing.assert_array_equal(env["min_elevation"], want["min_elevation"])
+    assert env["min_elevation"][0] == -6.0 and env["min_elevation"][2] > -6.0
+    no_drums = api.gun_envelope(api.vehicle("t72", fuel_drums=False))
+    assert (no_drums["min_elevation"] == -6.0).all() and len(no_drums["azimuth"]) == 360
+    (tmp_path / "s.toml").write_text('[vehicle]\npreset = "m1"\n')
+    assert (api.gun_envelope(str(tmp_path / "s.toml"))["min_elevation"] == -10.0).all()
+    with pytest.raises(InputError, match="unknown vehicle preset"):
+        api.vehicle("tiger")
