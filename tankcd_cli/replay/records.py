@@ -85,9 +85,12 @@ class ReplayCounts:
     def add(self, chunk, poses, events) -> None:
         from tankcd_cli.names import PLACED_BY, STATUS
 
+        from tankcd_cli.names import OFF
+
         self.rows += len(chunk)
         self.status += np.bincount(poses.status, minlength=len(STATUS))
-        self.matcher += np.bincount(poses.matcher, minlength=len(PLACED_BY))
+        placed = poses.status != OFF  # a row without a pose was placed by no matcher
+        self.matcher += np.bincount(poses.matcher[placed], minlength=len(PLACED_BY))
         for e in events:
             (self.between if e.between else self.at_rows)[e.kind] += 1
         if len(chunk):

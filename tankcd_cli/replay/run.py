@@ -126,7 +126,7 @@ def _coordinate(v: float) -> str:
 
 def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySummary:
     """The closing summary of a replay's counts."""
-    from tankcd_cli.names import PLACED_BY
+    from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
 
     motion = {}
     if run.continuous:
@@ -135,7 +135,8 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
         motion = {"intervals": run.between.intervals, "substeps": run.between.substeps, **resolution(run.surface)}
     return ReplaySummary(rows=counts.rows, collisions={k: counts.at_rows[k] for k in KINDS},
                          off_terrain=counts.at_rows["off_terrain"], effects=run.effects.as_dict(),
-                         matchers={name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
+                         matchers={**{name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
+                                   **({NO_MATCHER: int(counts.status[OFF])} if counts.status[OFF] else {})},
                          seconds=round(seconds, 3),
                          seconds_by_effect={k: round(v, 3) for k, v in run.seconds.items()},
                          mode="continuous" if run.continuous else "discrete",
