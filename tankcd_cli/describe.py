@@ -167,7 +167,7 @@ def describe_scene(path: str) -> dict:
         extent = terrain["extent_x"], terrain["extent_y"]
     mesh = facts["vehicle"]["mesh"]
     if mesh is not None:
-        tris, parts, names = vehicle_mesh_triangles(sc)
+        tris, parts, names = vehicle_mesh_triangles(sc.vehicle_mesh, sc.vehicle_mesh_placement)
         pts = tris.reshape(-1, 3)
         mesh["triangles"] = int(len(tris))
         mesh["bounds"] = {"min": pts.min(axis=0).tolist(), "max": pts.max(axis=0).tolist()}

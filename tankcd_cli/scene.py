@@ -62,6 +62,27 @@ class CollisionSettings:
         return {"k": self.k, "aabb_levels": self.aabb_levels, "split": self.split, "leaf_size": self.leaf_size}
 
 
+@dataclass(frozen=True)
+class EntityVehicle:
+    """Which vehicle the entities an [[entity]] table names are: an ``id`` (one entity) or a
+    ``match`` pattern of ids (``*`` and ``?``, as shell globs), the vehicle and its mesh."""
+
+    id: str | None
+    match: str | None
+    vehicle: Vehicle
+    mesh: str | None = None
+    mesh_placement: MeshPlacement = MeshPlacement()
+
+    def names(self, entity: str) -> bool:
+        from fnmatch import fnmatchcase
+
+        return entity == self.id if self.id is not None else fnmatchcase(entity, self.match)
+
+    @property
+    def label(self) -> str:
+        return f"id {self.id}" if self.id is not None else f"match {self.match}"
+
+
 @dataclass
 class Scene:
     path: str
@@ -72,6 +93,15 @@ class Scene:
     vehicle_mesh_placement: MeshPlacement = MeshPlacement()
     obstacles: list = field(default_factory=list)
     collision: CollisionSettings = CollisionSettings()
+    entities: list = field(default_factory=list)  # EntityVehicle tables, first match wins
+
+    def entity_vehicle(self, entity: str) -> int:
+        """Which vehicle an entity is: 0 the [vehicle] table's, k the k-th [[entity]] table's (the
+        first that names it)."""
+        for k, table in enumerate(self.entities):
+            if table.names(entity):
+                return k + 1
+        return 0
 
     @property
     def terrain_up(self) -> str | None:
@@ -144,7 +174,7 @@ def load_scene(path: str) -> Scene:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(path, f"not valid TOML: {exc}") from None
     base = os.path.dirname(os.path.abspath(path))
-    _only(data, {"terrain", "vehicle", "obstacle", "collision"}, path, "")
+    _only(data, {"terrain", "vehicle", "obstacle", "collision", "entity"}, path, "")
 
     terrain = _table(data, "terrain", path)
     _only(terrain, {"path", "up"}, path, "[terrain]")
@@ -152,36 +182,8 @@ def load_scene(path: str) -> Scene:
     terrain_up = _choice(terrain, "up", UP_AXES + (None,), None, path, "[terrain]")
 
     veh = _table(data, "vehicle", path)
-    _only(veh, VEHICLE_KEYS | {"preset", "mesh", "mesh_up", "mesh_scale", "mesh_yaw_deg", "mesh_pitch_deg",
-                               "mesh_roll_deg"}, path, "[vehicle]")
-    preset = veh.get("preset", "t72")
-    if not isinstance(preset, str) or preset.lower() not in PRESETS:
-        raise InputError(path, f"unknown preset {preset!r}; choose one of {', '.join(PRESETS)}", where="[vehicle] preset")
-    overrides = {}
-    for key in sorted(VEHICLE_KEYS & set(veh)):
-        value = veh[key]
-        if key == "fuel_drums":
-            if not isinstance(value, bool):
-                raise InputError(path, f"must be true or false, got {value!r}", where="[vehicle] fuel_drums")
-        elif isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise InputError(path, f"must be a number, got {value!r}", where=f"[vehicle] {key}")
-        # counts stay whole (a whole float is taken as one: 6.0 road wheels are 6)
-        overrides[key] = value if key == "fuel_drums" else (
-            int(value) if key == "road_wheels" and float(value).is_integer() else float(value))
-    try:
-        vehicle = vehicle_preset(preset, **overrides)
-    except ValueError as exc:
-        raise InputError(path, str(exc), where="[vehicle]") from None
-    mesh = _file(veh, "mesh", base, path, "[vehicle]") if "mesh" in veh else None
-    loose = sorted(k for k in veh if k.startswith("mesh_")) if mesh is None else []
-    if loose:
-        raise InputError(path, f"{loose[0]} places the vehicle mesh, but the scene names no mesh",
-                         where=f"[vehicle] {loose[0]}")
-    mesh_placement = MeshPlacement(_choice(veh, "mesh_up", UP_AXES + (None,), None, path, "[vehicle]"),
-                                   _scale(veh, "mesh_scale", path, "[vehicle]"),
-                                   _angle(veh, "mesh_yaw_deg", path, "[vehicle]"),
-                                   _angle(veh, "mesh_pitch_deg", path, "[vehicle]"),
-                                   _angle(veh, "mesh_roll_deg", path, "[vehicle]"))
+    vehicle, mesh, mesh_placement = _vehicle_table(veh, base, path, "[vehicle]")
+    entities = _entity_tables(data.get("entity", []), base, path)
 
     raw_obstacles = data.get("obstacle", [])
     if not isinstance(raw_obstacles, list):
@@ -228,7 +230,68 @@ def load_scene(path: str) -> Scene:
     if not isinstance(leaf, int) or isinstance(leaf, bool) or not 1 <= leaf <= 64:
         raise InputError(path, f"leaf_size must be a whole number from 1 to 64, got {leaf!r}", where="[collision] leaf_size")
     return Scene(path, terrain_path, terrain_up, vehicle, mesh, mesh_placement, obstacles,
-                 CollisionSettings(int(k), int(levels), split, int(leaf)))
+                 CollisionSettings(int(k), int(levels), split, int(leaf)), entities)
+
+
+VEHICLE_TABLE_KEYS = VEHICLE_KEYS | {"preset", "mesh", "mesh_up", "mesh_scale", "mesh_yaw_deg", "mesh_pitch_deg",
+                                     "mesh_roll_deg"}
+
+
+def _vehicle_table(veh: dict, base: str, path: str, where: str):
+    """A vehicle described by a table of the scene ([vehicle] or an [[entity]]): (Vehicle, mesh path
+    or None, MeshPlacement), every key checked."""
+    _only(veh, VEHICLE_TABLE_KEYS | ({"id", "match"} if where.startswith("[[entity]]") else set()), path, where)
+    preset = veh.get("preset", "t72")
+    if not isinstance(preset, str) or preset.lower() not in PRESETS:
+        raise InputError(path, f"unknown preset {preset!r}; choose one of {', '.join(PRESETS)}", where=f"{where} preset")
+    overrides = {}
+    for key in sorted(VEHICLE_KEYS & set(veh)):
+        value = veh[key]
+        if key == "fuel_drums":
+            if not isinstance(value, bool):
+                raise InputError(path, f"must be true or false, got {value!r}", where=f"{where} fuel_drums")
+        elif isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputError(path, f"must be a number, got {value!r}", where=f"{where} {key}")
+        # counts stay whole (a whole float is taken as one: 6.0 road wheels are 6)
+        overrides[key] = value if key == "fuel_drums" else (
+            int(value) if key == "road_wheels" and float(value).is_integer() else float(value))
+    try:
+        vehicle = vehicle_preset(preset, **overrides)
+    except ValueError as exc:
+        raise InputError(path, str(exc), where=where) from None
+    mesh = _file(veh, "mesh", base, path, where) if "mesh" in veh else None
+    loose = sorted(k for k in veh if k.startswith("mesh_")) if mesh is None else []
+    if loose:
+        raise InputError(path, f"{loose[0]} places the vehicle mesh, but the table names no mesh",
+                         where=f"{where} {loose[0]}")
+    placement = MeshPlacement(_choice(veh, "mesh_up", UP_AXES + (None,), None, path, where),
+                              _scale(veh, "mesh_scale", path, where), _angle(veh, "mesh_yaw_deg", path, where),
+                              _angle(veh, "mesh_pitch_deg", path, where), _angle(veh, "mesh_roll_deg", path, where))
+    return vehicle, mesh, placement
+
+
+def _entity_tables(raw, base: str, path: str) -> list:
+    """The scene's [[entity]] tables: which vehicle an entity of an exercise is."""
+    if not isinstance(raw, list):
+        raise InputError(path, "entities are written [[entity]]", where="entity")
+    out = []
+    for i, table in enumerate(raw):
+        where = f"[[entity]] {i + 1}"
+        if not isinstance(table, dict):
+            raise InputError(path, "must be a table", where=where)
+        if ("id" in table) == ("match" in table):
+            raise InputError(path, "give id (one entity) or match (a pattern of ids, * and ? wildcards): one of them",
+                             where=where)
+        key = "id" if "id" in table else "match"
+        value = table[key]
+        if not isinstance(value, str) or not value or any(c in value for c in ',"\''):
+            raise InputError(path, f"{key} must be a non-empty text without commas or quotes, got {value!r}",
+                             where=f"{where} {key}")
+        vehicle, mesh, placement = _vehicle_table({k: v for k, v in table.items() if k not in ("id", "match")},
+                                                  base, path, where)
+        out.append(EntityVehicle(value if key == "id" else None, value if key == "match" else None, vehicle, mesh,
+                                 placement))
+    return out
 
 
 def _finite(value) -> bool:

@@ -119,21 +119,28 @@ def scene_vehicle_body(scene: Scene, detail: int = 2) -> VehicleBody:
     vehicle frame by its placement (scale, then rotation), its parts the file's (OBJ objects or
     groups, glTF nodes) when it has them, else one part, "vehicle"; without a mesh, the one
     generated from the dimensions, whose turret and gun turn."""
-    c = scene.collision
-    if scene.vehicle_mesh:
-        tris, parts, names = vehicle_mesh_triangles(scene)
+    return body_of(scene.vehicle, scene.vehicle_mesh, scene.vehicle_mesh_placement, scene.collision, detail)
+
+
+def body_of(vehicle, mesh: str | None, placement, settings: CollisionSettings = CollisionSettings(),
+            detail: int = 2) -> VehicleBody:
+    """A vehicle as moving parts: its mesh file (None: the shape generated from its dimensions)
+    brought into the vehicle frame by ``placement`` (``scene.MeshPlacement``), trees built with
+    ``settings`` (the scene's [collision])."""
+    if mesh:
+        tris, parts, names = vehicle_mesh_triangles(mesh, placement)
     else:
-        tris, parts = vehicle_mesh(scene.vehicle, detail)
+        tris, parts = vehicle_mesh(vehicle, detail)
         names = PARTS
-    return vehicle_body(scene.vehicle, tris, parts, names, k=c.k, leaf_size=c.leaf_size, aabb_levels=c.aabb_levels,
-                        split=c.split)
+    return vehicle_body(vehicle, tris, parts, names, k=settings.k, leaf_size=settings.leaf_size,
+                        aabb_levels=settings.aabb_levels, split=settings.split)
 
 
-def vehicle_mesh_triangles(scene: Scene):
-    """The scene's vehicle mesh: triangles (m, 3, 3) in the vehicle frame, part ids (m,) and names."""
-    pl = scene.vehicle_mesh_placement
-    raw = read_mesh(scene.vehicle_mesh, pl.up)
-    tris = place(raw.vertices, pl.scale, pl.yaw_deg, pl.pitch_deg, pl.roll_deg)[raw.faces]
+def vehicle_mesh_triangles(mesh: str, placement):
+    """A vehicle mesh file: triangles (m, 3, 3) in the vehicle frame (``placement`` applied), part ids
+    (m,) and names."""
+    raw = read_mesh(mesh, placement.up)
+    tris = place(raw.vertices, placement.scale, placement.yaw_deg, placement.pitch_deg, placement.roll_deg)[raw.faces]
     parts, names = file_parts(raw)
     return tris, parts, names
 

@@ -97,14 +97,19 @@ class RowIntervals:
                 "gun_deg": self.gun0[k] + s * self.dgun[k]}
 
 
-def row_intervals(t, x, y, yaw_deg, turret_deg, gun_deg, first=None) -> RowIntervals:
+def row_intervals(t, x, y, yaw_deg, turret_deg, gun_deg, first=None, links=None) -> RowIntervals:
     """The intervals between consecutive rows (N,) of one vehicle, skipping pairs with equal ``t``
-    (no motion between them). ``first`` (N - 1,) names each pair's earlier row (default 0 .. N-2)."""
+    (no motion between them). ``first`` (N - 1,) names each pair's earlier row (default 0 .. N-2);
+    ``links`` (N - 1,) bool, where given, keeps only the pairs it marks (rows of several vehicles in
+    one table: a pair of two vehicles' rows, or one that starts a new piece of motion, is none)."""
     t, x, y = (np.asarray(a, dtype=float) for a in (t, x, y))
     yaw_deg, turret_deg, gun_deg = (np.asarray(a, dtype=float) for a in (yaw_deg, turret_deg, gun_deg))
     first = np.arange(max(len(t) - 1, 0)) if first is None else np.asarray(first)
     dt = np.diff(t)
-    keep = np.flatnonzero(dt > 0)
+    moving = dt > 0
+    if links is not None:
+        moving &= np.asarray(links, dtype=bool)
+    keep = np.flatnonzero(moving)
     a, b = keep, keep + 1
     return RowIntervals(first[keep], t[a], dt[keep], x[a], y[a], x[b] - x[a], y[b] - y[a],
                         yaw_deg[a], shorter_arc_deg(yaw_deg[a], yaw_deg[b]),

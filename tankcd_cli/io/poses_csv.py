@@ -11,8 +11,10 @@ COLUMNS = ("step", "t", "x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw",
 REGION_NAMES = {**dict(enumerate(CLASS_NAMES)), NO_CLASS: NO_CLASS_NAME}
 
 
-def header() -> str:
-    return ",".join(COLUMNS) + "\n"
+def header(entity: bool = False) -> str:
+    """The poses CSV's header line; with ``entity`` (a trajectory of many vehicles) an ``entity``
+    column after ``step``."""
+    return ",".join(COLUMNS[:1] + (("entity",) if entity else ()) + COLUMNS[1:]) + "\n"
 
 
 _ROW = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,%s,%.4f,%.4f,%s\n"
@@ -25,8 +27,9 @@ REGION_LABELS = CLASS_NAMES + (NO_CLASS_NAME,)
 _LAYOUT = np.array([(0, j) for j in range(12)] + [(1, 0), (1, 1), (0, 12), (0, 13), (1, 2)])
 
 
-def format_rows(step, t, poses, matcher_names, status_names) -> str:
-    """CSV text of a chunk of poses. Numbers a pose does not have (status ``off``) are left empty."""
+def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity_names=()) -> str:
+    """CSV text of a chunk of poses. Numbers a pose does not have (status ``off``) are left empty.
+    ``entity`` (N,) codes into ``entity_names``: the ``entity`` column after ``step``."""
     from tankcd_cli.io.fixed_text import table_text
 
     deg = np.degrees
@@ -39,18 +42,26 @@ def format_rows(step, t, poses, matcher_names, status_names) -> str:
     status = np.asarray(poses.status, dtype=np.int64)
     # a row without a pose was placed by no matcher
     matcher = np.where(status == status_names.index("off"), len(matcher_names), np.asarray(poses.matcher, dtype=np.int64))
-    codes = np.column_stack([np.where((region >= 0) & (region < 3), region, 3),
-                             len(REGION_LABELS) + matcher,
-                             len(REGION_LABELS) + len(matcher_names) + 1 + status])
-    text = table_text(numbers, _DECIMALS, codes, [*REGION_LABELS, *matcher_names, NO_MATCHER, *status_names],
-                      _LAYOUT[:, 0], _LAYOUT[:, 1])
+    labels = [*REGION_LABELS, *matcher_names, NO_MATCHER, *status_names]
+    columns = [np.where((region >= 0) & (region < 3), region, 3), len(REGION_LABELS) + matcher,
+               len(REGION_LABELS) + len(matcher_names) + 1 + status]
+    layout = _LAYOUT
+    if entity is not None:
+        columns.append(len(labels) + np.asarray(entity, dtype=np.int64))
+        labels += list(entity_names)
+        layout = np.concatenate([_LAYOUT[:1], [(1, 3)], _LAYOUT[1:]])
+    text = table_text(numbers, _DECIMALS, np.column_stack(columns), labels, layout[:, 0], layout[:, 1])
     if text is None:  # a number too large for fixed point (far beyond any terrain): printf does it
-        return format_rows_printf(step, t, poses, matcher_names, status_names)
+        return format_rows_printf(step, t, poses, matcher_names, status_names, entity, entity_names)
     return text
 
 
-def format_rows_printf(step, t, poses, matcher_names, status_names) -> str:
+def format_rows_printf(step, t, poses, matcher_names, status_names, entity=None, entity_names=()) -> str:
     """``format_rows`` by Python's printf-style formatting: the reference the compiled writer is tested against."""
+    if entity is not None:  # the entity column after the step: the rest as without it
+        plain = format_rows_printf(step, t, poses, matcher_names, status_names).splitlines(keepends=True)
+        names = [entity_names[int(c)] for c in np.asarray(entity)]
+        return "".join(line.replace(",", f",{name},", 1) for line, name in zip(plain, names))
     deg = np.degrees
     numbers = np.column_stack([t, poses.position, deg(poses.roll), deg(poses.pitch), deg(poses.yaw),
                                poses.quaternion, poses.penetration, poses.gap])
@@ -134,10 +145,11 @@ def _trajectory_hint(header: list, missing: list) -> str:
     return ""
 
 
-def pose_columns(step, t, poses) -> dict:
+def pose_columns(step, t, poses, entity_names=None) -> dict:
     """The poses CSV's columns of a chunk as plain arrays (N,) each, keyed by ``COLUMNS``: numbers
     at full precision (NaN where the CSV leaves a cell empty: no pose, or not measured), and
-    region, matcher and status as their names (str arrays). ``poses`` None gives empty columns."""
+    region, matcher and status as their names (str arrays). ``poses`` None gives empty columns.
+    ``entity_names`` (N,) str: an ``entity`` column after ``step``."""
     from tankcd_cli.names import NO_MATCHER, PLACED_BY, STATUS
 
     if poses is None:
@@ -161,4 +173,6 @@ def pose_columns(step, t, poses) -> dict:
     out["penetration"] = np.asarray(poses.penetration, dtype=np.float64).copy()
     out["gap"] = np.asarray(poses.gap, dtype=np.float64).copy()
     out["status"] = np.array(STATUS)[status]
+    if entity_names is not None:
+        out = {"step": out.pop("step"), "entity": np.asarray(entity_names, dtype=str), **out}
     return out

@@ -28,9 +28,10 @@ OFF_COURSE = 60.0  # deg
 class MotionChecks:
     """The checks of one vehicle's rows (``name`` labels it in messages: a file, an entity)."""
 
-    def __init__(self, source: str, name: str | None = None):
+    def __init__(self, source: str, name: str | None = None, tally=None):
         self.source = source
         self.name = name
+        self.tally = tally  # ExerciseChecks: limits how many vehicles one kind of warning names
         self.last = None  # (t, x, y, yaw_deg, line) of the previous row
         self.fast_warned = self.turn_warned = False
         self.moving = 0
@@ -40,8 +41,6 @@ class MotionChecks:
 
     def observe(self, t, x, y, yaw_deg, line) -> None:
         """The next rows (N,) of this vehicle, in order."""
-        from tankcd_cli.errors import warn
-
         if len(t) == 0:
             return
         if self.last is not None:
@@ -53,30 +52,33 @@ class MotionChecks:
         dist = np.hypot(np.diff(x), np.diff(y))
         with np.errstate(divide="ignore", invalid="ignore"):
             speed = np.where(dt > 0, dist / np.where(dt > 0, dt, 1.0), np.where(dist > 0, np.inf, 0.0))
-        who = f"{self.name}: " if self.name else ""
+        who = f"entity {self.name!r}: " if self.name else ""
         if not self.fast_warned:
             fast = np.flatnonzero(speed > MAX_SPEED)
             if len(fast):
                 k = fast[0]
                 self.fast_warned = True
+                hint = ("is t in other units?" if self.name else "are rows of several vehicles interleaved in one "
+                        "file (an entity column), or is t in other units?")
                 if dt[k] == 0:
-                    warn(self.source, f"{who}line {line[k + 1]}: {dist[k]:.1f} m from line {line[k]} at the same t "
-                                      f"({t[k]:g} s): no vehicle jumps; are rows of several vehicles interleaved in "
-                                      "one file? give each row its vehicle in an entity column")
+                    self._warn(self.source, f"{who}line {line[k + 1]}: {dist[k]:.1f} m from line {line[k]} at the same "
+                                            f"t ({t[k]:g} s): no vehicle jumps" + (
+                                                "" if self.name else "; are rows of several vehicles interleaved in "
+                                                "one file? give each row its vehicle in an entity column"), "speed")
                 else:
-                    warn(self.source, f"{who}line {line[k + 1]}: {speed[k]:.1f} m/s from line {line[k]} "
-                                      f"({dist[k]:.1f} m in {dt[k]:g} s), faster than any vehicle ({MAX_SPEED:g} m/s); "
-                                      "are rows of several vehicles interleaved in one file (an entity column), "
-                                      "or is t in other units?")
+                    self._warn(self.source, f"{who}line {line[k + 1]}: {speed[k]:.1f} m/s from line {line[k]} "
+                                            f"({dist[k]:.1f} m in {dt[k]:g} s), faster than any vehicle "
+                                            f"({MAX_SPEED:g} m/s); {hint}", "speed")
         turn = np.abs(shorter_arc_deg(yaw_deg[:-1], yaw_deg[1:]))
         if not self.turn_warned:
             big = np.flatnonzero((turn >= MAX_TURN) & (dt > 0))
             if len(big):
                 k = big[0]
                 self.turn_warned = True
-                warn(self.source, f"{who}line {line[k + 1]}: the heading turns {turn[k]:.1f} deg from line {line[k]} "
-                                  f"in {dt[k]:g} s; the motion between them takes the shorter way, a guess at that "
-                                  "size (rows closer in time would say which way it turned)")
+                self._warn(self.source, f"{who}line {line[k + 1]}: the heading turns {turn[k]:.1f} deg from line "
+                                        f"{line[k]} in {dt[k]:g} s; the motion between them takes the shorter way, a "
+                                        "guess at that size (rows closer in time would say which way it turned)",
+                           "turn")
         moving = np.flatnonzero((speed >= MOVING) & np.isfinite(speed) & (dt > 0))
         if len(moving):
             travel = np.degrees(np.arctan2(np.diff(y)[moving], np.diff(x)[moving]))
@@ -90,19 +92,62 @@ class MotionChecks:
             for key, fit in FITS.items():
                 self.fits[key] += int((np.abs(shorter_arc_deg(travel, fit(yaw))) <= OFF_COURSE / 2).sum())
 
-    def finish(self) -> None:
-        """The heading check, once every row has been seen."""
+    def _warn(self, source: str, what: str, kind: str = "motion") -> None:
         from tankcd_cli.errors import warn
 
+        if self.tally is None or self.tally.allow(kind):
+            warn(source, what)
+
+    def finish(self) -> None:
+        """The heading check, once every row has been seen."""
         if self.moving < 3 or 2 * self.off <= self.moving:
             return
         best = max(self.fits, key=self.fits.get)
         cause = CAUSES[best] if self.fits[best] * 2 > self.moving else (
             "a compass bearing (from north, clockwise: yaw_deg = 90 - bearing), radians, or a sign")
-        who = f"{self.name}: " if self.name else ""
-        warn(self.source, f"{who}{self.off:,} of {self.moving:,} moving rows head more than {OFF_COURSE:g} deg away "
-                          f"from their direction of travel (first at line {self.first_off_line}): the vehicle would "
-                          f"drive sideways; likely {cause}")
+        who = f"entity {self.name!r}: " if self.name else ""
+        self._warn(self.source, f"{who}{self.off:,} of {self.moving:,} moving rows head more than {OFF_COURSE:g} deg "
+                                f"away from their direction of travel (first at line {self.first_off_line}): the "
+                                f"vehicle would drive sideways; likely {cause}", "heading")
+
+
+class ExerciseChecks:
+    """The motion checks of many vehicles' rows, interleaved: one ``MotionChecks`` per entity, each
+    kind of warning naming at most ``LIMIT`` vehicles (then how many more it would have named)."""
+
+    LIMIT = 3
+
+    def __init__(self, source: str):
+        self.source = source
+        self.checks: dict = {}
+        self.count: dict = {}
+
+    def allow(self, kind: str) -> bool:
+        self.count[kind] = self.count.get(kind, 0) + 1
+        return self.count[kind] <= self.LIMIT
+
+    def observe(self, chunk) -> None:
+        codes = chunk.entity
+        order = np.argsort(codes, kind="stable")
+        sorted_codes = codes[order]
+        cuts = np.flatnonzero(np.diff(sorted_codes)) + 1
+        for rows in np.split(order, cuts):
+            if not len(rows):
+                continue
+            code = int(codes[rows[0]])
+            check = self.checks.get(code)
+            if check is None:
+                check = self.checks[code] = MotionChecks(self.source, chunk.entity_names[code], self)
+            check.observe(chunk.t[rows], chunk.x[rows], chunk.y[rows], chunk.yaw_deg[rows], chunk.line[rows])
+
+    def finish(self) -> None:
+        from tankcd_cli.errors import warn
+
+        for check in self.checks.values():
+            check.finish()
+        for kind, n in self.count.items():
+            if n > self.LIMIT:
+                warn(self.source, f"and {n - self.LIMIT:,} more vehicles with the same {kind} warning")
 
 
 FITS = {

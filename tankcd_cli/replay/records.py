@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-KINDS = ("obstacle", "internal", "terrain")  # the collision kinds (off_terrain is no collision)
+KINDS = ("obstacle", "internal", "terrain")  # a vehicle's own collision kinds (off_terrain is no collision)
 EVENT_KINDS = KINDS + ("off_terrain",)
 
 
@@ -43,7 +43,8 @@ class ReplayOutputs:
 @dataclass
 class Event:
     """One event: the row's step, the time (s), the kind (``EVENT_KINDS``), the two parts, and what
-    the kind carries (a point, a depth, angles, ``between`` for a contact that began between rows)."""
+    the kind carries (a point, a depth, angles, ``between`` for a contact that began between rows,
+    ``entity`` with many vehicles)."""
 
     step: int
     t: float
@@ -51,6 +52,7 @@ class Event:
     a: str
     b: str
     extra: dict = field(default_factory=dict)
+    entity: int = 0  # the vehicle's code in the trajectory (its name, when it has names, is in extra)
 
     @property
     def between(self) -> bool:
@@ -70,6 +72,7 @@ class ReplayCounts:
     rows: int = 0
     status: np.ndarray = None
     matcher: np.ndarray = None
+    vehicles: int = 0  # contacts between two vehicles
     at_rows: dict = field(default_factory=lambda: dict.fromkeys(EVENT_KINDS, 0))
     between: dict = field(default_factory=lambda: dict.fromkeys(EVENT_KINDS, 0))
     extent: list = field(default_factory=lambda: [np.inf, np.inf, -np.inf, -np.inf])
@@ -83,16 +86,20 @@ class ReplayCounts:
             self.matcher = np.zeros(len(PLACED_BY), dtype=np.int64)
 
     def add(self, chunk, poses, events) -> None:
-        from tankcd_cli.names import PLACED_BY, STATUS
+        """A chunk's rows, poses and events (``chunk`` None: events alone, the vehicles' last contacts)."""
+        from tankcd_cli.names import OFF, PLACED_BY, STATUS
 
-        from tankcd_cli.names import OFF
-
+        for e in events:
+            if e.kind == "vehicle":
+                self.vehicles += 1
+            else:
+                (self.between if e.between else self.at_rows)[e.kind] += 1
+        if chunk is None:
+            return
         self.rows += len(chunk)
         self.status += np.bincount(poses.status, minlength=len(STATUS))
         placed = poses.status != OFF  # a row without a pose was placed by no matcher
         self.matcher += np.bincount(poses.matcher[placed], minlength=len(PLACED_BY))
-        for e in events:
-            (self.between if e.between else self.at_rows)[e.kind] += 1
         if len(chunk):
             with np.errstate(invalid="ignore"):
                 self.extent[0] = min(self.extent[0], float(np.fmin.reduce(chunk.x)))
@@ -121,6 +128,8 @@ class ReplaySummary:
     between : contacts that began between rows, per kind (obstacle, internal, terrain, off_terrain)
     motion : what the checks between rows did and their resolution (intervals, sub-steps placed,
         the sub-steps' largest travel and turn, obstacles' pass and time bounds, the gun's step)
+    vehicles : contacts between two vehicles (a trajectory of many entities)
+    entities : the trajectory's vehicles (1 without an entity column)
     """
 
     rows: int
@@ -133,11 +142,14 @@ class ReplaySummary:
     mode: str = "continuous"
     between: dict = field(default_factory=dict)
     motion: dict = field(default_factory=dict)
+    vehicles: int = 0
+    entities: int = 1
 
     @property
     def collided(self) -> bool:
-        """Whether any collision was found, at a row or between rows."""
-        return bool(sum(self.collisions.values()) or sum(v for k, v in self.between.items() if k != "off_terrain"))
+        """Whether any collision was found, at a row, between rows or between vehicles."""
+        return bool(sum(self.collisions.values()) or self.vehicles
+                    or sum(v for k, v in self.between.items() if k != "off_terrain"))
 
     @property
     def off_terrain_anywhere(self) -> int:

@@ -46,7 +46,8 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
     else:
         source, chunks = "trajectory", iter(trajectory)
     first = next(chunks, None)
-    run = start_run(world, options, bool(first is not None and first.has_turret))
+    run = start_run(world, options, bool(first is not None and first.has_turret),
+                    entities=bool(first is not None and first.has_entity))
     lead = lead_row(trajectory, part, crs=world.crs) if part is not None and isinstance(trajectory, str) else None
     counts = ReplayCounts()
     stream = _chain(first, chunks)
@@ -72,22 +73,31 @@ def write_replay(run: ReplayRun, chunks: Iterable, poses_out, events_out, counts
     from tankcd_cli.io.poses_csv import format_rows, header
     from tankcd_cli.matching.match import PLACED_BY, STATUS
     from tankcd_cli.replay.pipeline import replay_chunks
-    from tankcd_cli.replay.plausibility import MotionChecks
+    from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
 
-    checks = MotionChecks(source)
-    if poses_out is not None:
-        poses_out.write(header())
+    checks = ExerciseChecks(source) if run.vehicles is not None else MotionChecks(source)
+    headed = False
     for chunk, poses, events in replay_chunks(run, _checked(chunks, checks), lead=lead):
-        if poses_out is not None:
-            poses_out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS))
+        if poses_out is not None and chunk is not None:
+            if not headed:
+                poses_out.write(header(entity=chunk.has_entity))
+                headed = True
+            entity = chunk.entity if chunk.has_entity else None
+            poses_out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names))
             poses_out.flush()
         if events_out is not None:
             events_out.write("".join(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra) for e in events))
         counts.add(chunk, poses, events)
+        if chunk is None:  # the vehicles' last contacts, after the last chunk
+            if observe is not None:
+                observe(None, None, events)
+            continue
         if observe is not None:
             observe(chunk, poses, events)
         if progress is not None:
             progress(counts.rows)
+    if poses_out is not None and not headed:
+        poses_out.write(header())
     checks.finish()
     warn_if_beside(run.surface, counts, source, run.world.crs)
     return counts
@@ -95,8 +105,13 @@ def write_replay(run: ReplayRun, chunks: Iterable, poses_out, events_out, counts
 
 def _checked(chunks, checks):
     """The chunks, each shown to the motion checks on its way to the replay."""
+    from tankcd_cli.replay.plausibility import ExerciseChecks
+
     for chunk in chunks:
-        checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
+        if isinstance(checks, ExerciseChecks):
+            checks.observe(chunk)
+        else:
+            checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
         yield chunk
 
 
@@ -140,7 +155,9 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
                          seconds=round(seconds, 3),
                          seconds_by_effect={k: round(v, 3) for k, v in run.seconds.items()},
                          mode="continuous" if run.continuous else "discrete",
-                         between=dict(counts.between) if run.continuous else {}, motion=motion)
+                         between=dict(counts.between) if run.continuous else {}, motion=motion,
+                         vehicles=counts.vehicles,
+                         entities=int(run.carry.has.sum()) if run.carry is not None else (1 if counts.rows else 0))
 
 
 def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions()) -> tuple[dict, list]:
@@ -154,7 +171,8 @@ def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions
     events = []
 
     def keep(chunk, poses, evs):
-        parts.append(pose_columns(chunk.step, chunk.t, poses))
+        if chunk is not None:
+            parts.append(pose_columns(chunk.step, chunk.t, poses, chunk.names() if chunk.has_entity else None))
         events.extend(e.as_dict() for e in evs)
 
     run_replay(world, trajectory, ReplayOutputs(poses=None, events=None), options, observe=keep)

@@ -69,6 +69,35 @@ class Effects:
 
 
 @dataclass
+class VehicleKind:
+    """One kind of vehicle in the world: the scene's [vehicle] (index 0) or an [[entity]] table's.
+
+    index : 0 the default vehicle, k the k-th [[entity]] table; label : how ``info`` names it
+    vehicle : its dimensions; mesh, placement : its shape's file (None: generated) and placement
+    body : its moving parts (``collision.vehicle_body.VehicleBody``), built on first use (obstacle
+        and vehicle checks need it)
+    """
+
+    index: int
+    label: str
+    vehicle: Vehicle
+    mesh: str | None = None
+    placement: object = None
+    settings: object = None
+    _body: object = None
+
+    @property
+    def body(self):
+        if self._body is None:
+            from tankcd_cli.collision.obstacles import body_of
+            from tankcd_cli.scene import CollisionSettings, MeshPlacement
+
+            self._body = body_of(self.vehicle, self.mesh, self.placement or MeshPlacement(),
+                                 self.settings or CollisionSettings())
+        return self._body
+
+
+@dataclass
 class World:
     """A loaded world.
 
@@ -78,6 +107,7 @@ class World:
     obstacles : the obstacles' world trees (``collision.obstacles.Obstacle``), loaded with the world
     body : the vehicle's moving parts (``collision.vehicle_body.VehicleBody``), when obstacles need it
     spec : what it was loaded from
+    kinds : the kinds of vehicle an exercise's entities are (``VehicleKind``: the default first)
     """
 
     terrain: object
@@ -86,6 +116,25 @@ class World:
     obstacles: list = field(default_factory=list)
     body: object = None
     spec: WorldSpec | None = None
+    kinds: list = field(default_factory=list)
+
+    def __post_init__(self):
+        if not self.kinds:
+            sc = self.scene
+            self.kinds = [VehicleKind(0, "[vehicle]", self.vehicle, sc.vehicle_mesh if sc else None,
+                                      sc.vehicle_mesh_placement if sc else None, sc.collision if sc else None,
+                                      self.body)]
+            for k, table in enumerate(sc.entities if sc is not None else []):
+                self.kinds.append(VehicleKind(k + 1, f"[[entity]] {table.label}", table.vehicle, table.mesh,
+                                              table.mesh_placement, sc.collision))
+        self._kind_of: dict = {}
+
+    def kind_of(self, entity: str) -> int:
+        """The index of the kind of vehicle an entity is (the first [[entity]] table naming it, else 0)."""
+        k = self._kind_of.get(entity)
+        if k is None:
+            k = self._kind_of[entity] = self.scene.entity_vehicle(entity) if self.scene is not None else 0
+        return k
 
     @property
     def surface(self):
@@ -99,11 +148,12 @@ class World:
             crs = self.terrain.mesh_store.attrs.get("crs", "")
         return crs or ""
 
-    def effects(self, turret_moves: bool) -> Effects:
-        """The effects of this world for a trajectory whose turret or gun moves or not."""
-        from tankcd_cli.scene import effects_of
+    def effects(self, turret_moves: bool, kind: int = 0) -> Effects:
+        """The effects of this world for a trajectory whose turret or gun moves or not, for a kind of
+        vehicle (the drums are the vehicle's)."""
+        from tankcd_cli.scene import effects_for
 
-        e = effects_of(self.scene, self.vehicle, turret_moves)
+        e = effects_for(self.kinds[kind].vehicle, bool(self.obstacles), turret_moves)
         return Effects(e["terrain_contact"], e["obstacles"], e["internal"])
 
 
@@ -128,7 +178,7 @@ def load_world(spec: WorldSpec, progress: Callable[[str], None] | None = None) -
 
         world.obstacles = load_obstacles(scene, cache=True, progress=progress)
         warn_obstacles_beside(scene.path, world.obstacles, opened.surface)
-        world.body = scene_vehicle_body(scene)
+        world.body = world.kinds[0]._body = scene_vehicle_body(scene)
     return world
 
 

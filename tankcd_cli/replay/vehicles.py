@@ -1,0 +1,207 @@
+"""Many vehicles in one world: every contact between two vehicles along their motions.
+
+Each vehicle's motion is a sequence of rigid segments (``replay.between_rows.Segments``: its
+sub-steps between two placements, with their time spans), produced chunk by chunk as the
+trajectory streams. Two vehicles can touch only where both move, so the check runs over the
+common spans of their segments:
+
+1. **Time windows.** Segments are buffered until every vehicle still sending rows has rows past a
+   window's end (the watermark: the earliest last row time over the vehicles heard from within
+   ``HORIZON`` seconds of the latest row). A window [w0, w1) is then complete: every segment
+   overlapping it is known. Memory follows the window and the watermark's lag (a sender's gap
+   between updates), not the exercise's length.
+2. **Broad phase** (``collision.broad_phase.candidate_pairs``): each segment's box (its hull
+   origin's two places grown by the vehicle's radius, which no point of it leaves under any
+   articulation) and time span clipped to the window; pairs of different vehicles whose boxes and
+   spans overlap. The cost grows with the vehicles and the pairs that come close.
+3. **Narrow phase** (``collision.vehicles.first_vehicle_contacts``): both segments cut to their
+   common span (still rigid motions), every group of one against every group of the other, both
+   moving, with the guarantees of ``bvh.sweep``: never missed, a pass within 1 mm may count, the
+   time of first contact to 0.5 mm of travel.
+4. **One event per contact.** A span whose vehicles already touch at its start continues a
+   contact (tested exactly at that instant) and gives no event; so a contact is reported once, in
+   the span where it begins, whichever window, chunk or segment boundaries cut its time.
+
+A vehicle silent for more than ``HORIZON`` seconds no longer holds the windows back; when it speaks
+again, its gap's motion is checked against what is still buffered (the vehicles' segments of the
+last ``HORIZON`` seconds), and a warning says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tankcd_cli.replay.records import Event
+
+WINDOW = 2.0  # s: the time windows vehicle contacts are searched in
+HORIZON = 30.0  # s: a vehicle silent longer than this no longer holds the windows back
+
+
+class VehicleContacts:
+    """The exercise's vehicle-against-vehicle checks, fed chunk by chunk (``add``), emitting events as
+    windows close (``ready``) and at the end (``finish``)."""
+
+    def __init__(self, world, continuous: bool = True, window: float = WINDOW, horizon: float = HORIZON):
+        self.world = world
+        self.continuous = continuous
+        self.window = window
+        self.horizon = horizon
+        self.buffer = []  # (kind index, Segments)
+        self.names: tuple = ()
+        self.last_t = np.zeros(0)  # each entity code's last row time
+        self.done_until = None  # windows before this are processed
+        self.latest = -np.inf
+        self.queries = 0
+
+    # -- feeding -------------------------------------------------------------------------------
+    def add(self, kind, segments) -> None:
+        """A kind of vehicle's rigid segments from one chunk."""
+        if segments is not None and len(segments):
+            self.buffer.append((kind.index, segments))
+
+    def add_rows(self, kind, chunk, poses) -> None:
+        """Rows of a discrete replay: no motion between them, so no contact between vehicles is
+        checked (they need the motion; the summary says the mode)."""
+
+    def _observe(self, chunk) -> None:
+        if chunk is None or not len(chunk):
+            return
+        self.names = chunk.entity_names
+        codes = chunk.entity
+        size = max(len(self.names), int(codes.max()) + 1)
+        if size > len(self.last_t):
+            self.last_t = np.concatenate([self.last_t, np.full(size - len(self.last_t), -np.inf)])
+        np.maximum.at(self.last_t, codes, chunk.t)
+        self.latest = max(self.latest, float(chunk.t.max()))
+        if self.done_until is None:
+            self.done_until = float(np.floor(chunk.t.min() / self.window) * self.window)
+
+    def watermark(self) -> float:
+        """The time up to which every vehicle still sending rows has sent them."""
+        heard = self.last_t[np.isfinite(self.last_t)]
+        live = heard[heard >= self.latest - self.horizon]
+        return float(live.min()) if len(live) else self.latest
+
+    def ready(self, chunk) -> list:
+        """After a chunk: the contacts of every window the watermark has passed."""
+        self._observe(chunk)
+        if self.done_until is None:
+            return []
+        mark = self.watermark()
+        events = []
+        while self.done_until + self.window <= mark:
+            events += self._window(self.done_until, self.done_until + self.window)
+            self.done_until += self.window
+        return events
+
+    def finish(self) -> list:
+        """The contacts of every window left, once the trajectory has ended."""
+        events = []
+        if self.done_until is None:
+            return events
+        end = max([float(s.t1.max()) for _, s in self.buffer] + [self.done_until])
+        while self.done_until <= end:
+            events += self._window(self.done_until, self.done_until + self.window, last=self.done_until + self.window > end)
+            self.done_until += self.window
+        self.buffer = []
+        return events
+
+    # -- one window ----------------------------------------------------------------------------
+    def _window(self, w0: float, w1: float, last: bool = False) -> list:
+        """Every contact that begins in [w0, w1) (its end included at the last window)."""
+        from tankcd_cli.collision.broad_phase import candidate_pairs
+        from tankcd_cli.replay.between_rows import Segments
+
+        if not self.buffer:
+            return []
+        kinds = np.concatenate([np.full(len(s), k, dtype=np.int64) for k, s in self.buffer])
+        seg = Segments.join([s for _, s in self.buffer])
+        # what the later windows still need: segments reaching past this one
+        keep = seg.t1 >= w1
+        self.buffer = [(int(k), seg.take(np.flatnonzero(keep & (kinds == k)))) for k in np.unique(kinds[keep])]
+        inside = np.flatnonzero((seg.t1 >= w0) & (seg.t0 < w1) | (last & (seg.t0 <= w1) & (seg.t1 >= w0)))
+        if len(inside) < 2:
+            return []
+        s = seg.take(inside)
+        k = kinds[inside]
+        radius = np.array([self.world.kinds[int(i)].body.radius for i in range(len(self.world.kinds))])[k]
+        lo = np.minimum(s.c0, s.c1) - radius[:, None]
+        hi = np.maximum(s.c0, s.c1) + radius[:, None]
+        t0 = np.maximum(s.t0, w0)
+        t1 = np.minimum(s.t1, w1)
+        pairs = candidate_pairs(lo, hi, t0, t1, s.entity)
+        if len(pairs) == 0:
+            return []
+        i, j = pairs[:, 0], pairs[:, 1]
+        u0 = np.maximum(t0[i], t0[j])
+        u1 = np.minimum(t1[i], t1[j])
+        # half-open windows: a span starting at w1 is the next window's (the last window keeps its end)
+        own = (u0 < w1) | last
+        i, j, u0, u1 = i[own], j[own], u0[own], u1[own]
+        return self._spans(s, k, i, j, u0, u1)
+
+    def _spans(self, s, kinds, i, j, u0, u1) -> list:
+        """The contacts that begin in the common spans [u0, u1] of segments i and j."""
+        from tankcd_cli.collision.vehicles import first_vehicle_contacts
+
+        events = []
+        # each pair in the order of its entities' names, so that a is the first name
+        names = np.asarray(self.names, dtype=object)
+        swap = names[s.entity[i]] > names[s.entity[j]]
+        i, j = np.where(swap, j, i), np.where(swap, i, j)
+        for ka in np.unique(kinds[i]):
+            for kb in np.unique(kinds[j]):
+                sel = np.flatnonzero((kinds[i] == ka) & (kinds[j] == kb))
+                if len(sel) == 0:
+                    continue
+                body_a = self.world.kinds[int(ka)].body
+                body_b = self.world.kinds[int(kb)].body
+                ma = _cut(s, i[sel], u0[sel], u1[sel])
+                mb = _cut(s, j[sel], u0[sel], u1[sel])
+                self.queries += len(sel)
+                hits = first_vehicle_contacts(body_a, ma, body_b, mb)
+                if len(hits.span) == 0:
+                    continue
+                # a contact already there at the span's start continues one that began before it
+                at_start = first_vehicle_contacts(body_a, _still(ma, hits.span), body_b, _still(mb, hits.span))
+                touching = np.zeros(len(hits.span), dtype=bool)
+                touching[at_start.span] = True
+                for h in np.flatnonzero(~touching):
+                    q = sel[hits.span[h]]
+                    a, b = i[q], j[q]
+                    span = u1[q] - u0[q]
+                    t = float(u0[q] + hits.s[h] * span)
+                    speed = float(hits.closing[h] / span) if span > 0 else 0.0
+                    events.append(Event(int(s.step[a]), t, "vehicle", str(names[s.entity[a]]), str(names[s.entity[b]]),
+                                        {"a_part": body_a.part_names[hits.part_a[h]],
+                                         "b_part": body_b.part_names[hits.part_b[h]],
+                                         "point": [round(float(c), 4) for c in hits.point[h]],
+                                         "closing_speed": round(speed, 4), "a_step": int(s.step[a]),
+                                         "b_step": int(s.step[b]), "entity": str(names[s.entity[a]])},
+                                        int(s.entity[a])))
+        events.sort(key=lambda e: (e.t, e.a, e.b))
+        return events
+
+
+def _cut(s, idx, u0, u1):
+    """Segments ``idx`` cut to the spans [u0, u1] (still rigid motions), as a SpanMotion."""
+    from tankcd_cli.collision.vehicles import SpanMotion
+    from tankcd_cli.geometry.motion import quaternion_slerp
+
+    length = s.t1[idx] - s.t0[idx]
+    safe = np.where(length > 0, length, 1.0)
+    a = np.where(length > 0, (u0 - s.t0[idx]) / safe, 0.0)
+    b = np.where(length > 0, (u1 - s.t0[idx]) / safe, 0.0)
+    q0, q1 = s.q0[idx], s.q1[idx]
+    c0, c1 = s.c0[idx], s.c1[idx]
+    return SpanMotion(quaternion_slerp(q0, q1, a), c0 + a[:, None] * (c1 - c0), quaternion_slerp(q0, q1, b),
+                      c0 + b[:, None] * (c1 - c0), s.turret0[idx] + a * s.dturret[idx], (b - a) * s.dturret[idx],
+                      s.gun0[idx] + a * s.dgun[idx], (b - a) * s.dgun[idx])
+
+
+def _still(m, idx):
+    """The motions ``idx`` frozen at their start (an instant: the exact test, no motion bound)."""
+    from tankcd_cli.collision.vehicles import SpanMotion
+
+    z = np.zeros(len(idx))
+    return SpanMotion(m.q0[idx], m.c0[idx], m.q0[idx], m.c0[idx], m.turret0[idx], z, m.gun0[idx], z)
