@@ -180,8 +180,11 @@ def _report_summary(report, result: dict, summary_path, effects: dict, rows: int
             found = ", ".join(f"{k} {v}" for k, v in result["between"].items() if v) or "none"
             between = (f"; between rows ({result['motion']['substep_travel_m']:g} m / "
                        f"{result['motion']['substep_turn_deg']:g} deg sub-steps, obstacles exact): {found}")
+        vehicles = ""
+        if result.get("entities", 1) > 1:
+            vehicles = f"; {result['entities']:,} vehicles, {result['vehicles']:,} contacts between them"
         report.info(f"replay: {rows:,} rows; collisions at rows: {kinds}; off terrain {result['off_terrain']}"
-                    f"{between}; effects: {ran} ({report.elapsed():.2f} s)")
+                    f"{between}{vehicles}; effects: {ran} ({report.elapsed():.2f} s)")
 
 
 def _exit_on_failures(result, fail_on_collision: bool, allow_off_terrain: bool) -> None:

@@ -51,7 +51,7 @@ def resolution(surface) -> dict:
 
 
 ROW_FIELDS = ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "obstacle", "internal", "terrain",
-              "entity", "piece_start")
+              "entity", "piece_start", "carried")
 
 
 @dataclass
@@ -67,6 +67,7 @@ class Rows:
     terrain : (N,) bool, the hull bottom on the ground at the row
     entity : (N,) int64, the vehicle's code (0 for a single vehicle)
     piece_start : (N,) bool, no motion into this row from the vehicle's previous one
+    carried : (N,) bool, a row carried from an earlier chunk (the motion before it was checked there)
     """
 
     step: np.ndarray
@@ -82,12 +83,15 @@ class Rows:
     terrain: np.ndarray
     entity: np.ndarray = None
     piece_start: np.ndarray = None
+    carried: np.ndarray = None
 
     def __post_init__(self):
         if self.entity is None:
             self.entity = np.zeros(len(self.t), dtype=np.int64)
         if self.piece_start is None:
             self.piece_start = np.zeros(len(self.t), dtype=bool)
+        if self.carried is None:
+            self.carried = np.zeros(len(self.t), dtype=bool)
 
     def __len__(self) -> int:
         return len(self.t)
@@ -114,7 +118,9 @@ class Segments:
     entity (M,) the vehicle's code, step (M,) the step of the row its interval starts at, t0, t1 (M,)
     its time span (s), q0, c0, q1, c1 the hull's attitude (M, 4) and origin (M, 3) at its ends,
     turret0, dturret, gun0, dgun (M,) the turret's and gun's angles at its start and their
-    changes over it (rad). What the vehicles' checks against each other take."""
+    changes over it (rad), fresh (M,) bool: it starts a piece of its vehicle's motion (no motion
+    before it: the vehicle's first row, or a new piece). What the vehicles' checks against each
+    other take."""
 
     entity: np.ndarray
     step: np.ndarray
@@ -128,6 +134,7 @@ class Segments:
     dturret: np.ndarray
     gun0: np.ndarray
     dgun: np.ndarray
+    fresh: np.ndarray
 
     def __len__(self) -> int:
         return len(self.t0)
@@ -219,17 +226,21 @@ def check_between(rows: Rows, kind, run, counts: BetweenCounts, want_segments: b
         ok = segments["use"]
         i = segments["seg_iv"][ok]
         f0, f1 = segments["f0"][ok], segments["f1"][ok]
+        # an interval starts a piece when no motion leads into its first row: that row starts a
+        # piece, or no interval of the table ends there and it is not carried from the chunk before
+        piece_first = rows.piece_start[a] | (~np.isin(a, b) & ~rows.carried[a])
+        fresh = (segments["seg_k"][ok] == 0) & piece_first[i]
         public = Segments(rows.entity[a[i]], rows.step[a[i]], iv.t0[i] + f0 * iv.dt[i], iv.t0[i] + f1 * iv.dt[i],
                           segments["q0"][ok], segments["c0"][ok], segments["q1"][ok], segments["c1"][ok],
                           np.radians(iv.turret0[i] + f0 * iv.dturret[i]), np.radians((f1 - f0) * iv.dturret[i]),
-                          np.radians(iv.gun0[i] + f0 * iv.dgun[i]), np.radians((f1 - f0) * iv.dgun[i]))
+                          np.radians(iv.gun0[i] + f0 * iv.dgun[i]), np.radians((f1 - f0) * iv.dgun[i]), fresh)
     return BetweenResult(events, swept_into, public)
 
 
 def _no_segments() -> Segments:
     z = np.zeros(0)
     return Segments(np.zeros(0, np.int64), np.zeros(0, np.int64), z, z, np.zeros((0, 4)), np.zeros((0, 3)),
-                    np.zeros((0, 4)), np.zeros((0, 3)), z, z, z, z)
+                    np.zeros((0, 4)), np.zeros((0, 3)), z, z, z, z, np.zeros(0, dtype=bool))
 
 
 def _segments(rows, iv, a, b, n, first_sub, sub, placed) -> dict:

@@ -278,7 +278,7 @@ def _keep_last(run: ReplayRun, table, swept_into) -> None:
     codes = table.entity[last]
     rows = table.take(last)
     rows.obstacle = rows.obstacle | swept_into[last]
-    rows.piece_start = np.zeros(len(last), dtype=bool)
+    rows.carried = np.ones(len(last), dtype=bool)  # its piece mark stays: the first row of a piece still is
     size = int(codes.max()) + 1
     carry = run.carry
     if carry is None:
@@ -291,8 +291,9 @@ def _keep_last(run: ReplayRun, table, swept_into) -> None:
             grow = size - len(has)
             base = Rows.join([base, rows.take(np.zeros(grow, dtype=np.int64))])
             has = np.concatenate([has, np.zeros(grow, dtype=bool)])
-    for f in ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "obstacle", "internal", "terrain", "entity",
-              "piece_start"):
+    from tankcd_cli.replay.between_rows import ROW_FIELDS
+
+    for f in ROW_FIELDS:
         getattr(base, f)[codes] = getattr(rows, f)
     for f in Poses.__dataclass_fields__:
         getattr(base.poses, f)[codes] = getattr(rows.poses, f)

@@ -19,8 +19,10 @@ common spans of their segments:
    moving, with the guarantees of ``bvh.sweep``: never missed, a pass within 1 mm may count, the
    time of first contact to 0.5 mm of travel.
 4. **One event per contact.** A span whose vehicles already touch at its start continues a
-   contact (tested exactly at that instant) and gives no event; so a contact is reported once, in
-   the span where it begins, whichever window, chunk or segment boundaries cut its time.
+   contact (tested exactly at that instant) and gives no event, unless the span is where one of
+   the two begins to exist (its first row, or a new piece of its motion): then the contact is
+   there from the start and is reported at that instant. So a contact is reported once, in the
+   span where it begins, whichever window, chunk or segment boundaries cut its time.
 
 A vehicle silent for more than ``HORIZON`` seconds no longer holds the windows back; when it speaks
 again, its gap's motion is checked against what is still buffered (the vehicles' segments of the
@@ -41,11 +43,11 @@ class VehicleContacts:
     """The exercise's vehicle-against-vehicle checks, fed chunk by chunk (``add``), emitting events as
     windows close (``ready``) and at the end (``finish``)."""
 
-    def __init__(self, world, continuous: bool = True, window: float = WINDOW, horizon: float = HORIZON):
+    def __init__(self, world, continuous: bool = True, window: float | None = None, horizon: float | None = None):
         self.world = world
         self.continuous = continuous
-        self.window = window
-        self.horizon = horizon
+        self.window = WINDOW if window is None else window
+        self.horizon = HORIZON if horizon is None else horizon
         self.buffer = []  # (kind index, Segments)
         self.names: tuple = ()
         self.last_t = np.zeros(0)  # each entity code's last row time
@@ -135,13 +137,17 @@ class VehicleContacts:
         i, j = pairs[:, 0], pairs[:, 1]
         u0 = np.maximum(t0[i], t0[j])
         u1 = np.minimum(t1[i], t1[j])
-        # half-open windows: a span starting at w1 is the next window's (the last window keeps its end)
-        own = (u0 < w1) | last
+        # half-open windows: a span starting at w1 is the next window's (the last window keeps its end);
+        # segments meeting end to start share an instant, which the span after it holds
+        own = ((u0 < w1) | last) & (u1 > u0)
         i, j, u0, u1 = i[own], j[own], u0[own], u1[own]
-        return self._spans(s, k, i, j, u0, u1)
+        # the span begins where one of the two vehicles begins to exist: a contact there is new
+        fresh = (s.fresh[i] & (u0 == s.t0[i])) | (s.fresh[j] & (u0 == s.t0[j]))
+        return self._spans(s, k, i, j, u0, u1, fresh)
 
-    def _spans(self, s, kinds, i, j, u0, u1) -> list:
-        """The contacts that begin in the common spans [u0, u1] of segments i and j."""
+    def _spans(self, s, kinds, i, j, u0, u1, fresh) -> list:
+        """The contacts that begin in the common spans [u0, u1] of segments i and j (``fresh``: the
+        span begins where one of them begins to exist)."""
         from tankcd_cli.collision.vehicles import first_vehicle_contacts
 
         events = []
@@ -164,13 +170,14 @@ class VehicleContacts:
                     continue
                 # a contact already there at the span's start continues one that began before it
                 at_start = first_vehicle_contacts(body_a, _still(ma, hits.span), body_b, _still(mb, hits.span))
-                touching = np.zeros(len(hits.span), dtype=bool)
-                touching[at_start.span] = True
+                at_first = np.zeros(len(hits.span), dtype=bool)
+                at_first[at_start.span] = True
+                touching = at_first & ~fresh[sel[hits.span]]
                 for h in np.flatnonzero(~touching):
                     q = sel[hits.span[h]]
                     a, b = i[q], j[q]
                     span = u1[q] - u0[q]
-                    t = float(u0[q] + hits.s[h] * span)
+                    t = float(u0[q] if at_first[h] else u0[q] + hits.s[h] * span)
                     speed = float(hits.closing[h] / span) if span > 0 else 0.0
                     events.append(Event(int(s.step[a]), t, "vehicle", str(names[s.entity[a]]), str(names[s.entity[b]]),
                                         {"a_part": body_a.part_names[hits.part_a[h]],
