@@ -152,8 +152,10 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
     """Replay a trajectory and keep the results in memory: (poses, events).
 
     trajectory : a path (a trajectory CSV, a geographic CSV, GPX or a DIS capture: the command
-        line's inputs) or a dict of arrays with ``t``, ``x``, ``y``, ``yaw_deg`` and optionally
-        ``turret_deg``, ``gun_deg`` (metres, seconds, degrees; ``t`` never decreasing)
+        line's inputs), a list of paths replayed as one exercise (``--together``: each file an
+        entity named after its stem, or its own entities), or a dict of arrays with ``t``, ``x``,
+        ``y``, ``yaw_deg`` and optionally ``turret_deg``, ``gun_deg`` (metres, seconds, degrees;
+        ``t`` never decreasing)
     scene or terrain (with ``vehicle``) : the world, or ``world`` from ``load_world``
     discrete : check the rows only (default: every effect along the motion between rows too)
     Returns poses, a dict of arrays keyed by the poses CSV's columns, and events, a list of dicts
@@ -162,8 +164,19 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
     from tankcd_cli.replay.run import replay_rows
 
     w = _world(world, scene, terrain, vehicle, up, cache, None)
-    chunks = trajectory if isinstance(trajectory, str) else trajectory_chunks(trajectory)
-    return replay_rows(w, chunks, _options(matcher, escalate, tolerance, discrete))
+    return replay_rows(w, _chunks(trajectory, w), _options(matcher, escalate, tolerance, discrete))
+
+
+def _chunks(trajectory, world):
+    """A replay's input: a path as it is (the reader takes it), several paths as one exercise
+    (their rows merged in time, each file an entity or its own entities), or a dict of arrays."""
+    if isinstance(trajectory, str):
+        return trajectory
+    if isinstance(trajectory, (list, tuple)):
+        from tankcd_cli.io.trajectory import merged_trajectories
+
+        return merged_trajectories([str(p) for p in trajectory], crs=world.crs)
+    return trajectory_chunks(trajectory)
 
 
 def replay_to_files(trajectory, poses: str | None = "-", events: str | None = None, scene: str | None = None,
@@ -180,9 +193,8 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
     from tankcd_cli.replay.run import run_replay
 
     w = _world(world, scene, terrain, vehicle, up, cache, None)
-    chunks = trajectory if isinstance(trajectory, str) else trajectory_chunks(trajectory)
-    return run_replay(w, chunks, ReplayOutputs(poses, events), _options(matcher, escalate, tolerance, discrete),
-                      progress=progress, observe=observe)
+    return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
+                      _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe)
 
 
 def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, terrain: str | None = None,

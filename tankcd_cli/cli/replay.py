@@ -46,6 +46,10 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
               help="With escalation: the certificate's height tolerance at the footprint's corners, m (default: "
                    "half the footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
+@click.option("--together", is_flag=True,
+              help="Several trajectories as one exercise: their rows merged in time into one world (each file an "
+                   "entity named after its stem, or its own entities), one poses and one events output, every "
+                   "contact between the vehicles found.")
 @click.option("--discrete", is_flag=True,
               help="Check the effects at the rows only (the paper's frame-by-frame way, for comparison); by "
                    "default they are checked along the motion between rows too.")
@@ -75,8 +79,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
 @click.pass_obj
-def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, discrete,
-           vehicle_name, up, cache,
+def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, together,
+           discrete, vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, jobs, scheduler, split_lines):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
@@ -94,6 +98,13 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
     fleet_mode = out_dir is not None or jobs is not None or scheduler is not None or len(trajectories) > 1 \
         or any((t.startswith("@") or any(ch in t for ch in "*?[")) and not os.path.exists(t) for t in trajectories)
+    if together:
+        if out_dir is not None or jobs is not None or scheduler is not None:
+            raise click.UsageError("--together replays the files as one world into --poses and --events: not with "
+                                   "--out-dir, --jobs or --scheduler")
+        if "-" in trajectories:
+            raise click.UsageError("--together reads files, not standard input")
+        fleet_mode = False
     if (scene is None) == (terrain is None):
         raise click.UsageError("give --scene or --terrain (one of them)")
     ctx = click.get_current_context()
@@ -108,8 +119,13 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                                                                  tolerance=tolerance, discrete=discrete),
                       vehicle_name, up, out_dir, jobs, scheduler, fail_on_collision, allow_off_terrain, summary_path,
                       split_lines)
-    trajectory = trajectories[0]
     from tankcd_cli import api
+
+    trajectory = trajectories[0]
+    if together:
+        from tankcd_cli.replay.fleet import expand_trajectories
+
+        trajectory = expand_trajectories(list(trajectories))
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.replay.world import WorldSpec, world_inputs
 
@@ -121,7 +137,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     report.kernels()
     step = report.progress("replay")
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
-    refuse_clashes({"TRAJECTORY": trajectory, **world_inputs(spec)},
+    refuse_clashes({**({f"TRAJECTORY {p}": p for p in trajectory} if together else {"TRAJECTORY": trajectory}),
+                    **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
     world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
     drawing = None
@@ -182,7 +199,8 @@ def _report_summary(report, result: dict, summary_path, effects: dict, rows: int
                        f"{result['motion']['substep_turn_deg']:g} deg sub-steps, obstacles exact): {found}")
         vehicles = ""
         if result.get("entities", 1) > 1:
-            vehicles = f"; {result['entities']:,} vehicles, {result['vehicles']:,} contacts between them"
+            n = result["vehicles"]
+            vehicles = f"; {result['entities']:,} vehicles, {n:,} contact{'' if n == 1 else 's'} between them"
         report.info(f"replay: {rows:,} rows; collisions at rows: {kinds}; off terrain {result['off_terrain']}"
                     f"{between}{vehicles}; effects: {ran} ({report.elapsed():.2f} s)")
 

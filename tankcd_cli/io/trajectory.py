@@ -810,3 +810,78 @@ def _export_text(chunk: TrajectoryChunk) -> str:
         text = "".join(f"{r[0]:.9f},{e},{r[1]:.6f},{r[2]:.6f},{r[3]:.9f},{r[4]:.9f},{r[5]:.9f}\n"
                        for r, e in zip(numbers.tolist(), label.tolist()))
     return text
+
+
+# -- several files as one exercise --------------------------------------------------------------------------
+def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = None):
+    """Several trajectory inputs as one exercise (``replay --together``): their rows merged in time
+    order (rows of equal time in the order of the files), chunk by chunk, in memory of a chunk per
+    file. Each file is one entity named after its stem, or its own entities when it names them
+    (``has_entity``); the names are the exercise's, so two files naming the same entity is an
+    InputError naming both. Steps count the merged rows from 0; each row keeps its file's line
+    (messages name the file of a bad row: each file is read by its own reader)."""
+    import os
+
+    readers = [read_trajectory(p, chunk_rows=chunk_rows, crs=crs) for p in paths]
+    pending: list = [None] * len(readers)  # each reader's unread rows: a chunk and where it starts
+    alive = list(range(len(readers)))
+    names: list = []
+    owner: dict = {}  # name -> the file that brought it
+    maps: list = [np.zeros(0, dtype=np.int64) for _ in readers]  # per reader: local code -> exercise code
+    step = 0
+    has_turret = False
+
+    def global_codes(k, chunk):
+        local = chunk.entity_names if chunk.has_entity else (os.path.splitext(os.path.basename(paths[k]))[0],)
+        m = maps[k]
+        for name in local[len(m):]:
+            if name in owner and owner[name] != paths[k]:
+                raise InputError(paths[k], f"entity {name!r} is also in {owner[name]}: give every vehicle its own "
+                                           "name")
+            owner[name] = paths[k]
+            names.append(name)
+            m = np.append(m, len(names) - 1)
+        maps[k] = m
+        codes = chunk.entity if chunk.has_entity else np.zeros(len(chunk), dtype=np.int64)
+        return m[codes]
+
+    def fill(k):
+        while pending[k] is None or pending[k][1] >= len(pending[k][0]):
+            chunk = next(readers[k], None)
+            if chunk is None:
+                return False
+            if len(chunk):
+                pending[k] = (chunk, 0, global_codes(k, chunk))
+        return True
+
+    alive = [k for k in alive if fill(k)]
+    while alive:
+        # every row up to the earliest last time in the files' pending chunks can go now
+        limit = min(float(pending[k][0].t[-1]) for k in alive)
+        taken = []
+        for k in alive:
+            chunk, at, codes = pending[k]
+            end = at + int(np.searchsorted(chunk.t[at:], limit, side="right"))
+            if end > at:
+                taken.append((k, chunk, np.arange(at, end), codes[at:end]))
+                pending[k] = (chunk, end, codes)
+        parts = []
+        for k, chunk, idx, codes in taken:
+            parts.append((chunk.t[idx], k, idx, chunk, codes))
+        t = np.concatenate([p[0] for p in parts])
+        order = np.lexsort((np.concatenate([np.full(len(p[0]), p[1]) for p in parts]), t))
+        cat = {f: np.concatenate([getattr(p[3], f)[p[2]] for p in parts])[order]
+               for f in ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "line")}
+        entity = np.concatenate([p[4] for p in parts])[order]
+        piece = np.concatenate([(p[3].piece_start[p[2]] if p[3].piece_start is not None
+                                 else np.zeros(len(p[2]), dtype=bool)) for p in parts])[order]
+        has_turret = has_turret or any(p[3].has_turret for p in parts)
+        n = len(t)
+        for start in range(0, n, chunk_rows):
+            sl = slice(start, min(start + chunk_rows, n))
+            yield TrajectoryChunk(np.arange(step + sl.start, step + sl.stop), int(cat["line"][sl.start]), cat["t"][sl],
+                                  cat["x"][sl], cat["y"][sl], cat["yaw_deg"][sl], cat["turret_deg"][sl],
+                                  cat["gun_deg"][sl], has_turret, cat["line"][sl], entity[sl], tuple(names),
+                                  piece[sl], True)
+        step += n
+        alive = [k for k in alive if fill(k)]

@@ -74,6 +74,15 @@ def expand_trajectories(items: list[str]) -> list[str]:
             found = sorted(glob.glob(item, recursive=True))
             if not found:
                 raise InputError(item, "the pattern matches no file")
+            written = [p for p in found if written_by_tankcd(p)]
+            if written:
+                from tankcd_cli.errors import warn
+
+                warn(item, f"skipped {len(written)} file{'s' if len(written) > 1 else ''} tankcd wrote (poses, not "
+                           f"trajectories), such as {written[0]}")
+                found = [p for p in found if p not in written]
+                if not found:
+                    raise InputError(item, "the pattern matches only files tankcd wrote (poses), no trajectory")
         else:
             found = [item]
         for path in found:
@@ -82,6 +91,20 @@ def expand_trajectories(items: list[str]) -> list[str]:
     if not out:
         raise InputError(",".join(items) or "-", "no trajectories given")
     return out
+
+
+def written_by_tankcd(path: str) -> bool:
+    """Whether a file is one of tankcd's outputs by its first line: a poses CSV's header (``step,``
+    then the pose's columns, ``qw`` and ``matcher`` among them), or an events JSON Lines record."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.readline(4096).decode("utf-8-sig", errors="replace").strip()
+    except OSError:
+        return False
+    if head.startswith("{") and '"kind"' in head and '"step"' in head:
+        return True
+    cols = [c.strip().lower() for c in head.split(",")]
+    return bool(cols) and cols[0] == "step" and {"qw", "matcher", "status"} <= set(cols)
 
 
 def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = None) -> list[Task]:

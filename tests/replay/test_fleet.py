@@ -181,3 +181,21 @@ def test_dask_cluster_with_a_worker_killed_midway(fleet, tmp_path):
         for p in procs:
             if p.poll() is None:
                 os.killpg(p.pid, signal.SIGKILL)
+
+
+def test_outputs_are_never_inputs_a_second_fleet_run_skips_them(run, tmp_path):
+    from pathlib import Path
+
+    sample = Path(__file__).resolve().parents[2] / "sample_data"
+    lines = (sample / "patrol.csv").read_text().splitlines()[:13]
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.csv").write_text("\n".join(lines) + "\n")
+    first = run("replay", "*.csv", "--scene", sample / "scene.toml", "--out-dir", ".", "--jobs", "1")
+    assert first.exit_code == 0, first.stderr
+    second = run("replay", "*.csv", "--scene", sample / "scene.toml", "--out-dir", ".", "--jobs", "1", "--summary")
+    assert second.exit_code == 0, second.stderr
+    assert "skipped 2 files tankcd wrote" in second.stderr
+    import json
+
+    summary = json.loads(second.stderr.strip().splitlines()[-1])
+    assert summary["trajectories"] == 2 and summary["rows"] == 24

@@ -203,3 +203,34 @@ def test_windows_and_chunks_cut_no_contact_twice(flat):
     whole = contacts(100000, 100.0)
     assert whole
     assert contacts(7, 0.3) == whole == contacts(3, 2.0)
+
+
+def test_files_together_are_the_same_rows_in_one_file(run, flat):
+    rows = _exercise(np.random.default_rng(2), 5, area=20.0)
+    _write(flat / "ex.csv", rows)
+    one, _ = _replay(run, flat)
+    for name in sorted({r[1] for r in rows}):  # each vehicle its own file, named after it
+        (flat / f"{name}.csv").write_text("t,x,y,yaw_deg\n" + "".join(f"{t},{x},{y},{yaw}\n" for t, e, x, y, yaw in rows
+                                                                         if e == name))
+    files = sorted(str(p) for p in flat.glob("v*.csv"))
+    result = run("replay", *files, "--together", "--scene", "scene.toml", "--poses", "q.csv", "--events", "f.jsonl")
+    assert result.exit_code == 0, result.stderr
+    together = [json.loads(line) for line in (flat / "f.jsonl").read_text().splitlines()]
+    key = lambda e: (e["kind"], round(e["t"], 6), e["a"], e["b"])  # noqa: E731 (steps count the merged rows)
+    assert sorted(map(key, together)) == sorted(map(key, one))
+    assert any(e["kind"] == "vehicle" for e in one)
+    # the merged poses are the one file's rows, in time order, named as there
+    poses_one = sorted((flat / "p.csv").read_text().splitlines()[1:], key=lambda r: r.split(",", 2)[2])
+    poses_two = sorted((flat / "q.csv").read_text().splitlines()[1:], key=lambda r: r.split(",", 2)[2])
+    assert [r.split(",", 1)[1] for r in poses_one] == [r.split(",", 1)[1] for r in poses_two]
+
+
+def test_two_files_naming_the_same_entity_are_bad_input(run, flat):
+    (flat / "a.csv").write_text("t,entity,x,y,yaw_deg\n0,T1,40,30,0\n")
+    (flat / "b.csv").write_text("t,entity,x,y,yaw_deg\n0,T1,60,30,0\n")
+    result = run("replay", "a.csv", "b.csv", "--together", "--scene", "scene.toml", "--poses", "p.csv")
+    assert result.exit_code == 3 and "entity 'T1' is also in" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and not (flat / "p.csv").exists()
+    # one entity with one row: a vehicle standing still, valid
+    (flat / "c.csv").write_text("t,entity,x,y,yaw_deg\n0,T2,60,30,0\n")
+    assert run("replay", "a.csv", "c.csv", "--together", "--scene", "scene.toml", "--poses", "p.csv").exit_code == 0
