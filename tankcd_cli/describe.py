@@ -14,8 +14,12 @@ import os
 from tankcd_cli.errors import InputError
 
 
-def describe_store(path: str) -> dict:
-    """Facts about a store as an ordered dict of plain values."""
+TRAJECTORY_SUFFIXES = (".csv", ".txt", ".gpx", ".pcap", ".pcapng", ".cap")
+
+
+def describe_store(path: str, scene: str | None = None) -> dict:
+    """Facts about a store, a tree, a scene or a trajectory as an ordered dict of plain values
+    (``scene``: with a trajectory, which vehicle of that scene each entity is)."""
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
@@ -26,7 +30,10 @@ def describe_store(path: str) -> dict:
     if not is_hdf5(path):
         if path.lower().endswith(".toml"):
             return describe_scene(path)
-        raise InputError(path, "not an HDF5 store or a scene (tankcd info describes stores, trees and scenes)")
+        if path.lower().endswith(TRAJECTORY_SUFFIXES):
+            return describe_trajectory(path, scene)
+        raise InputError(path, "not an HDF5 store, a scene or a trajectory (tankcd info describes stores, trees, "
+                               "scenes, trajectories, GPX tracks and DIS captures)")
     with read_errors(path, "HDF5 file"):
         with h5py.File(path, "r") as h5:
             kind = h5.attrs.get("format")
@@ -144,6 +151,38 @@ def _classes(a: dict) -> dict:
         "area_fraction_general": float(a.get("share_general", 0.0)),
         "area_fraction_uneven": float(a.get("share_uneven", 0.0)),
     }
+
+
+def describe_trajectory(path: str, scene: str | None = None) -> dict:
+    """A trajectory input read once (``io.trajectory.trajectory_info``): its format and coordinates,
+    rows and time span, its entities (rows or updates, time span, pieces of motion, and with a
+    scene the vehicle each is), and what was skipped (a capture's other packets and PDUs)."""
+    import math
+
+    from tankcd_cli.io.trajectory import trajectory_info
+
+    info = trajectory_info(path)
+    kinds = None
+    if scene is not None:
+        from tankcd_cli.scene import load_scene
+
+        sc = load_scene(scene)
+        labels = ["[vehicle] " + sc.vehicle.name] + [f"[[entity]] {t.label}: {t.vehicle.name}" for t in sc.entities]
+        kinds = lambda name: labels[sc.entity_vehicle(name)]  # noqa: E731
+    kind = {"pcap": "DIS capture", "pcapng": "DIS capture", "gpx": "GPX track"}.get(info.format, "trajectory")
+    finite = lambda v: None if v is None or not math.isfinite(v) else round(float(v), 6)  # noqa: E731
+    entities = []
+    for e in info.entities:
+        entry = {"name": e.name, "rows": e.rows, "t_first": finite(e.t_first), "t_last": finite(e.t_last),
+                 f"first_{info.where}": e.first_line, f"last_{info.where}": e.last_line, "pieces": e.pieces}
+        if kinds is not None:
+            entry["vehicle"] = kinds(e.name)
+        entities.append(entry)
+    return {"file": path, "kind": kind, "format": info.format, "coordinates": info.coordinates,
+            "rows": info.rows, "t_first": finite(info.t_first), "t_last": finite(info.t_last),
+            "start_utc": info.start.isoformat() if info.start is not None else None,
+            "turret_and_gun": info.has_turret, "entities": entities, "skipped": dict(info.skipped),
+            "columns": list(info.columns)}
 
 
 def describe_scene(path: str) -> dict:

@@ -139,6 +139,8 @@ class Scene:
                          else None),
             },
             "obstacles": [{"name": o.name, "path": o.path, **o.placement()} for o in self.obstacles],
+            "entities": [{"id": t.id, "match": t.match, "vehicle": t.vehicle.name, "fuel_drums": t.vehicle.fuel_drums,
+                          "mesh": t.mesh} for t in self.entities],
             "collision": self.collision.describe(),
             "effects": {"turret_moving": self.effects(True), "turret_still": self.effects(False)},
         }

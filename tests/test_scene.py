@@ -328,3 +328,38 @@ def test_road_wheels_are_a_whole_number(run, tmp_path, value, ok):
     else:
         assert result.exit_code == 3 and "road_wheels" in result.stderr, result.stderr
         assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_entity_tables_first_match_wins(tmp_path):
+    from tankcd_cli.scene import load_scene
+
+    path = tmp_path / "s.toml"
+    path.write_text('[vehicle]\npreset = "t72"\n\n[[entity]]\nid = "HQ-1"\npreset = "m1"\n\n'
+                    '[[entity]]\nmatch = "HQ-*"\npreset = "t55"\ngun_length = 4.5\n\n'
+                    '[[entity]]\nmatch = "recon?"\npreset = "m1"\nfuel_drums = true\n')
+    scene = load_scene(str(path))
+    assert [scene.entity_vehicle(n) for n in ("HQ-1", "HQ-2", "HQ-", "recon7", "recon77", "hq-2", "other")] \
+        == [1, 2, 2, 3, 0, 0, 0]  # ids and patterns are case-sensitive, as DIS markings and CSV ids are
+    assert scene.entities[1].vehicle.name == "t55" and scene.entities[1].vehicle.gun_length == 4.5
+    assert scene.entities[2].vehicle.fuel_drums is True and scene.entities[2].label == "match recon?"
+
+
+@pytest.mark.parametrize("table, message", [
+    ('id = "a"\nmatch = "b*"', "give id (one entity) or match"),
+    ('preset = "m1"', "give id (one entity) or match"),
+    ('id = ""', "id must be a non-empty text"),
+    ('id = 7', "id must be a non-empty text"),
+    ('match = "a,b"', "match must be a non-empty text without commas"),
+    ('id = "a"\npreset = "t99"', "unknown preset 't99'"),
+    ('id = "a"\ncolour = "green"', "unknown key 'colour'"),
+    ('id = "a"\nmesh_up = "y"', "mesh_up places the vehicle mesh, but the table names no mesh"),
+])
+def test_bad_entity_tables_name_their_table(tmp_path, table, message):
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.scene import load_scene
+
+    path = tmp_path / "s.toml"
+    path.write_text(f'[vehicle]\npreset = "t72"\n\n[[entity]]\nid = "ok"\n\n[[entity]]\n{table}\n')
+    with pytest.raises(InputError) as err:
+        load_scene(str(path))
+    assert message in str(err.value) and "[[entity]] 2" in str(err.value)

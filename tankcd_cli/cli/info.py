@@ -16,19 +16,24 @@ def _a_file(ctx, param, value):
     return value
 
 
-@click.command(short_help="Describe a terrain store, a tree or a scene.")
+@click.command(short_help="Describe a terrain store, a tree, a scene or a trajectory.")
 @click.argument("file", type=click.Path(allow_dash=True), callback=_a_file)
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
+@click.option("--scene", type=click.Path(), default=None,
+              help="With a trajectory: which vehicle of this scene each entity is.")
 @verbosity_options
 @click.pass_obj
-def info(report, file, as_json):
+def info(report, file, as_json, scene):
     """Describe FILE: a terrain store written by classify (source, counts,
     extent, curvature method, thresholds, area share of each class), a tree
     written by bvh (depth, node counts per level and type, leaf sizes, bounds),
-    or a scene: every file it names is read as replay reads it (a file replay
+    a scene: every file it names is read as replay reads it (a file replay
     cannot read fails here too, exit 3) and each obstacle is shown placed
     (position, angles, scale, triangles, world bounds, whether it lies over
-    the terrain), with the effects the scene enables.
+    the terrain), with the effects the scene enables; or a trajectory (CSV,
+    GPX, DIS capture): its rows, time span and entities (rows or updates,
+    time span, pieces of motion; with --scene, the vehicle each is), and
+    what was skipped.
 
     Every pair says its order: "161 rows x 241 columns", "0.24 km (x) x 0.16 km (y)",
     "x 500000, y 4500160", "500000 to 500240".
@@ -39,7 +44,7 @@ def info(report, file, as_json):
     (area_fraction_flat, ...)."""
     from tankcd_cli.describe import describe_store
 
-    facts = describe_store(file)
+    facts = describe_store(file, scene)
     if as_json:
         click.echo(json.dumps(facts, indent=2, default=_plain))
         return
@@ -140,6 +145,8 @@ def _fmt(value, key: str = "") -> str:
         return f"{value:.10g}"  # UTM northings keep their metres
     if isinstance(value, (list, tuple)):
         return ", ".join(_fmt(v) for v in value)
+    if isinstance(value, (dict, list, tuple)) and not value:
+        return "none"
     if isinstance(value, dict):
         return ", ".join(f"{_label(k)} " + (f"[{_fmt(v, k)}]" if isinstance(v, (list, tuple)) else _fmt(v, k))
                          for k, v in value.items())

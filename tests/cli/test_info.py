@@ -102,3 +102,22 @@ def test_stdin_is_a_usage_error(run):
     assert result.exit_code == 2
     assert result.stderr.endswith("Error: Invalid value for 'FILE': info reads a file (a store is read in place, a "
                                   "scene's paths are relative to it), not standard input\n")
+
+
+def test_trajectory_entities_and_their_vehicles(run, tmp_path):
+    path = tmp_path / "two.csv"
+    path.write_text("t,entity,x,y,yaw_deg\n0,alpha,500050,4500050,0\n1,alpha,500052,4500050,0\n"
+                    "0.5,bravo,500080,4500060,90\n")
+    lines = _text(run, path)
+    assert lines["kind"] == "trajectory" and lines["skipped"] == "none"  # "rows" is met again per entity
+    facts = _json(run, path)
+    assert facts["rows"] == 3 and facts["t_first"] == 0.0 and facts["t_last"] == 1.0
+    assert [(e["name"], e["rows"], e["t_first"], e["t_last"], e["first_line"], e["last_line"])
+            for e in facts["entities"]] == [("alpha", 2, 0.0, 1.0, 2, 3), ("bravo", 1, 0.5, 0.5, 4, 4)]
+    scene = tmp_path / "scene.toml"
+    scene.write_text(f'[terrain]\npath = "{(SAMPLE / "battlefield.asc").as_posix()}"\n'
+                     '[vehicle]\npreset = "t72"\n'
+                     '[[entity]]\nid = "bravo"\npreset = "m1"\n')
+    facts = json.loads(run("info", path, "--json", "--scene", scene).stdout)
+    assert [e["vehicle"] for e in facts["entities"]] == ["[vehicle] t72", "[[entity]] id bravo: m1"]
+    assert run("info", SAMPLE / "patrol.csv").stdout.count("\n  patrol:\n") == 1

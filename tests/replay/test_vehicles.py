@@ -48,6 +48,23 @@ def test_two_tanks_head_on_meet_at_the_closed_form_time(run, flat):
     assert vehicle[0]["entity"] == "A" and summary["vehicles"] == 1 and summary["entities"] == 2
 
 
+@pytest.mark.parametrize("table", ['id = "B"', 'match = "B*"'])
+def test_an_entity_table_makes_one_entity_another_vehicle(run, flat, table):
+    # B slides sideways at 2 m/s towards A standing still, side by side; B is an M1 by its [[entity]] table,
+    # so the hulls (3.46 m and 3.66 m wide, centred) meet when B's origin is 3.56 m from A's (two T-72s: 3.46 m)
+    (flat / "scene.toml").write_text((flat / "scene.toml").read_text() + f'\n[[entity]]\n{table}\npreset = "m1"\n')
+    rows = []
+    for k in range(11):
+        t = 0.5 * k
+        rows += [(t, "A", 60, 30, 0), (t, "B", 60, 40 - 2 * t, 0)]
+    _write(flat / "ex.csv", rows)
+    events, _ = _replay(run, flat)
+    vehicle = [e for e in events if e["kind"] == "vehicle"]
+    assert [(e["a"], e["b"], e["a_part"], e["b_part"]) for e in vehicle] == [("A", "B", "hull", "hull")]
+    assert vehicle[0]["t"] == pytest.approx((10 - (3.46 + 3.66) / 2) / 2, abs=1e-3)
+    assert vehicle[0]["closing_speed"] == pytest.approx(2.0, rel=1e-3)
+
+
 def test_a_convoy_nose_to_tail_and_a_column_side_by_side_do_not_touch(run, flat):
     rows = []
     gap = 6.1 + 3.43 + 1.0  # 1 m from a gun's muzzle to the hull ahead
