@@ -199,7 +199,7 @@ def _report_summary(report, result: dict, summary_path, effects: dict, rows: int
                        f"{result['motion']['substep_turn_deg']:g} deg sub-steps, obstacles exact): {found}")
         vehicles = ""
         if result.get("entities", 1) > 1:
-            n = result["vehicles"]
+            n = result["vehicle_contacts"]
             vehicles = f"; {result['entities']:,} vehicles, {n:,} contact{'' if n == 1 else 's'} between them"
         report.info(f"replay: {rows:,} rows; collisions at rows: {kinds}; off terrain {result['off_terrain']}"
                     f"{between}{vehicles}; effects: {ran} ({report.elapsed():.2f} s)")

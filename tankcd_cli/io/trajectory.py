@@ -564,6 +564,17 @@ def _csv_layout(path: str):
         return read_layout(fh, name)
 
 
+def has_entity_column(path: str) -> bool:
+    """Whether a trajectory CSV's header has an ``entity`` column (False for other formats, and for a
+    CSV whose header cannot be read: its replay will say what is wrong)."""
+    if trajectory_format(path) != "csv":
+        return False
+    try:
+        return bool(_csv_layout(path).entity)
+    except (InputError, OSError):
+        return False
+
+
 def lead_row(path: str, part: TrajectoryPart, crs: str | None = None) -> TrajectoryChunk | None:
     """The rows just before ``part``, where its first intervals of motion start, or None for a part that
     starts the file.

@@ -134,13 +134,15 @@ def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = 
 
 
 def _split(task: Task, split_lines: int) -> list[Task]:
-    from tankcd_cli.io.trajectory import split_trajectory
+    from tankcd_cli.io.trajectory import has_entity_column, split_trajectory
 
     try:
         big = os.path.getsize(task.trajectory) > split_lines * 16  # no row is shorter than "t,x,y,yaw" + digits
     except OSError:
         return [task]  # the task itself will say what is wrong with the file
-    if not big:
+    if not big or has_entity_column(task.trajectory):
+        # an exercise is one task: parts cut by lines would miss (or repeat) contacts between
+        # vehicles whose rows straddle a cut
         return [task]
     try:
         parts = split_trajectory(task.trajectory, split_lines)
@@ -261,6 +263,7 @@ class FleetSummary:
     collisions: dict
     between: dict
     off_terrain: int
+    vehicle_contacts: int
     seconds: float
     rows_per_second: float | None
     ran_on: str
@@ -270,7 +273,8 @@ class FleetSummary:
 
     @property
     def collided(self) -> bool:
-        return bool(sum(self.collisions.values()) or sum(v for k, v in self.between.items() if k != "off_terrain"))
+        return bool(sum(self.collisions.values()) or self.vehicle_contacts
+                    or sum(v for k, v in self.between.items() if k != "off_terrain"))
 
     def as_dict(self, results: bool = True) -> dict:
         out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "results"}
@@ -314,7 +318,8 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
         trajectories=len(results), tasks=len(tasks), ok=len(ok), failed=len(failed), rows=rows,
         collisions={k: sum(r.summary.collisions[k] for r in ok) for k in KINDS},
         between={k: sum(r.summary.between.get(k, 0) for r in ok) for k in between_kinds},
-        off_terrain=sum(r.summary.off_terrain for r in ok), seconds=round(seconds, 3),
+        off_terrain=sum(r.summary.off_terrain for r in ok),
+        vehicle_contacts=sum(r.summary.vehicle_contacts for r in ok), seconds=round(seconds, 3),
         rows_per_second=round(rows / seconds, 1) if seconds > 0 else None, ran_on=how, world=world.describe(),
         failures=[{"trajectory": r.trajectory, "status": r.status, "error": r.error} for r in failed],
         results=results)

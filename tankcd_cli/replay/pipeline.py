@@ -67,8 +67,10 @@ class ReplayRun:
 
     @property
     def effects(self) -> Effects:
-        """The default vehicle's effects (what the summary reports)."""
-        return self.effects_of(self.world.kinds[0])
+        """The effects that ran, over the kinds of vehicle met (what the summary reports; the default
+        vehicle's before any row)."""
+        met = list(self._effects.values()) or [self.effects_of(self.world.kinds[0])]
+        return Effects(*(any(getattr(e, f) for e in met) for f in ("terrain_contact", "obstacles", "internal")))
 
     def effects_of(self, kind) -> Effects:
         e = self._effects.get(kind.index)

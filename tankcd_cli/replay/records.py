@@ -72,7 +72,7 @@ class ReplayCounts:
     rows: int = 0
     status: np.ndarray = None
     matcher: np.ndarray = None
-    vehicles: int = 0  # contacts between two vehicles
+    vehicle_contacts: int = 0  # contacts between two vehicles
     at_rows: dict = field(default_factory=lambda: dict.fromkeys(EVENT_KINDS, 0))
     between: dict = field(default_factory=lambda: dict.fromkeys(EVENT_KINDS, 0))
     extent: list = field(default_factory=lambda: [np.inf, np.inf, -np.inf, -np.inf])
@@ -91,7 +91,7 @@ class ReplayCounts:
 
         for e in events:
             if e.kind == "vehicle":
-                self.vehicles += 1
+                self.vehicle_contacts += 1
             else:
                 (self.between if e.between else self.at_rows)[e.kind] += 1
         if chunk is None:
@@ -128,7 +128,7 @@ class ReplaySummary:
     between : contacts that began between rows, per kind (obstacle, internal, terrain, off_terrain)
     motion : what the checks between rows did and their resolution (intervals, sub-steps placed,
         the sub-steps' largest travel and turn, obstacles' pass and time bounds, the gun's step)
-    vehicles : contacts between two vehicles (a trajectory of many entities)
+    vehicle_contacts : contacts between two vehicles (a trajectory of many entities)
     entities : the trajectory's vehicles (1 without an entity column)
     """
 
@@ -142,13 +142,13 @@ class ReplaySummary:
     mode: str = "continuous"
     between: dict = field(default_factory=dict)
     motion: dict = field(default_factory=dict)
-    vehicles: int = 0
+    vehicle_contacts: int = 0
     entities: int = 1
 
     @property
     def collided(self) -> bool:
         """Whether any collision was found, at a row, between rows or between vehicles."""
-        return bool(sum(self.collisions.values()) or self.vehicles
+        return bool(sum(self.collisions.values()) or self.vehicle_contacts
                     or sum(v for k, v in self.between.items() if k != "off_terrain"))
 
     @property

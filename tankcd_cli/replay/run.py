@@ -156,7 +156,7 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
                          seconds_by_effect={k: round(v, 3) for k, v in run.seconds.items()},
                          mode="continuous" if run.continuous else "discrete",
                          between=dict(counts.between) if run.continuous else {}, motion=motion,
-                         vehicles=counts.vehicles,
+                         vehicle_contacts=counts.vehicle_contacts,
                          entities=int(run.carry.has.sum()) if run.carry is not None else (1 if counts.rows else 0))
 
 

@@ -111,6 +111,28 @@ def test_split_parts_read_as_the_whole_file(tmp_path, newline, final_newline):
         assert {c.first_line for c in got} >= {min(firsts)}
 
 
+def test_an_exercise_is_not_cut_into_parts(fleet, tmp_path):
+    # six vehicles milling about one small square: parts cut by lines would lose the contacts between
+    # vehicles whose rows straddle a cut and report again those going on across it
+    tmp, _, _ = fleet
+    rng = np.random.default_rng(3)
+    pos = rng.uniform([500_080, 4_500_040], [500_120, 4_500_080], (6, 2))
+    yaw = rng.uniform(0, 360, 6)
+    with open(tmp_path / "ex.csv", "w") as fh:
+        fh.write("t,entity,x,y,yaw_deg\n")
+        for k in range(401):
+            fh.writelines(f"{0.5 * k:.1f},V{e},{pos[e, 0]:.4f},{pos[e, 1]:.4f},{yaw[e]:.4f}\n" for e in range(6))
+            yaw += rng.normal(0, 10, 6)
+            pos = np.clip(pos + 2 * np.c_[np.cos(np.radians(yaw)), np.sin(np.radians(yaw))],
+                          [500_060, 4_500_030], [500_140, 4_500_090])
+    base = [sys.executable, "-m", "tankcd_cli", "-q", "replay", tmp_path / "ex.csv", "--terrain", tmp / "battlefield.asc"]
+    subprocess.run(base + ["--poses", tmp_path / "ex.poses.csv", "--events", tmp_path / "ex.events.jsonl"], check=True)
+    subprocess.run(base + ["--out-dir", tmp_path / "out", "--split-lines", "1000", "--jobs", "2"], check=True)
+    _same_as_alone(tmp_path / "out", tmp_path, ["ex"])
+    assert sum('"kind":"vehicle"' in line for line in (tmp_path / "ex.events.jsonl").open()) >= 10
+    assert "parts" not in json.loads((tmp_path / "out" / "fleet.json").read_text())["results"][0]
+
+
 def test_a_split_trajectory_joins_into_the_single_run_and_names_errors_by_file_line(fleet, tmp_path):
     tmp, paths, ref = fleet
     args = [sys.executable, "-m", "tankcd_cli", "replay", "--scene", tmp / "scene.toml", "--jobs", "2",

@@ -45,7 +45,7 @@ def test_two_tanks_head_on_meet_at_the_closed_form_time(run, flat):
     assert vehicle[0]["t"] == pytest.approx(t, abs=1e-3)
     assert vehicle[0]["closing_speed"] == pytest.approx(15.0, rel=1e-3)
     assert vehicle[0]["point"][0] == pytest.approx(10 + 8 * t + 6.1, abs=2e-3)
-    assert vehicle[0]["entity"] == "A" and summary["vehicles"] == 1 and summary["entities"] == 2
+    assert vehicle[0]["entity"] == "A" and summary["vehicle_contacts"] == 1 and summary["entities"] == 2
 
 
 @pytest.mark.parametrize("table", ['id = "B"', 'match = "B*"'])
@@ -251,3 +251,16 @@ def test_two_files_naming_the_same_entity_are_bad_input(run, flat):
     # one entity with one row: a vehicle standing still, valid
     (flat / "c.csv").write_text("t,entity,x,y,yaw_deg\n0,T2,60,30,0\n")
     assert run("replay", "a.csv", "c.csv", "--together", "--scene", "scene.toml", "--poses", "p.csv").exit_code == 0
+
+
+def test_the_drums_are_each_vehicles_own(run, flat):
+    # the [vehicle] is an M1 (no drums); T is a T-72 with its drums by its [[entity]] table: both turn the
+    # gun low over the rear deck, and only T's gun meets drums; the summary says the check ran
+    (flat / "scene.toml").write_text('[terrain]\npath = "flat.asc"\n\n[vehicle]\npreset = "m1"\n\n'
+                                     '[[entity]]\nid = "T"\npreset = "t72"\n')
+    (flat / "ex.csv").write_text("t,entity,x,y,yaw_deg,turret_deg,gun_deg\n" + "".join(
+        f"{k},T,40,30,0,{170 + 2 * k},-5\n{k},M,100,30,0,{170 + 2 * k},-5\n" for k in range(5)))
+    events, summary = _replay(run, flat)
+    internal = [e for e in events if e["kind"] == "internal"]
+    assert {e["entity"] for e in internal} == {"T"} and len(internal) == 5
+    assert summary["effects"]["internal"] is True
