@@ -1,6 +1,5 @@
-"""Trees against brute force: every volume type, layout and split rule, the same contacts."""
-
-import json
+"""Collision queries against brute force: every volume type, layout and split rule, the same contacts;
+the pairs and points they report are those of triangles that meet."""
 
 import numpy as np
 import pytest
@@ -8,8 +7,8 @@ from scipy.spatial.transform import Rotation
 
 from tankcd_cli.bvh.build import build_tree
 from tankcd_cli.bvh.query import collide, collide_brute_force
-from tankcd_cli.bvh.store import read_tree, write_tree
 from tankcd_cli.geometry import kdop
+from tankcd_cli.geometry.triangles import tri_tri_brute
 from tankcd_cli.vehicle import vehicle_preset
 from tankcd_cli.vehicle_mesh import box, cylinder, vehicle_mesh
 
@@ -68,53 +67,6 @@ def test_contact_points_lie_on_both_triangles():
                 assert abs((point - tri[0]) @ n / np.linalg.norm(n)) < 1e-9
 
 
-def test_saved_tree_answers_identically(tmp_path):
-    A, parts = vehicle_mesh(vehicle_preset("t72"), 2)
-    B = box([-3, -3, 0], [3, 3, 4], 4) + [2.0, 0.0, 0.0]
-    ta, tb = build_tree(A, k=26, split="sah"), build_tree(B, k=26)
-    write_tree(str(tmp_path / "a.h5"), ta, parts)
-    loaded, loaded_parts = read_tree(str(tmp_path / "a.h5"))
-    np.testing.assert_array_equal(loaded_parts, parts)
-    rng = np.random.default_rng(0)
-    R = Rotation.random(200, random_state=0).as_matrix()
-    t = rng.uniform(-5, 5, (200, 3))
-    x, y = collide(ta, tb, R, t, all_contacts=True), collide(loaded, tb, R, t, all_contacts=True)
-    for name in ("found", "pairs", "node_tests", "tri_tests"):
-        np.testing.assert_array_equal(getattr(x, name), getattr(y, name))
-
-
-def test_tighter_volumes_test_fewer_pairs():
-    A, _ = vehicle_mesh(vehicle_preset("t72"), 2)
-    B = box([-10, -10, 0], [10, 10, 3], 6)
-    rng = np.random.default_rng(1)
-    R = Rotation.random(300, random_state=1).as_matrix()
-    t = rng.uniform(-8, 8, (300, 3)) + [0, 0, 3]
-    tests = {}
-    for k, levels in ((6, 0), (26, 0), (26, 2)):
-        tests[k, levels] = collide(build_tree(A, k=k, aabb_levels=levels), build_tree(B, k=k, aabb_levels=levels),
-                                   R, t, all_contacts=True).tri_tests.sum()
-    assert tests[26, 0] < tests[6, 0]
-
-
-def test_build_is_sound_on_many_triangles():
-    rng = np.random.default_rng(2)
-    c = rng.uniform(0, 100, (20000, 3))
-    tri = c[:, None, :] + rng.normal(0, 0.3, (20000, 3, 3))
-    tree = build_tree(tri, k=14, leaf_size=4, split="sah")
-    leaf = tree.left < 0
-    assert tree.count[leaf].sum() == len(tri) and tree.count[leaf].max() <= 4
-    assert sorted(tree.source_index.tolist()) == list(range(len(tri)))
-    lo, hi = kdop.fit(tree.triangles, 14)
-    owner = np.repeat(np.flatnonzero(leaf), tree.count[leaf])
-    first = np.concatenate([np.arange(s, s + n) for s, n in zip(tree.start[leaf], tree.count[leaf])])
-    assert (tree.lo[owner] <= lo[first]).all() and (tree.hi[owner] >= hi[first]).all()
-    inner = ~leaf
-    for child in (tree.left[inner], tree.right[inner]):
-        assert (tree.lo[inner] <= tree.lo[child]).all() and (tree.hi[inner] >= tree.hi[child]).all()
-    d = tree.describe()
-    assert d["aabb_nodes"] == 3 and json.dumps(d)
-
-
 def test_agrees_with_python_fcl_when_installed():
     fcl = pytest.importorskip("fcl")
     A, _ = vehicle_mesh(vehicle_preset("t72"), 1)
@@ -138,3 +90,44 @@ def test_agrees_with_python_fcl_when_installed():
         theirs[i] = fcl.collide(oa, ob, fcl.CollisionRequest(), fcl.CollisionResult()) > 0
     assert ours.mean() > 0.1
     np.testing.assert_array_equal(ours, theirs)
+
+
+def test_pairs_are_input_indices_of_triangles_that_meet():
+    A = sphere_like()
+    B = box([-2, -0.5, -0.5], [2, 0.5, 0.5], 2)
+    rng = np.random.default_rng(11)
+    perm_a, perm_b = rng.permutation(len(A)), rng.permutation(len(B))  # input order is not tree order
+    A, B = A[perm_a], B[perm_b]
+    ta, tb = build_tree(A, k=14), build_tree(B, k=14)
+    R = Rotation.random(60, random_state=11).as_matrix()
+    t = rng.uniform(-1.5, 1.5, (60, 3))
+    cap = 6
+    res = collide(ta, tb, R, t, all_contacts=True, max_contacts=cap)
+    counts = collide_brute_force(A, B, R, t, all_contacts=True)
+    np.testing.assert_array_equal(res.found, counts)
+    assert res.pairs.shape == (60, cap, 2) and res.points.shape == (60, cap, 3)
+    assert (res.found > cap).any() and (res.found == 0).any()
+    for p in range(60):
+        kept = min(int(res.found[p]), cap)
+        assert (res.pairs[p, kept:] == -1).all()
+        pairs = [tuple(x) for x in res.pairs[p, :kept].tolist()]
+        assert len(set(pairs)) == kept  # no pair twice
+        for ia, ib in pairs:
+            assert tri_tri_brute(A[ia] @ R[p].T + t[p], B[ib])
+    np.testing.assert_array_equal(res.hit, res.found > 0)
+    first = collide(ta, tb, R, t)
+    np.testing.assert_array_equal(first.hit, res.hit)
+    assert (first.found <= 1).all()  # the first contact ends the search
+    assert (first.tri_tests <= res.tri_tests).all() and (first.node_tests <= res.node_tests).all()
+
+
+def test_one_pose_and_lists_are_taken_and_mismatched_trees_refused():
+    A = box([0, 0, 0], [1, 1, 1])
+    ta, tb = build_tree(A, k=18), build_tree(A, k=18)
+    one = collide(ta, tb, np.eye(3).tolist(), [0.5, 0.0, 0.0])
+    assert one.found.shape == (1,) and one.hit[0]
+    apart = collide(ta, tb, np.eye(3), [1.5, 0.0, 0.0])
+    assert not apart.hit[0] and apart.tri_tests[0] == 0  # the roots' volumes do not overlap: no triangle tested
+    assert collide_brute_force(A, A, [np.eye(3)] * 2, [[0.5, 0, 0], [1.5, 0, 0]]).tolist() == [1, 0]
+    with pytest.raises(ValueError, match="same k-DOP type"):
+        collide(build_tree(A, k=6), tb, np.eye(3), [0.0, 0.0, 0.0])
