@@ -325,27 +325,3 @@ def test_property_dem_arithmetic_equals_clipping_every_triangle(seed, spacing, h
         for planes_found in (fast[0][differ], slow[0][differ]):
             above, _, _ = surface.highest_over_patches(x[differ], y[differ], yaw[differ], quads[differ], planes_found)
             assert (above <= 1e-9).all()
-
-
-@pytest.mark.parametrize("spacing", [0.5, 1.0])
-def test_hull_bottom_depth_is_the_supremum_of_dense_sampling(spacing):
-    """Terrain contact under the hull: the exact pass is never below a dense sampling of the
-    bottom face, and above it by no more than the ground can rise between samples."""
-    from tankcd_cli.collision.terrain_contact import hull_bottom_depth
-    from tankcd_cli.collision.terrain_contact import hull_bottom_points
-
-    rng = np.random.default_rng(3)
-    n = int(60 / spacing)
-    Z = np.cumsum(rng.normal(0, 0.15 * spacing, (n, n)), axis=0) + 0.8 * np.sin(np.arange(n) * spacing / 2.0)[None, :]
-    surface = S.surface_of(S.dem_terrain(Z, spacing=spacing))
-    m = 400
-    x, y, yaw = rng.uniform(8, 52, m), rng.uniform(8, 52, m), rng.uniform(-np.pi, np.pi, m)
-    p = match(surface, T72, x, y, yaw, "two_point")  # a coarse matcher: the hull often meets the ground
-    exact = hull_bottom_depth(surface, T72, x, y, p.yaw, p.plane, p.roll, p.pitch)
-    clip = hull_bottom_depth(surface, T72, x, y, p.yaw, p.plane, p.roll, p.pitch, dem=False)
-    np.testing.assert_allclose(exact, clip, atol=1e-9)
-    dense = surface.ground_above(p.rotation, p.position, hull_bottom_points(T72, along=121, across=61))
-    assert (exact >= dense - 1e-9).all()
-    steepest = np.abs(np.diff(Z, axis=0)).max() / spacing + np.abs(np.diff(Z, axis=1)).max() / spacing
-    assert (exact - dense).max() <= steepest * 0.06 + 1e-9  # samples are 5.7 cm apart at most
-    assert (exact > 0.05).sum() > 10  # the case is not vacuous: the hull does touch
