@@ -1,4 +1,4 @@
-"""The compiled triangle test and tree walk: the inputs they take (any layout, read-only, other dtypes),
+"""The compiled tree walk: the inputs it takes (any layout, read-only, other dtypes),
 any thread count, same answers."""
 
 import dataclasses
@@ -11,24 +11,7 @@ from tankcd_cli.bvh.build import build_tree
 from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch, collide_batch
 from tankcd_cli.geometry import kdop
-from tankcd_cli.geometry.triangles import tri_tri, tri_tri_brute
 from tankcd_cli.vehicle_mesh import box, cylinder
-
-
-def test_tri_tri_takes_any_array_like_and_fills_scratch():
-    P = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]])  # integers
-    Q = np.array([[0.5, 0.5, -1], [0.5, 0.5, 1], [1.5, 1.5, 0]])
-    out = np.zeros(3, np.float32)
-    assert tri_tri(P, Q, out) is True and out.tolist() == [0.75, 0.75, 0.0]  # the middle of the overlap
-    out64 = np.empty(3)
-    scratch = np.zeros((6, 3))
-    Qr = np.asfortranarray(Q)
-    Qr.flags.writeable = False
-    assert tri_tri(P.astype(float), Qr, out64, scratch)
-    np.testing.assert_array_equal(out64, out)
-    assert scratch.any()  # the working space given was used
-    assert not tri_tri(P, Q + [0, 0, 5], out64)
-    assert tri_tri(P, Q, out64) == tri_tri_brute(P, Q)
 
 
 def test_collide_batch_same_on_one_and_two_threads_and_any_int_width():

@@ -1,8 +1,13 @@
 """The compiled CSV chunk parser: edge cases of its fast path, bit for bit float()'s, and the inputs it takes."""
 
+import io
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from tankcd_cli.io.csv_columns import numeric_chunks
 from tankcd_cli.io.csv_kernels import POW10, parse_table
 
 
@@ -79,3 +84,44 @@ def test_entity_order_and_carry():
     last = np.array([7.0, 0.0, 0.0])
     carry(codes, v, last)
     assert v.tolist() == [7.0, 2.0, 7.0, 0.0, 2.0, 3.0] and last.tolist() == [3.0, 2.0, 0.0]
+
+
+plain = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e7, max_value=1e7)
+written = st.sampled_from(["{:.3f}", "{:.6f}", "{!r}", "{:.4e}", "{:+.1f}", " {:.2f}", "{:.10g}", "{:.0f}", "{:.15g}",
+                           "{:.17g}", "{:.3E}"])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(plain, plain, plain), min_size=1, max_size=30), written, st.sampled_from(["\n", "\r\n"]),
+       st.booleans())
+def test_compiled_parser_gives_what_float_gives(rows, fmt, newline, final_newline):
+    """Bit for bit: the compiled parser's fast path or its fall-back, never a nearby double."""
+    from tankcd_cli.io.csv_kernels import POW10, parse_table
+
+    cells = [[fmt.format(v) for v in row] for row in rows]
+    text = newline.join(",".join(row) for row in cells) + (newline if final_newline else "")
+    values, ok = parse_table(np.frombuffer(text.encode(), np.uint8), len(rows), 3, POW10)
+    expect = np.array([[float(c) for c in row] for row in cells])
+    if ok:
+        assert np.array_equal(values, expect) and np.array_equal(np.signbit(values), np.signbit(expect))
+    # whichever path read it, the reader's answer is float()'s
+    got = np.concatenate([v for _, _, v in numeric_chunks(io.StringIO("a,b,c\n" + text, newline=""), "t.csv",
+                                                          ("a", "b", "c"), (), 7)])
+    assert np.array_equal(got, expect)
+
+
+@pytest.mark.parametrize("text, ok", [
+    ("1,2,3\n4,5,6\n", True), ("1,2,3\n4,5,6", True), ("1,2,3\r\n4,5,6\r\n", True), (" 1 , 2 ,3\n", True),
+    (".5,5.,-0\n", True), ("1e5,2E-3,+4\n", True), ("1,2\n", False), ("1,2,3,4\n", False), ("1,,3\n", False),
+    ("nan,2,3\n", False), ("1,2,3\n\n", False), ("1_0,2,3\n", False), ("0x1,2,3\n", False),
+    ("1234567890123456,1,2\n", False), ("1e400,1,2\n", False), ("1e,2,3\n", False), ("-,2,3\n", False),
+    ("1.2.3,4,5\n", False), ("1,2,3\r4,5,6\n", False)])
+def test_compiled_parser_shapes(text, ok):
+    from tankcd_cli.io.csv_kernels import POW10, parse_table
+
+    rows = len(text.splitlines())
+    values, good = parse_table(np.frombuffer(text.encode(), np.uint8), rows, 3, POW10)
+    assert good is ok
+    if ok:
+        assert np.array_equal(values.ravel(), [float(c) for c in text.replace("\r", "").replace("\n", ",").split(",")
+                                               if c.strip()])
