@@ -76,9 +76,11 @@ def test_a_crossing_whose_overlap_lasts_a_fraction_of_the_span_is_found():
     assert hits.s[0] == pytest.approx((12 - 3.43 - 1.73) / 20, abs=LEAF_BOUND / 20 + 1e-9)
 
 
-def _dense(body, ma, mb, samples=800):
-    """The oracle: both bodies placed at many fractions, every triangle pair tested (brute force)."""
-    from tankcd_cli.bvh.query import collide_brute_force
+def _dense(body, ma, mb, samples=1600):
+    """The oracle: both bodies placed at many fractions of each span, every group pair tested at every
+    sample by the discrete tree query (``bvh.query.collide``, itself held to the brute force of every
+    triangle pair in tests/bvh/test_query.py); the first sample in contact, or NaN."""
+    from tankcd_cli.bvh.query import collide
 
     first = np.full(len(ma), np.nan)
     s = np.linspace(0, 1, samples + 1)
@@ -93,9 +95,10 @@ def _dense(body, ma, mb, samples=800):
             Ra, ta = group_placements(body, ga, placed[0][0], placed[0][1], placed[0][2], placed[0][3])
             for gb in body.groups:
                 Rb, tb = group_placements(body, gb, placed[1][0], placed[1][1], placed[1][2], placed[1][3])
-                for i in np.flatnonzero(~hit):
-                    world_b = gb.tree.triangles @ Rb[i].T + tb[i]
-                    hit[i] |= collide_brute_force(ga.tree.triangles, world_b, Ra[i:i + 1], ta[i:i + 1])[0] > 0
+                # a's group in b's group's frame: x -> Rb^T (Ra x + ta - tb)
+                R = np.einsum("nji,njk->nik", Rb, Ra)
+                t = np.einsum("nji,nj->ni", Rb, ta - tb)
+                hit |= collide(ga.tree, gb.tree, R, t).found > 0
         if hit.any():
             first[k] = s[np.argmax(hit)]
     return first
@@ -104,7 +107,7 @@ def _dense(body, ma, mb, samples=800):
 def test_against_the_dense_oracle_on_random_pairs_of_articulated_vehicles():
     rng = np.random.default_rng(8)
     body = _body()
-    n = 24
+    n = 40
     c0a = np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
     c0b = c0a + np.column_stack([rng.uniform(-12, 12, (n, 2)), np.zeros(n)])
     a = _motion(c0a, c0a + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
