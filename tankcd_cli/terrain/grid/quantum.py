@@ -16,8 +16,8 @@ window leaves residuals of at least a tenth of the step in rms (ground that is e
 or a quadratic, whose posts may fall on a lattice, is not terraced). The rounding shows in the
 curvature when it, not the ground, makes the relief at the post scale: the median
 |4-neighbour Laplacian| of the sampled heights is at most 3 steps (``RELIEF_SHOWS``; rounding
-alone gives about 0.9, treads less). Rough ground rounded finely (a survey to the millimetre,
-1.6 cm steps under 5 cm of roughness: 10 steps) is left as it is: there the rounding is noise
+alone gives about 1, treads less). Rough ground rounded finely (a survey to the millimetre,
+1.6 cm steps under 5 cm of roughness: 11 steps) is left as it is: there the rounding is noise
 the footprint averages take, and filtering it would smooth the ground's own relief.
 
 **The filter** (``smooth_within_quantum``): the true ground lies within half a step of each
@@ -67,7 +67,7 @@ class Quantum:
     terraces : the share of neighbouring posts (along rows and columns) at one level (treads)
     relief : the median |second difference| (4-neighbour Laplacian) of the sampled heights, in
         steps: the ground's own relief at the post scale against the step's. Rounding alone
-        gives about 0.9 (white rounding noise) or less (treads); the rounding shows in the
+        gives about 1 (white rounding noise) or less (treads); the rounding shows in the
         curvature when it is at most ``RELIEF_SHOWS``
     """
 
@@ -87,12 +87,13 @@ class Quantum:
 
 def sample_windows(rows: int, cols: int, windows: int = SAMPLE_WINDOWS, side: int = SAMPLE_SIDE):
     """(r0, r1, c0, c1) of the sampled windows: a lattice of up to ``windows`` spread over the
-    grid, row by row (so a reader that decodes from the top goes down once)."""
+    grid (all of a grid up to 256 posts a side), row by row (so a reader that decodes from the
+    top goes down once)."""
     k = max(1, int(math.isqrt(windows)))
 
     def starts(n):
-        if n <= side:
-            return [0]
+        if n <= k * side:  # a small grid: windows side by side over all of it, none twice
+            return list(range(0, n, side))
         return sorted({int(round(v)) for v in np.linspace(0, n - side, k)})
 
     return [(r, min(r + side, rows), c, min(c + side, cols)) for r in starts(rows) for c in starts(cols)]
