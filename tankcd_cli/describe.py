@@ -175,8 +175,7 @@ def _spacing_against_track(spacing, a: dict) -> dict | None:
     ratio = widest / float(track)
     verdict = ("too coarse: posts wider than half the track length cannot resolve the ground the tracks feel"
                if ratio > 0.5 else "fine enough: at most half the track length")
-    return {"post_spacing": widest, "track_length": float(track), "vehicle": a.get("vehicle"),
-            "ratio": round(ratio, 4), "verdict": verdict}
+    return {"spacing": widest, "track_length": float(track), "ratio": round(ratio, 4), "verdict": verdict}
 
 
 def _classes(a: dict) -> dict:

@@ -196,7 +196,7 @@ def test_info_shows_the_quantum_and_the_spacing_against_the_track(run, tmp_path)
     assert q["step"] == pytest.approx(40 / 255) and q["smoothing_passes"] == 4 and q["levels"] <= 256
     assert "smoothed within half a step" in q["classes"]
     track = facts["post_spacing_against_track"]
-    assert track == {"post_spacing": 2.0, "track_length": 4.28, "vehicle": "t72", "ratio": round(2 / 4.28, 4),
+    assert track == {"spacing": 2.0, "track_length": 4.28, "ratio": round(2 / 4.28, 4),
                      "verdict": "fine enough: at most half the track length"}
     assert facts["heightmap"]["z_range"] == [0.0, 40.0] and facts["heightmap"]["bits"] == 8
     fine = json.loads(run("info", "fine.h5", "--json").stdout)
