@@ -174,7 +174,8 @@ def _scale_offset(spec: HeightmapSpec, name: str, dtype: np.dtype, bits: int) ->
         full = float(2 ** bits - 1)
         low, high = (float(v) for v in spec.z_range)
         return (high - low) / full, low
-    return (1.0 if spec.z_scale is None else float(spec.z_scale)), (0.0 if spec.z_offset is None else float(spec.z_offset))
+    scale = 1.0 if spec.z_scale is None else float(spec.z_scale)
+    return scale, (0.0 if spec.z_offset is None else float(spec.z_offset))
 
 
 def _grid(spec: HeightmapSpec, rows: int, cols: int, name: str) -> PostGrid:
@@ -276,10 +277,10 @@ class RawHeightmap(_Heightmap):
         word = {"u1": "8-bit", "<u2": "16-bit unsigned", "<f4": "32-bit float"}[dtype.str.replace("|", "")]
         notes = (f"RAW heightmap: {word} little-endian values, {cols} columns x {rows} rows"
                  + ("" if spec.size else " (square)") + "; row 0 (the file's first) north",)
-        self.info = DemSourceInfo(name, "RAW", sha256=digest, height_dtype=_height_dtype(dtype, self.scale, self.offset),
-                                  dtype=dtype.name, heightmap=_reading(spec, kind, dtype, bits, 1, rows, cols,
-                                                                       self.scale, self.offset, self.grid),
-                                  notes=notes)
+        reading = _reading(spec, kind, dtype, bits, 1, rows, cols, self.scale, self.offset, self.grid)
+        self.info = DemSourceInfo(name, "RAW", sha256=digest,
+                                  height_dtype=_height_dtype(dtype, self.scale, self.offset), dtype=dtype.name,
+                                  heightmap=reading, notes=notes)
 
     def _values(self, a0, a1, b0, b1):
         row_bytes = self.cols * self.dtype.itemsize
@@ -404,8 +405,9 @@ class PngHeightmap(_Heightmap):
         self.grid = _grid(spec, self.rows, self.cols, name)
         notes.insert(0, f"PNG heightmap: {bits}-bit values, {self.cols} columns x {self.rows} rows; row 0 (the top) "
                         "north")
-        self.info = DemSourceInfo(name, "PNG", sha256=digest, height_dtype=_height_dtype(dtype, self.scale, self.offset),
-                                  dtype=dtype.name, band=band, bands=ds.count,
+        self.info = DemSourceInfo(name, "PNG", sha256=digest,
+                                  height_dtype=_height_dtype(dtype, self.scale, self.offset), dtype=dtype.name,
+                                  band=band, bands=ds.count,
                                   block=tuple(int(v) for v in ds.block_shapes[band - 1]),
                                   heightmap=_reading(spec, "png", dtype, bits, band, self.rows, self.cols, self.scale,
                                                      self.offset, self.grid),
@@ -429,7 +431,8 @@ class PngHeightmap(_Heightmap):
             except Exception as exc:
                 if not is_gdal_error(exc):
                     raise
-                raise InputError(name or self.info.source, f"damaged PNG (rows {a0}-{a1}): {gdal_message(exc)}") from None
+                raise InputError(name or self.info.source,
+                                 f"damaged PNG (rows {a0}-{a1}): {gdal_message(exc)}") from None
 
     def close(self) -> None:
         from tankcd_cli.io.rasters import gdal_env

@@ -36,7 +36,7 @@ TRIMESH_SUFFIXES = ("obj",) + trimesh_formats.SUFFIXES + ("glb", "gltf")  # OBJ 
 MESHIO_SUFFIXES = meshio_formats.SUFFIXES
 GRID_SUFFIXES = esri_ascii.SUFFIXES
 COLLADA_SUFFIXES = ("dae",)  # only with pycollada (trimesh's optional loader)
-IMAGE_SUFFIXES = ("png", "jpg", "jpeg", "bmp")  # refused with advice; PNG heightmaps and tif/tiff rasters are read elsewhere
+IMAGE_SUFFIXES = ("png", "jpg", "jpeg", "bmp")  # refused with advice; heightmaps and rasters are read elsewhere
 Y_UP_FORMATS = gltf.GLTF_SUFFIXES  # y-up by their specification
 
 COLLADA_UNSUPPORTED = "Collada is not supported here: convert it to GLB or OBJ (e.g. in Blender)"

@@ -15,9 +15,10 @@ values become heights, where it lies); a scene's terrain path carries the scene'
 the scene says.
 
 Set-up checks on a DEM (``SetupWarning``, which ``--strict`` makes bad input): posts wider than
-half the vehicle's track length cannot resolve what the tracks feel (``grid.resolution.coarse_posts``: when a
-DEM is classified, and when a grid store is opened for a vehicle); quantized heights are found
-and filtered when a DEM is classified (``grid/classify.py``).
+half the vehicle's track length cannot resolve what the tracks feel (``grid/resolution.py``:
+when a DEM is classified, and when a grid store is opened for a vehicle, so replay warns on
+either); quantized heights are found and filtered when a DEM is classified
+(``grid/classify.py``, ``grid/quantum.py``).
 """
 
 from __future__ import annotations

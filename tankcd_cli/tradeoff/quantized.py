@@ -165,7 +165,8 @@ def tables(cells: list[Cell]) -> str:
         return "\n".join(lines)
 
     out = [grid("Posts in the ground's class, %, the eight families without relief at or below the steps (all but "
-                "`rough` and `steps`; bold: steps up to a tenth of the post spacing):", lambda c: 100 * c.smooth_agreement),
+                "`rough` and `steps`; bold: steps up to a tenth of the post spacing):",
+                lambda c: 100 * c.smooth_agreement),
            grid("The same, unfiltered (the rounded heights classified as they are: tankcd before it looked for "
                 "steps), %:", lambda c: 100 * c.smooth_agreement_unfiltered),
            grid("Every family (`rough` and `steps` too), %:", lambda c: 100 * c.agreement),

@@ -10,15 +10,16 @@ sees the terraces, each edge a kink of q / h^2 (an 8-bit heightmap, q = 0.157 m 
 ``SAMPLE_SIDE`` x ``SAMPLE_SIDE`` posts spread over the DEM, never the whole raster. The
 sampled heights are quantized when every gap between their distinct values is a whole multiple
 of one step (the smallest gap, or its half, third, ..., eighth, fitted to all the gaps by least
-squares), to a tolerance of a few units in the last place of the heights' number type, the step being larger than 64 of those units (a
-float32 raster's own lattice is no quantum), and when the step shows: a quadratic fitted to each
-window leaves residuals of at least a tenth of the step in rms (ground that is exactly a plane
-or a quadratic, whose posts may fall on a lattice, is not terraced). The rounding shows in the
-curvature when it, not the ground, makes the relief at the post scale: the median
-|4-neighbour Laplacian| of the sampled heights is at most 3 steps (``RELIEF_SHOWS``; rounding
-alone gives about 1, treads less). Rough ground rounded finely (a survey to the millimetre,
-1.6 cm steps under 5 cm of roughness: 11 steps) is left as it is: there the rounding is noise
-the footprint averages take, and filtering it would smooth the ground's own relief.
+squares), to a tolerance of a few units in the last place of the heights' number type, the
+step being larger than 64 of those units (a float32 raster's own lattice is no quantum), and
+when the step shows: a quadratic fitted to each window leaves residuals of at least a tenth of
+the step in rms (ground that is exactly a plane or a quadratic, whose posts may fall on a
+lattice, is not terraced). The rounding shows in the curvature when it, not the ground, makes
+the relief at the post scale: the median |4-neighbour Laplacian| of the sampled heights is at
+most 3 steps (``RELIEF_SHOWS``; rounding alone gives about 1, treads less). Rough ground
+rounded finely (a survey to the millimetre, 1.6 cm steps under 5 cm of roughness: 11 steps) is
+left as it is: there the rounding is noise the footprint averages take, and filtering it
+would smooth the ground's own relief.
 
 **The filter** (``smooth_within_quantum``): the true ground lies within half a step of each
 quantized post, and the smoothest surface in that band has no terraces. ``passes`` times, every
