@@ -132,9 +132,57 @@ def _describe_grid(path: str, a: dict) -> dict:
         "tile_posts": _shape(chunks) if chunks else None,
         "heights": dtype,
         "bytes_per_post": round(size / max(rows * cols, 1), 2),
+        "heightmap": _heightmap_reading(a.get("heightmap")),
+        "height_quantum": _height_quantum(a),
+        "post_spacing_against_track": _spacing_against_track(spacing, a),
         **_classes(a),
     }
     return {k: v for k, v in facts.items() if v is not None}
+
+
+def _heightmap_reading(text) -> dict | None:
+    """How a heightmap's values became posts (the store's ``heightmap`` attribute), or None."""
+    if not text:
+        return None
+    import json
+
+    try:
+        return json.loads(text)
+    except (TypeError, ValueError):
+        return {"reading": str(text)}
+
+
+def _height_quantum(a: dict) -> dict:
+    """The height step classify found (m) and what it did about it (docs/formats.md)."""
+    if "height_quantum" not in a:
+        return {"step": None, "classes": "unknown: a store written before tankcd looked for a step (classify again)"}
+    step = float(a["height_quantum"])
+    passes = int(a.get("quantum_filter_passes", 0))
+    if not step:
+        return {"step": None, "classes": "no common step found in the sampled heights"}
+    terraces = float(a.get("height_quantum_terraces", 0.0))
+    relief = float(a.get("height_quantum_relief", 0.0))
+    if passes:
+        done = f"taken from heights smoothed within half a step ({passes} passes), not the terraces"
+    elif a.get("height_quantum_shows"):
+        done = "classified as they are: the step is too fine to show at these posts"
+    else:
+        done = "classified as they are: the ground's own relief at the post scale is larger than the step's"
+    return {"step": step, "levels": int(a.get("height_quantum_levels", 0)),
+            "sampled_posts": int(a.get("height_quantum_sampled_posts", 0)), "on_one_level": round(terraces, 4),
+            "relief_in_steps": round(relief, 3), "smoothing_passes": passes, "classes": done}
+
+
+def _spacing_against_track(spacing, a: dict) -> dict | None:
+    """The post spacing against the vehicle's track length, m (posts wider than half of it are coarse)."""
+    track = a.get("track_length")
+    if not track:
+        return None
+    widest = max(spacing)
+    ratio = widest / float(track)
+    verdict = ("too coarse: posts wider than half the track length cannot resolve the ground the tracks feel"
+               if ratio > 0.5 else "fine enough: at most half the track length")
+    return {"spacing": widest, "track_length": float(track), "ratio": round(ratio, 4), "verdict": verdict}
 
 
 def _classes(a: dict) -> dict:

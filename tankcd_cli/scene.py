@@ -16,6 +16,25 @@ from tankcd_cli.names import KDOP_KS, SPLITS, TREE_DEFAULTS, UP_AXES
 from tankcd_cli.vehicle import PRESETS, Vehicle, vehicle_preset
 
 VEHICLE_KEYS = {f.name for f in fields(Vehicle)} - {"name"}
+# a heightmap's [terrain] keys (io.heightmap.HeightmapSpec's fields)
+HEIGHTMAP_KEYS = ("spacing", "z_scale", "z_offset", "z_range", "origin", "crs", "size", "band")
+
+
+class TerrainPath(str):
+    """A scene's terrain path, carrying how to read it: ``heightmap``, the
+    :class:`~tankcd_cli.io.heightmap.HeightmapSpec` of the [terrain] table's heightmap keys
+    (None without them). Whatever opens the scene's terrain (``terrain.open``) reads a heightmap
+    as the scene says through it."""
+
+    heightmap = None
+
+    def __new__(cls, path: str, heightmap=None):
+        self = super().__new__(cls, path)
+        self.heightmap = heightmap
+        return self
+
+    def __reduce__(self):  # pickled (to a worker) with its settings
+        return (TerrainPath, (str(self), self.heightmap))
 
 
 @dataclass(frozen=True)
@@ -109,6 +128,11 @@ class Scene:
         return self.terrain_up_axis
 
     @property
+    def terrain_heightmap(self):
+        """The terrain's HeightmapSpec (a heightmap's [terrain] keys), or None."""
+        return getattr(self.terrain_path, "heightmap", None)
+
+    @property
     def vehicle_mesh_up(self) -> str | None:
         return self.vehicle_mesh_placement.up
 
@@ -130,7 +154,7 @@ class Scene:
         return {
             "file": self.path,
             "kind": "scene",
-            "terrain": {"path": self.terrain_path, "up": self.terrain_up_axis},
+            "terrain": {"path": self.terrain_path, "up": self.terrain_up_axis, **self._heightmap_facts()},
             "vehicle": {
                 "name": v.name,
                 "fuel_drums": v.fuel_drums,
@@ -144,6 +168,14 @@ class Scene:
             "collision": self.collision.describe(),
             "effects": {"turret_moving": self.effects(True), "turret_still": self.effects(False)},
         }
+
+
+    def _heightmap_facts(self) -> dict:
+        spec = self.terrain_heightmap
+        if spec is None:
+            return {}
+        return {"heightmap": {k: (list(v) if isinstance(v, tuple) else v) for k in spec.given()
+                              for v in (getattr(spec, k),)}}
 
 
 def effects_for(vehicle: Vehicle, obstacles: bool, turret_moves: bool) -> dict:
@@ -179,9 +211,15 @@ def load_scene(path: str) -> Scene:
     _only(data, {"terrain", "vehicle", "obstacle", "collision", "entity"}, path, "")
 
     terrain = _table(data, "terrain", path)
-    _only(terrain, {"path", "up"}, path, "[terrain]")
+    _only(terrain, {"path", "up", *HEIGHTMAP_KEYS}, path, "[terrain]")
     terrain_path = _file(terrain, "path", base, path, "[terrain]") if "path" in terrain else None
     terrain_up = _choice(terrain, "up", UP_AXES + (None,), None, path, "[terrain]")
+    if terrain_path is not None:
+        terrain_path = TerrainPath(terrain_path, _heightmap(terrain, terrain_path, path))
+    elif any(k in terrain for k in HEIGHTMAP_KEYS):
+        key = next(k for k in HEIGHTMAP_KEYS if k in terrain)
+        raise InputError(path, f"{key} describes a heightmap, but the scene names no [terrain] path",
+                         where=f"[terrain] {key}")
 
     veh = _table(data, "vehicle", path)
     vehicle, mesh, mesh_placement = _vehicle_table(veh, base, path, "[vehicle]")
@@ -294,6 +332,68 @@ def _entity_tables(raw, base: str, path: str) -> list:
         out.append(EntityVehicle(value if key == "id" else None, value if key == "match" else None, vehicle, mesh,
                                  placement))
     return out
+
+
+def _heightmap(terrain: dict, terrain_path: str, path: str):
+    """The HeightmapSpec of the [terrain] table's heightmap keys (None without any); checked
+    here, naming the key (docs/formats.md, "[terrain]")."""
+    from tankcd_cli.io.heightmap import HeightmapSpec, is_heightmap, parse_size
+
+    given = [k for k in HEIGHTMAP_KEYS if k in terrain]
+    if not given:
+        return None
+    if not is_heightmap(terrain_path):
+        raise InputError(path, f"{given[0]} describes a heightmap (PNG, RAW); {os.path.basename(terrain_path)} is "
+                               "none (a DEM raster or a store carries its own georeferencing)",
+                         where=f"[terrain] {given[0]}")
+
+    def number(key, positive=False, nonzero=False):
+        value = terrain.get(key)
+        if value is None:
+            return None
+        if not _finite(value) or (positive and value <= 0) or (nonzero and value == 0):
+            what = "a positive number" if positive else "a finite number other than 0" if nonzero else "a finite number"
+            raise InputError(path, f"{key} must be {what} (m), got {value!r}", where=f"[terrain] {key}")
+        return float(value)
+
+    def pair(key):
+        value = terrain.get(key)
+        if value is None:
+            return None
+        if not isinstance(value, list) or len(value) != 2 or not all(_finite(v) for v in value):
+            raise InputError(path, f"{key} must be two finite numbers [a, b], got {value!r}", where=f"[terrain] {key}")
+        return (float(value[0]), float(value[1]))
+
+    z_range = pair("z_range")
+    if z_range is not None:
+        if z_range[0] >= z_range[1]:
+            raise InputError(path, f"z_range must be [LOW, HIGH] with LOW < HIGH, got {list(z_range)}",
+                             where="[terrain] z_range")
+        both = [k for k in ("z_scale", "z_offset") if k in terrain]
+        if both:
+            raise InputError(path, f"z_range says the scale and the offset: give it or {both[0]}, not both",
+                             where=f"[terrain] {both[0]}")
+    crs = terrain.get("crs")
+    if crs is not None and (not isinstance(crs, str) or not crs.strip()):
+        raise InputError(path, f"crs must be a CRS (e.g. \"EPSG:32633\"), got {crs!r}", where="[terrain] crs")
+    size = terrain.get("size")
+    if size is not None:
+        try:
+            if isinstance(size, str):
+                size = parse_size(size)
+            elif isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                                                   for v in size):
+                size = parse_size(f"{size[0]}x{size[1]}")
+            else:
+                raise ValueError(f"{size!r} is not \"COLSxROWS\" or [cols, rows]")
+        except ValueError as exc:
+            raise InputError(path, f"size: {exc}", where="[terrain] size") from None
+    band = terrain.get("band")
+    if band is not None and (not isinstance(band, int) or isinstance(band, bool) or band < 1):
+        raise InputError(path, f"band must be a whole number from 1, got {band!r}", where="[terrain] band")
+    return HeightmapSpec(spacing=number("spacing", positive=True), z_scale=number("z_scale", nonzero=True),
+                         z_offset=number("z_offset"), z_range=z_range, origin=pair("origin"), crs=crs, size=size,
+                         band=band)
 
 
 def _finite(value) -> bool:

@@ -22,6 +22,9 @@ class DemSourceInfo:
     height_dtype : "float32" when every height is exactly a float32, else "float64"
     nodata, dtype, band, bands, block : a raster's NODATA value, band type, band read (from 1),
         band count and block shape (rows, cols); other sources keep the defaults
+    heightmap : how a heightmap's values became posts (JSON text: format, bits, spacing, z_scale,
+        z_offset, origin, crs, ...), "" for other sources
+    notes : what was read in a way worth saying under -v (an alpha channel ignored, ...)
     """
 
     source: str
@@ -35,3 +38,5 @@ class DemSourceInfo:
     band: int = 1
     bands: int = 1
     block: tuple[int, int] = (0, 0)
+    heightmap: str = ""
+    notes: tuple[str, ...] = ()

@@ -102,7 +102,7 @@ class RasterSource:
         if self._closed:
             return
         self._closed = True
-        with _env():
+        with gdal_env():
             for thing in [self._reader, self._dataset, *self._keep]:
                 try:
                     thing.close()
@@ -125,16 +125,16 @@ class RasterSource:
         from rasterio.windows import Window
 
         window = Window(b0, a0, b1 - b0, a1 - a0)
-        with _env():
+        with gdal_env():
             try:
                 if self._reader is self._dataset:
                     heights = _read_native(self._dataset, self.info.band, window)
                 else:  # the warp already gives float64 with NaN for NODATA and outside
                     heights = self._reader.read(self.info.band, window=window)
             except Exception as exc:
-                if not _is_gdal_error(exc):
+                if not is_gdal_error(exc):
                     raise
-                raise InputError(self.info.source, f"rows {a0}-{a1} cols {b0}-{b1}: {_gdal_message(exc)}") from None
+                raise InputError(self.info.source, f"rows {a0}-{a1} cols {b0}-{b1}: {gdal_message(exc)}") from None
         heights[~np.isfinite(heights)] = np.nan  # no ground is infinitely high: treat it as missing
         out[a0 - r0:a1 - r0, b0 - c0:b1 - c0] = heights
         return out
@@ -178,7 +178,7 @@ def open_raster(path: str, band: int | None = None, crs: str | None = None, fmt:
         keep.insert(0, dataset)
         source = _build(dataset, name, digest, band, crs, keep[1:])
     except BaseException:
-        with _env():
+        with gdal_env():
             for thing in keep:
                 try:
                     thing.close()
@@ -200,7 +200,7 @@ def _suffix(path: str) -> str:
 def _driver_for(fmt: str, name: str) -> str:
     if fmt in _DRIVERS:
         return _DRIVERS[fmt]
-    with _env() as env:
+    with gdal_env() as env:
         drivers = env.drivers()
     for driver in drivers:
         if driver.lower() == fmt:
@@ -222,7 +222,7 @@ def _locate(path: str, name: str, fmt: str | None, keep: list) -> tuple[str, str
     driver = _driver_for(fmt, name) if fmt else None
     if kind == "vrt" or (fmt is None and _starts_with(path, b"<VRTDataset")):
         return path, _vrt_digest(path, name), driver
-    return path, _file_sha256(path, name), driver
+    return path, file_sha256(path, name), driver
 
 
 def _starts_with(path: str, magic: bytes) -> bool:
@@ -233,7 +233,8 @@ def _starts_with(path: str, magic: bytes) -> bool:
         return False
 
 
-def _file_sha256(path: str, name: str) -> str:
+def file_sha256(path: str, name: str) -> str:
+    """The SHA-256 of a file's bytes, read in blocks (``name`` is how errors name it)."""
     digest = hashlib.sha256()
     try:
         with open(path, "rb") as fh:
@@ -272,7 +273,7 @@ def _from_stdin(name: str, fmt: str | None, keep: list) -> tuple[str, str, str |
         raise InputError(name, f"cannot read: {exc.strerror or exc}") from None
     if not data:
         raise InputError(name, "file is empty")
-    with _env():
+    with gdal_env():
         memfile = MemoryFile(data, ext="." + fmt if fmt in _DRIVERS else "")
     keep.append(memfile)
     return memfile.name, hashlib.sha256(data).hexdigest(), driver
@@ -291,7 +292,7 @@ def _from_zip(path: str, name: str, keep: list) -> tuple[str, str, str | None]:
     members = _zip_members(path, name)
     if not members:
         raise InputError(name, "the zip archive holds no raster (" + ", ".join(_TILE_SUFFIXES) + ")")
-    digest = _file_sha256(path, name)
+    digest = file_sha256(path, name)
     vsi = "/vsizip/" + os.path.abspath(path)
     if len(members) == 1:
         return f"{vsi}/{members[0]}", digest, None
@@ -315,10 +316,10 @@ def _mosaic_folder(path: str, name: str, keep: list) -> tuple[str, str, str | No
             members = _zip_members(full, full)
             tiles += [(f"{entry}/{m}", f"/vsizip/{os.path.abspath(full)}/{m}") for m in sorted(members)]
             if members:
-                hashes.append((entry, _file_sha256(full, full)))
+                hashes.append((entry, file_sha256(full, full)))
         elif kind in _TILE_SUFFIXES:
             tiles.append((entry, os.path.abspath(full)))
-            hashes.append((entry, _file_sha256(full, full)))
+            hashes.append((entry, file_sha256(full, full)))
     if not tiles:
         raise InputError(name, "the folder holds no raster tiles (" + ", ".join(("zip",) + _TILE_SUFFIXES) + ")")
     return _mosaic(tiles, name, keep), _list_digest(hashes), None
@@ -326,7 +327,7 @@ def _mosaic_folder(path: str, name: str, keep: list) -> tuple[str, str, str | No
 
 def _vrt_digest(path: str, name: str) -> str:
     """Check every file the VRT names exists; hash the VRT text and those files."""
-    entries = [(os.path.basename(path), _file_sha256(path, name))]
+    entries = [(os.path.basename(path), file_sha256(path, name))]
     try:
         root = ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
@@ -344,7 +345,7 @@ def _vrt_digest(path: str, name: str) -> str:
         full = os.path.join(base, written) if relative and not os.path.isabs(written) else written
         if not os.path.isfile(full):
             raise InputError(name, f"the VRT names a missing file: {written}")
-        entries.append((written, _file_sha256(full, name + ": " + written)))
+        entries.append((written, file_sha256(full, name + ": " + written)))
     return _list_digest(entries)
 
 
@@ -361,17 +362,17 @@ def _mosaic(tiles: list[tuple[str, str]], name: str, keep: list) -> str:
     from rasterio.io import MemoryFile
 
     metas = []
-    with _env():
+    with gdal_env():
         for shown, gdal_path in tiles:
             try:
-                with _quiet(), rasterio.open(gdal_path) as ds:
+                with quiet_warnings(), rasterio.open(gdal_path) as ds:
                     metas.append(dict(name=shown, path=gdal_path, crs=ds.crs, t=ds.transform, w=ds.width, h=ds.height,
                                       count=ds.count, dtypes=ds.dtypes, nodatas=ds.nodatavals,
                                       blocks=ds.block_shapes))
             except Exception as exc:
-                if not _is_gdal_error(exc):
+                if not is_gdal_error(exc):
                     raise
-                raise InputError(name, f"tile {shown}: not a raster GDAL can read: {_gdal_message(exc)}") from None
+                raise InputError(name, f"tile {shown}: not a raster GDAL can read: {gdal_message(exc)}") from None
     first = metas[0]
     t0 = first["t"]
     for m in metas:
@@ -379,8 +380,8 @@ def _mosaic(tiles: list[tuple[str, str]], name: str, keep: list) -> str:
         if t.b != 0 or t.d != 0 or t.a <= 0 or t.e >= 0:
             raise InputError(name, f"tile {m['name']}: not a north-up grid (geotransform {tuple(t)[:6]})")
         if m["crs"] != first["crs"]:
-            raise InputError(name, f"tile {m['name']} has CRS {_crs_name(m['crs'])}, tile {first['name']} "
-                                   f"{_crs_name(first['crs'])}: all tiles must share one")
+            raise InputError(name, f"tile {m['name']} has CRS {crs_name(m['crs'])}, tile {first['name']} "
+                                   f"{crs_name(first['crs'])}: all tiles must share one")
         if not (math.isclose(t.a, t0.a, rel_tol=1e-7) and math.isclose(t.e, t0.e, rel_tol=1e-7)):
             raise InputError(name, f"tile {m['name']} has post spacing {t.a:g} x {-t.e:g}, tile {first['name']} "
                                    f"{t0.a:g} x {-t0.e:g}: all tiles must share one")
@@ -426,7 +427,7 @@ def _mosaic(tiles: list[tuple[str, str]], name: str, keep: list) -> str:
             lines.append("    </ComplexSource>")
         lines.append("  </VRTRasterBand>")
     lines.append("</VRTDataset>")
-    with _env():
+    with gdal_env():
         memfile = MemoryFile("\n".join(lines).encode("utf-8", "surrogateescape"), ext=".vrt")
     keep.append(memfile)
     return memfile.name
@@ -446,13 +447,14 @@ def _number(value: float) -> str:
 
 # --- opening and checking -------------------------------------------------------
 
-def _env():
+def gdal_env():
+    """rasterio's GDAL environment with tankcd's options (64 MB block cache, checksums, float64 ASCII grids)."""
     import rasterio
 
     return rasterio.Env(**_GDAL_OPTIONS)
 
 
-class _quiet(warnings.catch_warnings):
+class quiet_warnings(warnings.catch_warnings):
     """Silence rasterio's Python warnings (NotGeoreferencedWarning): we report such rasters ourselves."""
 
     def __enter__(self):
@@ -461,14 +463,15 @@ class _quiet(warnings.catch_warnings):
         return result
 
 
-def _is_gdal_error(exc: BaseException) -> bool:
+def is_gdal_error(exc: BaseException) -> bool:
+    """Whether ``exc`` is GDAL's (through rasterio), not a bug of ours."""
     from rasterio._err import CPLE_BaseError
     from rasterio.errors import RasterioError
 
     return isinstance(exc, (RasterioError, CPLE_BaseError))
 
 
-def _gdal_message(exc: BaseException) -> str:
+def gdal_message(exc: BaseException) -> str:
     """GDAL's own words: rasterio hides them behind 'See previous exception' in the cause chain."""
     messages = []
     seen = set()
@@ -485,20 +488,21 @@ def _gdal_message(exc: BaseException) -> str:
 def _open_dataset(gdal_path: str, name: str, driver: str | None):
     import rasterio
 
-    with _env(), _quiet():
+    with gdal_env(), quiet_warnings():
         try:
             return rasterio.open(gdal_path, driver=driver) if driver else rasterio.open(gdal_path)
         except Exception as exc:
-            if not _is_gdal_error(exc):
+            if not is_gdal_error(exc):
                 raise
             what = f"not a {driver} raster GDAL can read" if driver else "not a raster GDAL can read"
-            raise InputError(name, f"{what}: {_gdal_message(exc)}") from None
+            raise InputError(name, f"{what}: {gdal_message(exc)}") from None
 
 
 _WKT_NAME = re.compile(r'^\s*[A-Za-z_0-9]+\[\s*"([^"]*)"')
 
 
-def _crs_name(crs) -> str:
+def crs_name(crs) -> str:
+    """A CRS in words: the name its WKT gives, else its PROJ or EPSG string."""
     if crs is None:
         return "local grid (no CRS)"
     match = _WKT_NAME.match(crs.to_wkt())
@@ -507,9 +511,24 @@ def _crs_name(crs) -> str:
     return crs.to_string() or "unnamed CRS"
 
 
-def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: list) -> RasterSource:
+def metric_crs(crs: str, name: str):
+    """The rasterio CRS of ``crs`` (anything ``CRS.from_user_input`` takes), refused unless it is
+    projected and in metres (``name``: the input errors name)."""
     from rasterio.crs import CRS
 
+    try:
+        dst = CRS.from_user_input(crs)
+    except Exception as exc:
+        raise InputError(name, f"--crs {crs!r} is not a CRS: {gdal_message(exc)}") from None
+    if not dst.is_projected:
+        raise InputError(name, f"--crs {crs!r} ({crs_name(dst)}) is not a projected CRS: the grid must be in metres")
+    unit, factor = dst.linear_units_factor
+    if abs(factor - 1.0) > 1e-12:
+        raise InputError(name, f"--crs {crs!r} ({crs_name(dst)}) is in {unit}: the grid must be in metres")
+    return dst
+
+
+def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: list) -> RasterSource:
     if ds.count < 1:
         raise InputError(name, "the raster has no bands")
     if band is None:
@@ -538,18 +557,10 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
     if not georeferenced:
         source_crs_name = "local grid (no georeferencing; 1 m posts assumed)"
     else:
-        source_crs_name = _crs_name(src_crs)
+        source_crs_name = crs_name(src_crs)
     dst = None
     if crs is not None:
-        try:
-            dst = CRS.from_user_input(crs)
-        except Exception as exc:
-            raise InputError(name, f"--crs {crs!r} is not a CRS: {_gdal_message(exc)}") from None
-        if not dst.is_projected:
-            raise InputError(name, f"--crs {crs!r} ({_crs_name(dst)}) is not a projected CRS: the grid must be in metres")
-        unit, factor = dst.linear_units_factor
-        if abs(factor - 1.0) > 1e-12:
-            raise InputError(name, f"--crs {crs!r} ({_crs_name(dst)}) is in {unit}: the grid must be in metres")
+        dst = metric_crs(crs, name)
         if src_crs is None:
             raise InputError(name, f"the raster has no CRS, so it cannot be warped to --crs {crs!r}")
         if dst == src_crs:
@@ -559,7 +570,7 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
     elif src_crs is not None:
         unit, factor = src_crs.linear_units_factor
         if abs(factor - 1.0) > 1e-12:
-            raise InputError(name, f"CRS {_crs_name(src_crs)} is in {unit}; give --crs to reproject")
+            raise InputError(name, f"CRS {crs_name(src_crs)} is in {unit}; give --crs to reproject")
 
     common = dict(source=name, format=ds.driver, nodata=ds.nodatavals[band - 1], dtype=ds.dtypes[band - 1],
                   band=band, bands=ds.count, sha256=digest,
@@ -570,12 +581,12 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
         if georeferenced:
             origin = (t.c + 0.5 * t.a, t.f + 0.5 * t.e)
             spacing = (t.a, -t.e)
-            crs_wkt, crs_name = (src_crs.to_wkt(), source_crs_name) if src_crs is not None else ("", "local grid (no CRS)")
+            crs_wkt, grid_crs = (src_crs.to_wkt(), source_crs_name) if src_crs is not None else ("", "local grid (no CRS)")
         else:  # GDAL's identity transform: read it north-up with 1 m posts, the south-west one at (0, 0)
             origin, spacing = (0.0, float(ds.height - 1)), (1.0, 1.0)
-            crs_wkt, crs_name = "", source_crs_name
+            crs_wkt, grid_crs = "", source_crs_name
         grid = PostGrid(ds.height, ds.width, float(origin[0]), float(origin[1]), float(spacing[0]), float(spacing[1]),
-                        crs_wkt, crs_name)
+                        crs_wkt, grid_crs)
         return RasterSource(grid, DemSourceInfo(reprojected=False, block=(block[0], block[1]), **common), ds, ds, keep)
     return _warped(ds, name, src_crs, dst, common, keep)
 
@@ -584,14 +595,14 @@ def _probe(ds, name: str, band: int) -> None:
     """Read the first and the last block: a cut-short file (the usual damage) fails here, at open."""
     from rasterio.windows import Window
 
-    with _env():
+    with gdal_env():
         for row, col in ((0, 0), (ds.height - 1, ds.width - 1)):
             try:
                 ds.read(band, window=Window(col, row, 1, 1))
             except Exception as exc:
-                if not _is_gdal_error(exc):
+                if not is_gdal_error(exc):
                     raise
-                raise InputError(name, f"damaged raster (reading row {row} col {col}): {_gdal_message(exc)}") from None
+                raise InputError(name, f"damaged raster (reading row {row} col {col}): {gdal_message(exc)}") from None
 
 
 # metres per degree of latitude on the WGS 84 ellipsoid (meridional radius of curvature)
@@ -638,23 +649,23 @@ def _warped(ds, name: str, src_crs, dst, common: dict, keep: list) -> RasterSour
     else:
         metres = abs(t.e) * src_crs.linear_units_factor[1]
     step = float(f"{metres:.3g}")
-    with _env():
+    with gdal_env():
         try:
             xmin, ymin, xmax, ymax = transform_bounds(src_crs, dst, west, south, east, north, densify_pts=101)
         except Exception as exc:
-            raise InputError(name, f"cannot transform the raster's extent to {_crs_name(dst)}: "
-                                   f"{_gdal_message(exc)}") from None
+            raise InputError(name, f"cannot transform the raster's extent to {crs_name(dst)}: "
+                                   f"{gdal_message(exc)}") from None
     if not all(math.isfinite(v) for v in (xmin, ymin, xmax, ymax)):
-        raise InputError(name, f"the raster's extent does not transform to {_crs_name(dst)}: give another --crs")
+        raise InputError(name, f"the raster's extent does not transform to {crs_name(dst)}: give another --crs")
     # posts on whole multiples of the step, a box just holding every source post
     x0 = math.floor(xmin / step + 1e-9) * step
     y0 = math.ceil(ymax / step - 1e-9) * step
     cols = int(round((math.ceil(xmax / step - 1e-9) * step - x0) / step)) + 1
     rows = int(round((y0 - math.floor(ymin / step + 1e-9) * step) / step)) + 1
     if rows < 2 or cols < 2:
-        raise InputError(name, f"warped to {_crs_name(dst)} it is {rows} x {cols} posts: needs at least 2 x 2 posts")
+        raise InputError(name, f"warped to {crs_name(dst)} it is {rows} x {cols} posts: needs at least 2 x 2 posts")
     transform = Affine(step, 0, x0 - step / 2, 0, -step, y0 + step / 2)
-    with _env():
+    with gdal_env():
         try:
             # XSCALE/YSCALE 1: plain bilinear between the four nearest posts; GDAL would otherwise widen
             # the kernel where the metric posts are sparser than the source's, smoothing the ground
@@ -662,11 +673,11 @@ def _warped(ds, name: str, src_crs, dst, common: dict, keep: list) -> RasterSour
                             nodata=float("nan"), dtype="float64", tolerance=WARP_TOLERANCE,
                             warp_mem_limit=WARP_MEM_MB, XSCALE=1, YSCALE=1)
         except Exception as exc:
-            if not _is_gdal_error(exc):
+            if not is_gdal_error(exc):
                 raise
-            raise InputError(name, f"cannot warp to {_crs_name(dst)}: {_gdal_message(exc)}") from None
+            raise InputError(name, f"cannot warp to {crs_name(dst)}: {gdal_message(exc)}") from None
         block = tuple(int(v) for v in vrt.block_shapes[common["band"] - 1])
-    grid = PostGrid(rows, cols, x0, y0, step, step, dst.to_wkt(), _crs_name(dst))
+    grid = PostGrid(rows, cols, x0, y0, step, step, dst.to_wkt(), crs_name(dst))
     return RasterSource(grid, DemSourceInfo(reprojected=True, block=(block[0], block[1]), **common), ds, vrt, keep)
 
 

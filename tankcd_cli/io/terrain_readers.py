@@ -36,12 +36,12 @@ TRIMESH_SUFFIXES = ("obj",) + trimesh_formats.SUFFIXES + ("glb", "gltf")  # OBJ 
 MESHIO_SUFFIXES = meshio_formats.SUFFIXES
 GRID_SUFFIXES = esri_ascii.SUFFIXES
 COLLADA_SUFFIXES = ("dae",)  # only with pycollada (trimesh's optional loader)
-IMAGE_SUFFIXES = ("png", "jpg", "jpeg", "bmp")  # refused with advice; tif/tiff are rasters, read elsewhere
+IMAGE_SUFFIXES = ("png", "jpg", "jpeg", "bmp")  # refused with advice; heightmaps and rasters are read elsewhere
 Y_UP_FORMATS = gltf.GLTF_SUFFIXES  # y-up by their specification
 
 COLLADA_UNSUPPORTED = "Collada is not supported here: convert it to GLB or OBJ (e.g. in Blender)"
-IMAGE_NOT_A_MESH = ("an image, not a mesh: a height map goes through classify as a raster (GeoTIFF) "
-                    "or an ESRI ASCII grid")
+IMAGE_NOT_A_MESH = ("an image, not a mesh: a heightmap goes through classify as an 8- or 16-bit grey PNG or a RAW "
+                    "(with --spacing), a GeoTIFF or an ESRI ASCII grid")
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,24 @@
 """Where any terrain is opened or classified, and the one place that decides mesh or DEM.
 
 ``terrain_kind`` names what a terrain input is: a store (by its HDF5 signature, then its root
-attribute ``layout``), a DEM (an ESRI ASCII grid, or a raster GDAL reads: by the format given,
-the suffix, a folder of tiles or the file's magic bytes) or a mesh (anything else, for the
-readers to judge). ``open_terrain`` gives the surface of any of them, classifying on the fly
-what is not a store; ``classify_file`` writes the store of any of them. Both ask
-``terrain_kind``, so an input is a DEM to one exactly when it is to the other.
+attribute ``layout``), a DEM (an ESRI ASCII grid; a heightmap, PNG or RAW, as game engines write
+them; or a raster GDAL reads: by the format given, the suffix, a folder of tiles or the file's
+magic bytes) or a mesh (anything else, for the readers to judge). ``open_terrain`` gives the
+surface of any of them, classifying on the fly what is not a store; ``classify_file`` writes
+the store of any of them. Both ask ``terrain_kind``, so an input is a DEM to one exactly when it
+is to the other.
 
-A DEM becomes the grid layout (``grid/``), a mesh the mesh layout (``mesh/``).
+A DEM becomes the grid layout (``grid/``), a mesh the mesh layout (``mesh/``). A heightmap needs
+what its file does not say, a ``HeightmapSpec`` (``io/heightmap.py``: the post spacing, how its
+values become heights, where it lies); a scene's terrain path carries the scene's (its
+``heightmap`` attribute, ``scene.TerrainPath``), so whatever opens a scene's terrain reads it as
+the scene says.
+
+Set-up checks on a DEM (``SetupWarning``, which ``--strict`` makes bad input): posts wider than
+half the vehicle's track length cannot resolve what the tracks feel (``grid/resolution.py``:
+when a DEM is classified, and when a grid store is opened for a vehicle, so replay warns on
+either); quantized heights are found and filtered when a DEM is classified
+(``grid/classify.py``, ``grid/quantum.py``).
 """
 
 from __future__ import annotations
@@ -22,8 +33,8 @@ if TYPE_CHECKING:
     from tankcd_cli.geometry.post_grid import PostGrid
     from tankcd_cli.terrain.mesh.store import MeshStore
 
-DEM_KINDS = ("grid_store", "esri_ascii", "raster")  # read as DEM sources (grid/sources.py)
-KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "mesh")
+DEM_KINDS = ("grid_store", "esri_ascii", "raster", "heightmap")  # read as DEM sources (grid/sources.py)
+KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "heightmap", "mesh")
 
 
 class OptionError(ValueError):
@@ -46,30 +57,52 @@ def terrain_kind(path: str, fmt: str | None = None) -> str:
     if f == "h5" or (not f and path != "-" and is_hdf5(path)):  # first: a store imports nothing more
         return "grid_store" if store_layout(path) == "grid" else "mesh_store"
     from tankcd_cli.io.esri_ascii import SUFFIXES as ASC_SUFFIXES
+    from tankcd_cli.io.heightmap import HEIGHTMAP_SUFFIXES, is_heightmap
     from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
 
     if f in ASC_SUFFIXES:
         return "esri_ascii"
+    if f in HEIGHTMAP_SUFFIXES:
+        return "heightmap"
     if f:
         return "raster" if f in RASTER_SUFFIXES else "mesh"
     if path == "-":
         return "mesh"
     if os.path.splitext(path)[1].lower().lstrip(".") in ASC_SUFFIXES:
         return "esri_ascii"
+    if is_heightmap(path):
+        return "heightmap"
     if os.path.isdir(path) or is_raster(path):
         return "raster"
     return "mesh"
 
 
-def open_dem(path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None):
+def heightmap_of(path: str, heightmap=None):
+    """The HeightmapSpec to read ``path`` with: the one given, else the one a scene's terrain
+    path carries, else None."""
+    return heightmap if heightmap is not None else getattr(path, "heightmap", None)
+
+
+def _refuse_heightmap_options(kind: str, heightmap) -> None:
+    """Heightmap options given for an input that is no heightmap: an OptionError."""
+    given = [k for k in (heightmap.given() if heightmap is not None else []) if k not in heightmap.SHARED]
+    if given:
+        label = heightmap.LABELS[given[0]]
+        what = "a mesh keeps its coordinates" if kind in ("mesh", "mesh_store") else \
+            "a DEM raster or a store carries its own georeferencing and heights"
+        raise OptionError(f"{label} applies to heightmaps (PNG, RAW); {what}")
+
+
+def open_dem(path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None, heightmap=None):
     """The DEM source of ``path`` (``grid.sources``: ``grid``, ``info``, ``read`` by window; a
-    context manager), or None when ``terrain_kind`` calls it a mesh or a mesh store."""
+    context manager), or None when ``terrain_kind`` calls it a mesh or a mesh store.
+    heightmap : a heightmap's HeightmapSpec (default: the one ``path`` carries, ``heightmap_of``)"""
     kind = terrain_kind(path, fmt)
     if kind not in DEM_KINDS:
         return None
     from tankcd_cli.terrain.grid.sources import open_source
 
-    return open_source(kind, path, fmt=fmt, band=band, crs=crs)
+    return open_source(kind, str(path), fmt=fmt, band=band, crs=crs, heightmap=heightmap_of(path, heightmap))
 
 
 @dataclass(frozen=True)
@@ -95,25 +128,36 @@ class OpenedTerrain:
 
 
 def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehicle=None,
-                 progress: Callable[[str], None] | None = None, cache: bool = False) -> OpenedTerrain:
+                 progress: Callable[[str], None] | None = None, cache: bool = False,
+                 heightmap=None) -> OpenedTerrain:
     """The surface of any terrain input: a store is opened (a grid store for windowed reads:
     nothing of its rasters is read until a query needs it); a DEM is classified tile by tile
     into a grid store (beside it as ``<stem>.h5`` with ``cache``, else a temporary one removed
     at exit); a mesh is classified in memory (and, with ``cache``, saved as ``<stem>.h5``). A
-    cached store is used again when it names the input's SHA-256.
+    cached store is used again when it names the input's SHA-256 (and a heightmap's reading).
 
     up : the mesh's up axis ("z", "y"; None: the format's convention)
     fmt : the input's format when its name does not say (see ``terrain_kind``)
     vehicle : the :class:`~tankcd_cli.vehicle.Vehicle` whose footprint classifies (default T-72)
     progress : called with each stage's description
+    heightmap : a heightmap's HeightmapSpec (default: the one ``path`` carries, ``heightmap_of``)
+    A DEM or grid store whose posts are too coarse for the vehicle warns (``grid.resolution``).
     """
     say = progress or (lambda stage: None)
     kind = terrain_kind(path, fmt)
+    heightmap, path = heightmap_of(path, heightmap), str(path)  # a plain path from here on
+    if kind != "heightmap":
+        _refuse_heightmap_options(kind, heightmap)
     if kind == "grid_store":  # the common case: import nothing else
         from tankcd_cli.terrain.grid.store import open_grid
 
         say(f"opening grid store {path}")
-        return OpenedTerrain(open_grid(path), "grid", path, None, path, False)
+        surface = open_grid(path)
+        if vehicle is not None:
+            from tankcd_cli.terrain.grid.resolution import coarse_posts
+
+            coarse_posts(surface.grid, vehicle, path)
+        return OpenedTerrain(surface, "grid", path, None, path, False)
     from tankcd_cli.terrain.mesh.store import read_mesh_store
     from tankcd_cli.terrain.mesh.surface import MeshSurface
 
@@ -125,7 +169,8 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
     if kind in DEM_KINDS:
         from tankcd_cli.terrain.grid.sources import open_source
 
-        return _open_dem(open_source(kind, path, fmt=fmt), path, cached if cache else None, vehicle, say)
+        return _open_dem(open_source(kind, path, fmt=fmt, heightmap=heightmap), path, cached if cache else None,
+                         vehicle, say)
     from tankcd_cli.terrain.mesh.classify import classify_mesh, read_mesh
     from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
@@ -155,13 +200,19 @@ def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain
     from tankcd_cli.terrain.grid.classify import classify_dem
     from tankcd_cli.terrain.grid.store import open_grid
     from tankcd_cli.terrain.store import is_hdf5, read_attrs
+    from tankcd_cli.vehicle import vehicle_preset
 
     with dem:
         if cached and os.path.exists(cached) and is_hdf5(cached):
             a = read_attrs(cached)
-            if a.get("layout") == "grid" and a.get("source_sha256") == dem.info.sha256:
+            if a.get("layout") == "grid" and a.get("source_sha256") == dem.info.sha256 \
+                    and a.get("heightmap", "") == dem.info.heightmap:
                 say(f"reading cached store {cached}")
-                return OpenedTerrain(open_grid(cached), "grid", cached, None, path, False)
+                surface = open_grid(cached)
+                from tankcd_cli.terrain.grid.resolution import coarse_posts
+
+                coarse_posts(surface.grid, vehicle or vehicle_preset("t72"), dem.info.source)
+                return OpenedTerrain(surface, "grid", cached, None, path, False)
         if cached:
             from tankcd_cli.io.atomic import atomic_path
 
@@ -212,7 +263,8 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
                   progress: Callable[[str], None] | None = None,
                   tile_progress: Callable[[int, int, int, float], None] | None = None,
                   on_grid: Callable | None = None,
-                  before_commit: Callable[[str, ClassifiedFile], None] | None = None) -> ClassifiedFile:
+                  before_commit: Callable[[str, ClassifiedFile], None] | None = None,
+                  heightmap=None) -> ClassifiedFile:
     """Classify any terrain input into a store at ``output`` (written under a temporary name and
     renamed when complete): a DEM tile by tile into the grid layout, a mesh (or a mesh store,
     classified again) into the mesh layout; ``terrain_kind`` decides which.
@@ -221,8 +273,11 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
         "cotan", "sphere", "jet"
     up, fmt : the mesh's up axis, the input's format (see ``open_terrain``)
     vehicle, thresholds : whose footprint averages, and the class boundaries (default: derived)
-    crs, band, tile, jobs, scheduler : DEMs only: the metric CRS to warp to, the raster band,
-        posts per tile side (or (rows, cols)), worker threads, a Dask scheduler's address
+    crs, band, tile, jobs, scheduler : DEMs only: the metric CRS to warp to (a heightmap's: the CRS
+        it is in), the raster band (a PNG's channel), posts per tile side (or (rows, cols)),
+        worker threads, a Dask scheduler's address
+    heightmap : a heightmap's HeightmapSpec (default: the one ``path`` carries); its options given
+        for any other input are an OptionError
     progress : a mesh's stages, as ``open_terrain``'s
     tile_progress(done, total, posts, seconds) : a DEM's tiles
     on_grid(grid, info) : a DEM's PostGrid and DemSourceInfo, once it is open, before any work
@@ -234,10 +289,13 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
     from tankcd_cli.names import AUTO_METHODS
 
     kind = terrain_kind(path, fmt)
+    heightmap, path = heightmap_of(path, heightmap), str(path)  # a plain path from here on
+    if kind != "heightmap":
+        _refuse_heightmap_options(kind, heightmap)
     if kind in DEM_KINDS:
         from tankcd_cli.terrain.grid.sources import open_source
 
-        dem = open_source(kind, path, fmt=fmt, band=band, crs=crs)
+        dem = open_source(kind, path, fmt=fmt, band=band, crs=crs, heightmap=heightmap)
         with dem:
             if up not in (None, "z"):
                 raise OptionError("--up y makes no sense for a DEM (grids are z-up)")
@@ -245,7 +303,7 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
             if scheduler:
                 if path == "-":
                     raise OptionError("--scheduler needs a DEM path the workers can read, not standard input")
-                spec = (kind, os.path.abspath(path), fmt, band, crs)
+                spec = (kind, os.path.abspath(path), fmt, band, crs, heightmap)
             method = AUTO_METHODS["dem"] if method == "auto" else method
             return _classify_dem(dem, output, method, vehicle, thresholds, tile, jobs, scheduler, spec,
                                  tile_progress, on_grid, before_commit)

@@ -37,28 +37,35 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
     """
     from tankcd_cli.terrain.grid.store import GridStoreWriter
 
+    from tankcd_cli.terrain.grid.resolution import coarse_posts, spacing_over_track
+
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
     grid, info = source.grid, source.info
     if grid.rows < 2 or grid.cols < 2:
         raise InputError(info.source, f"a {grid.rows} x {grid.cols} grid has no cells (needs at least 2 x 2 posts)")
     dx, dy = float(grid.dx), float(grid.dy)
-    started = time.perf_counter()
-    writer = GridStoreWriter(out_path, grid, info.height_dtype)
 
     def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         return checked_read(source, r0, r1, c0, c1)
+
+    # set-up checks, before anything is written (--strict makes their warnings bad input)
+    coarse = coarse_posts(grid, vehicle, info.source)
+    quantum, passes = quantized_heights(read, grid, info, thresholds)
+    smoothing = (quantum.step, passes) if passes else None
+    started = time.perf_counter()
+    writer = GridStoreWriter(out_path, grid, info.height_dtype)
 
     try:
         if scheduler:
             from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
 
             classify_tiles_on_dask(scheduler, spec, grid, method, vehicle.track_length, thresholds, tile,
-                                   writer.write, progress_of(progress, started))
+                                   writer.write, progress_of(progress, started), smoothing)
         else:
             classify_grid_tiles(read, grid, method, vehicle.track_length, thresholds, tile=tile,
                                 jobs=jobs or default_jobs(), on_tile=writer.write,
-                                progress=progress_of(progress, started))
+                                progress=progress_of(progress, started), smoothing=smoothing)
         if writer.valid == 0:
             raise InputError(info.source, "every post is NODATA")
         total = writer.by_class.sum()
@@ -92,12 +99,49 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
             "share_flat": shares[0], "share_general": shares[1], "share_uneven": shares[2],
             "extent_min": lo, "extent_max": hi,
             "tile": list(np.broadcast_to(np.asarray(tile), 2).astype(int)),
+            "height_quantum": quantum.step if quantum else 0.0,
+            "height_quantum_levels": quantum.levels if quantum else 0,
+            "height_quantum_sampled_posts": quantum.sampled if quantum else 0,
+            "height_quantum_terraces": quantum.terraces if quantum else 0.0,
+            "height_quantum_relief": quantum.relief if quantum else 0.0,
+            "height_quantum_shows": bool(quantum.shows) if quantum else False,
+            "quantum_filter_passes": passes,
+            "quantum_filter": quantum_filter_text(passes),
+            "post_spacing_over_track": spacing_over_track(dx, dy, vehicle.track_length),
+            "coarse_posts": bool(coarse),
+            "heightmap": info.heightmap,
         }
         writer.finish(attrs)
     except BaseException:
         writer.abort()
         raise
     return attrs
+
+
+def quantized_heights(read, grid, info, thresholds: Thresholds):
+    """(the Quantum found on a sample of the DEM or None, smoothing passes); a SetupWarning
+    naming the step when the passes are not 0 (``quantum.py``)."""
+    from tankcd_cli.errors import warn
+    from tankcd_cli.terrain.grid.quantum import filter_passes, find_quantum, step_hint
+
+    quantum = find_quantum(read, grid.rows, grid.cols, info.height_dtype)
+    if quantum is None or not quantum.shows:
+        return quantum, 0
+    passes = filter_passes(quantum.step, grid.dx, grid.dy, thresholds.flat)
+    if passes:
+        h = min(grid.dx, grid.dy)
+        warn(info.source, f"heights are quantized in steps of {quantum.step:.3g} m{step_hint(quantum, info.dtype)}: "
+                          f"at {h:g} m posts the classes would follow the terraces; the curvature is taken from the "
+                          f"heights smoothed within half a step ({passes} passes; the store keeps the source heights)")
+    return quantum, passes
+
+
+def quantum_filter_text(passes: int) -> str:
+    """The store's ``quantum_filter`` attribute."""
+    if not passes:
+        return "none"
+    return (f"{passes} passes of the 3 x 3 binomial average, each height clipped to within half a step of its "
+            "source height, before the curvature")
 
 
 def progress_of(progress, started: float):

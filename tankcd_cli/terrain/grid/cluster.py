@@ -24,28 +24,28 @@ def _source(spec: tuple):
 
     with _LOCK:
         if spec not in _SOURCES:
-            kind, path, fmt, band, crs = spec
+            kind, path, fmt, band, crs, heightmap = spec
             _SOURCES.clear()  # one DEM at a time per worker
-            _SOURCES[spec] = open_source(kind, path, fmt=fmt, band=band, crs=crs)
+            _SOURCES[spec] = open_source(kind, path, fmt=fmt, band=band, crs=crs, heightmap=heightmap)
         return _SOURCES[spec]
 
 
-def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, thresholds):
+def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, thresholds, smoothing=None):
     """Classify one tile on a worker (see ``tiled_classify.classify_tile``)."""
     from tankcd_cli.terrain.grid.sources import checked_read
     from tankcd_cli.terrain.grid.tiled_classify import classify_tile, stencils, use_compiled
 
-    st = stencils(grid, track_length)
+    st = stencils(grid, track_length, smoothing[1] if smoothing else 0)
     source = _source(spec)
     r0, r1, c0, c1 = core
     wr, wc = r0 - st.halo_rows, c0 - st.halo_cols
     with _LOCK:  # one reader per DEM handle
         z = checked_read(source, wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
-    return classify_tile(z, core, (wr, wc), grid, st, method, thresholds, use_compiled(grid))
+    return classify_tile(z, core, (wr, wc), grid, st, method, thresholds, use_compiled(grid), smoothing)
 
 
 def classify_tiles_on_dask(scheduler: str, spec: tuple, grid, method: str, track_length: float, thresholds,
-                           tile, on_tile: Callable, progress: Callable | None = None) -> None:
+                           tile, on_tile: Callable, progress: Callable | None = None, smoothing=None) -> None:
     """Run every tile as a task on the cluster at ``scheduler``; ``on_tile`` gets the results in
     row-major tile order (a result that arrives early waits on the cluster, not here)."""
     import os
@@ -66,7 +66,7 @@ def classify_tiles_on_dask(scheduler: str, spec: tuple, grid, method: str, track
     with client:
         futures = client.map(tile_task, [spec] * len(cores), cores, [grid] * len(cores),
                              [method] * len(cores), [track_length] * len(cores), [thresholds] * len(cores),
-                             pure=False, retries=2,
+                             [smoothing] * len(cores), pure=False, retries=2,
                              key=[f"tankcd-tile-{os.getpid()}-{stamp}-{k}" for k in range(len(cores))])
         posts = 0
         for k, fut in enumerate(futures):

@@ -1,7 +1,7 @@
 """DEM inputs as windowed sources: ``grid`` (the geometry, a ``PostGrid``), ``info`` (where the
 posts come from, a ``DemSourceInfo``) and ``read(r0, r1, c0, c1)``.
 
-Three kinds serve the same interface (and ``ArrayDem``, heights in memory, for tests):
+Four kinds serve the same interface (and ``ArrayDem``, heights in memory, for tests):
 
 - rasters GDAL reads (GeoTIFF, COG, DTED, SRTM HGT, VRT mosaics, folders of
   tiles, ...): :mod:`tankcd_cli.io.rasters`, through rasterio;
@@ -11,7 +11,9 @@ Three kinds serve the same interface (and ``ArrayDem``, heights in memory, for t
   0.02 s against 0.18 s, nearly all of it importing rasterio. Larger grids go
   through GDAL, which also reads them by window. Both give the same grid
   (a test).
-- the heights of a grid store, to classify again with other settings.
+- the heights of a grid store, to classify again with other settings;
+- heightmaps (PNG, RAW) as engines write them: :mod:`tankcd_cli.io.heightmap`, placed and
+  scaled as a ``HeightmapSpec`` says.
 
 ``read`` returns float64 heights, row 0 north, NaN at NODATA and beyond the
 grid, so a window may reach past any edge.
@@ -91,15 +93,26 @@ def _h5(path):
 
 
 ASC_OWN_MAX_BYTES = 4 << 20  # about 500k posts: below it our parser beats importing rasterio
-SOURCE_KINDS = ("grid_store", "esri_ascii", "raster")  # what ``terrain.open.terrain_kind`` calls a DEM
+SOURCE_KINDS = ("grid_store", "esri_ascii", "raster", "heightmap")  # what ``terrain.open.terrain_kind`` calls a DEM
 
 
-def open_source(kind: str, path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None):
+def open_source(kind: str, path: str, fmt: str | None = None, band: int | None = None, crs: str | None = None,
+                heightmap=None):
     """The DEM source (see the module doc) of ``path``, a DEM of ``kind`` (one of ``SOURCE_KINDS``,
     as ``terrain.open.terrain_kind`` names it): a grid store's heights, an ESRI grid through our
-    parser when it is small and read as it is, any other raster through GDAL."""
+    parser when it is small and read as it is, a heightmap (PNG, RAW) as ``heightmap`` (an
+    ``io.heightmap.HeightmapSpec``; ``crs`` the CRS it is in) says, any other raster through GDAL."""
     if kind not in SOURCE_KINDS:
         raise ValueError(f"not a DEM kind: {kind!r}; one of {', '.join(SOURCE_KINDS)}")
+    if kind == "heightmap":
+        import dataclasses
+
+        from tankcd_cli.io.heightmap import HeightmapSpec, open_heightmap
+
+        spec = heightmap or HeightmapSpec()
+        if crs and not spec.crs:
+            spec = dataclasses.replace(spec, crs=crs)
+        return open_heightmap(path, spec, fmt=fmt, band=band)
     if kind == "grid_store":
         if crs:
             raise InputError(path, "--crs applies to rasters; a store keeps the CRS it was classified in")

@@ -91,15 +91,17 @@ def fit_offsets(dx: float, dy: float) -> np.ndarray:
     return off[order]
 
 
-def stencils(grid: PostGrid, track_length: float) -> Stencils:
+def stencils(grid: PostGrid, track_length: float, smoothing_passes: int = 0) -> Stencils:
+    """The stencils for this grid and track length; the halo also covers ``smoothing_passes``
+    of the quantum filter (``quantum.smooth_within_quantum``: one post each)."""
     dx, dy = grid.dx, grid.dy
     track = disk_offsets(track_length / 4.0, dx, dy)
     foot = disk_offsets(track_length / 2.0, dx, dy)
     fit = fit_offsets(dx, dy)
     reach_r = int(np.abs(track[:, 0]).max() + np.abs(foot[:, 0]).max())
     reach_c = int(np.abs(track[:, 1]).max() + np.abs(foot[:, 1]).max())
-    return Stencils(track, foot, fit, reach_r + int(np.abs(fit[:, 0]).max()) + 1,
-                    reach_c + int(np.abs(fit[:, 1]).max()) + 1, reach_r, reach_c)
+    return Stencils(track, foot, fit, reach_r + int(np.abs(fit[:, 0]).max()) + 1 + smoothing_passes,
+                    reach_c + int(np.abs(fit[:, 1]).max()) + 1 + smoothing_passes, reach_r, reach_c)
 
 
 # --- per window --------------------------------------------------------------------
@@ -380,14 +382,24 @@ class TileResult:
 
 def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_origin: tuple[int, int],
                   grid: PostGrid, st: Stencils, method: str, thresholds: Thresholds,
-                  fast: bool = False) -> TileResult:
+                  fast: bool = False, smoothing: tuple[float, int] | None = None) -> TileResult:
     """Fields and classes of the core rows r0..r1-1, cols c0..c1-1 from a window of heights
-    whose first post is window_origin (row, col) in the grid."""
+    whose first post is window_origin (row, col) in the grid.
+
+    smoothing : (step, passes) of quantized heights: the fields come from the heights smoothed
+        within half a step (``quantum.smooth_within_quantum``; ``st`` must cover the passes);
+        the result keeps the window's own heights
+    """
     r0, r1, c0, c1 = core
     wr, wc = window_origin
     # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read
     band = (max(r0 - wr - st.reach_rows, 0), max(c0 - wc - st.reach_cols, 0))
-    H, area, field = window_fields(z_window, wr, wc, grid, st, method, band, fast)
+    z_fields = z_window
+    if smoothing is not None and smoothing[1] > 0:
+        from tankcd_cli.terrain.grid.quantum import smooth_within_quantum
+
+        z_fields = smooth_within_quantum(z_window, smoothing[0], smoothing[1])
+    H, area, field = window_fields(z_fields, wr, wc, grid, st, method, band, fast)
     sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
     z, H, area, field = z_window[sl], H[sl], area[sl], field[sl]
     valid = np.isfinite(z)
@@ -407,22 +419,24 @@ def tiles_of(grid: PostGrid, tile):
 def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: PostGrid, method: str,
                         track_length: float, thresholds: Thresholds, tile=DEFAULT_TILE, jobs: int = 1,
                         on_tile: Callable[[TileResult], None] | None = None,
-                        progress: Callable[[int, int, int], None] | None = None) -> None:
+                        progress: Callable[[int, int, int], None] | None = None,
+                        smoothing: tuple[float, int] | None = None) -> None:
     """Classify every tile and hand each result to ``on_tile`` in row-major order.
 
     read(r0, r1, c0, c1) : heights (float64, NaN NODATA and beyond the grid) of a window
     tile : posts per tile side, or (rows, cols)
     jobs : worker threads (numpy releases the GIL in the array work)
     progress(tiles_done, tiles_total, posts_done)
+    smoothing : (step, passes) of quantized heights (see ``classify_tile``), or None
     """
     if method not in GRID_METHODS:
         raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(GRID_METHODS)}")
-    st = stencils(grid, track_length)
+    st = stencils(grid, track_length, smoothing[1] if smoothing else 0)
     cores = list(tiles_of(grid, tile))
     fast = use_compiled(grid)
 
     def work(core, z, origin):
-        return classify_tile(z, core, origin, grid, st, method, thresholds, fast)
+        return classify_tile(z, core, origin, grid, st, method, thresholds, fast, smoothing)
 
     def fetch(core):
         r0, r1, c0, c1 = core

@@ -24,7 +24,7 @@ def asc(tmp_path):
 
 
 def test_a_task_is_the_local_tile(asc):
-    spec = ("esri_ascii", asc, None, None, None)
+    spec = ("esri_ascii", asc, None, None, None, None)
     dem = open_source(*spec)
     local = []
     classify_grid_tiles(dem.read, dem.grid, "jet", T72.track_length, default_thresholds(T72), tile=16,
@@ -38,16 +38,16 @@ def test_a_task_is_the_local_tile(asc):
 
 
 def test_a_worker_keeps_one_dem_open(asc, tmp_path):
-    spec = ("esri_ascii", asc, None, None, None)
+    spec = ("esri_ascii", asc, None, None, None, None)
     first = cluster._source(spec)
     assert cluster._source(spec) is first
-    other = ("esri_ascii", str(write_asc(tmp_path / "h.asc", np.ones((3, 3)))), None, None, None)
+    other = ("esri_ascii", str(write_asc(tmp_path / "h.asc", np.ones((3, 3)))), None, None, None, None)
     assert cluster._source(other) is not first and list(cluster._SOURCES) == [other]
 
 
 def test_a_cluster_writes_what_a_local_run_writes(asc, tmp_path):
     distributed = pytest.importorskip("distributed")
-    spec = ("esri_ascii", asc, None, None, None)
+    spec = ("esri_ascii", asc, None, None, None, None)
     local, remote = str(tmp_path / "local.h5"), str(tmp_path / "remote.h5")
     classify_dem(open_source(*spec), local, method="cotan", tile=16)
     done = []

@@ -1,0 +1,30 @@
+"""Whether a DEM's posts can resolve the ground a vehicle's tracks feel.
+
+A track of contact length L bridges what lies between its supports; the matchers sample the
+ground at spans down to L/2 (the six-point matcher's), the classes average it over disks of
+L/4 and L/2. Posts wider apart than L/2 leave every one of those spans with at most one post
+across: the classes and the poses then cannot resolve the ground the tracks feel (an SRTM or
+DTED level 1 tile, 92.6 m posts, against the T-72's 4.28 m tracks classifies nearly all flat).
+"""
+
+from __future__ import annotations
+
+
+def spacing_over_track(dx: float, dy: float, track_length: float) -> float:
+    """The coarser post spacing over the track length."""
+    return max(dx, dy) / track_length
+
+
+def coarse_posts(grid, vehicle, source: str | None) -> bool:
+    """A SetupWarning (``errors.warn``) when the posts of ``grid`` (a PostGrid) are wider apart
+    than half the vehicle's track length; whether they are."""
+    spacing = max(grid.dx, grid.dy)
+    track = vehicle.track_length
+    if spacing <= track / 2:
+        return False
+    from tankcd_cli.errors import warn
+
+    warn(source, f"posts {spacing:g} m apart are wider than half the {vehicle.name}'s {track:g} m track length: "
+                 f"the classes and the poses cannot resolve the ground the tracks feel (posts at most "
+                 f"{track / 2:.3g} m apart would)")
+    return True
