@@ -758,6 +758,22 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
     cdef int err = 0
     cdef int* err_ptr = &err
     sc = NULL
+    if nblock == 1:
+        # one task: run it here, as a parallel region's start and end barrier cost more than a
+        # block of poses when the other core is busy (the reference's late rounds are this size)
+        with nogil:
+            sc = _scratch_new()
+            if sc == NULL:
+                err = _ERR_MEMORY
+            else:
+                _block(&job, sc, 0, npose)
+                err = sc.err
+            _scratch_free(sc)
+        if err == _ERR_MEMORY:
+            raise MemoryError()
+        if err == _ERR_ZERO_DIVISION:
+            raise ZeroDivisionError("division by zero")
+        return out_arr, covered_arr, status_arr
     with nogil, parallel():
         sc = _scratch_new()
         for blk in prange(nblock, schedule="dynamic"):
