@@ -21,6 +21,14 @@ cdef inline double _fmin(double a, double b) noexcept nogil:
     return b if b < a else a
 
 
+# The searches below take the point of least ratio num / den (den > 0) within a tie margin of
+# 1e-15. A point whose num > lim * den * _RATIO_MARGIN (lim = best + 1e-15 > 0) has a ratio
+# above lim even after the division's rounding (the margin is far above the products' rounding),
+# so it can neither win nor tie: its division, most of a search's cost, is skipped and the
+# choice is the same, bit for bit.
+cdef double _RATIO_MARGIN = 1.0 + 1e-12
+
+
 # The walk comes in two compiled variants, chosen by the type of its last argument (a null
 # pointer): _Checked also looks for zero divisors in the loops over the points, which can
 # have one only when eps < 0 (the Python callers raise ZeroDivisionError then); _Unchecked does not.
@@ -47,7 +55,7 @@ cdef Py_ssize_t _touch_towards_origin(const double* u, const double* v, const do
     cdef double vp = v[p]
     cdef double zp = z[p]
     cdef double r = sqrt(up * up + vp * vp)
-    cdef double du, dv, d, t, best_t = INFINITY, best_d = 0.0
+    cdef double du, dv, d, t, num, lim = INFINITY, best_t = INFINITY, best_d = 0.0
     cdef Py_ssize_t k, q = -1
     if r <= eps:
         return -3
@@ -60,11 +68,15 @@ cdef Py_ssize_t _touch_towards_origin(const double* u, const double* v, const do
         if d < -eps:
             if _Variant is _Checked and d == 0.0:
                 return -2
-            t = (z[k] - (zp + b[0] * (u[k] - up) + c[0] * (v[k] - vp))) / d  # >= 0
+            num = z[k] - (zp + b[0] * (u[k] - up) + c[0] * (v[k] - vp))
+            if lim > 0.0 and -num > lim * -d * _RATIO_MARGIN:
+                continue  # t = num / d > lim: no better (see _RATIO_MARGIN)
+            t = num / d  # >= 0
             if t < best_t - 1e-15 or (t <= best_t + 1e-15 and d < best_d):
                 best_t = t
                 best_d = d
                 q = k
+                lim = best_t + 1e-15
     if q >= 0:
         b[0] = b[0] + best_t * du
         c[0] = c[0] + best_t * dv
@@ -78,7 +90,7 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
     upper hull (or within 1e-9 of one, in barycentric weight)."""
     cdef Py_ssize_t p, k, q, w, it
     cdef double zp, up, vp, r, b, c, du, dv, best_t, best_d, d, t
-    cdef double eu, ev, el, mu, mv, side, along, s_pos, s_neg, slack, s, best_s
+    cdef double eu, ev, el, mu, mv, side, along, s_pos, s_neg, slack, s, best_s, lim
     cdef double ax, ay, bx, by, cx, cy, det, ox, oy, lq, lw, lp
     cdef double tol = -1e-12
     if count == 0:
@@ -181,6 +193,7 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
             mu = -mu
             mv = -mv  # m points from the line towards the origin
         best_s = INFINITY
+        lim = INFINITY
         best_d = 0.0
         w = -1
         for k in range(count):
@@ -191,11 +204,14 @@ cdef int _walk(const double* u, const double* v, const double* z, Py_ssize_t cou
                     slack = 0.0
                 if _Variant is _Checked and d == 0.0:
                     return -1
+                if slack > lim * d * _RATIO_MARGIN:
+                    continue  # s = slack / d > lim: no better (see _RATIO_MARGIN)
                 s = slack / d
                 if s < best_s - 1e-15 or (s <= best_s + 1e-15 and d > best_d):
                     best_s = s
                     best_d = d
                     w = k
+                    lim = best_s + 1e-15
         if w < 0:
             out[0] = NAN
             out[1] = NAN
