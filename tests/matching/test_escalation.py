@@ -171,3 +171,50 @@ def test_the_certificate_is_two_footprint_passes():
     got = certified(surface, T72, x, y, yaw, plain.plane, TOL)
     np.testing.assert_array_equal(got, expect)
     assert got.any() and not got.all()
+
+
+def _rough(seed=4, n=161, spacing=0.5):
+    """Rough ground nobody tuned for: crests, ditches and bumps of several sizes (many poses
+    escalate, some tip back and forth without settling)."""
+    rng = np.random.default_rng(seed)
+    X, Y = _grid(n, spacing)
+    Z = 100.0 + np.zeros_like(X)
+    for wave in (3.0, 5.0, 9.0, 17.0):
+        kx, ky = rng.normal(0, 1, 2) / wave
+        Z += 0.25 * wave / 9.0 * (1 - np.abs(np.sin(kx * X + ky * Y + rng.uniform(0, 6))))
+    return _surface(Z + rng.normal(0, 0.01, Z.shape), spacing)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_escalated_poses_are_the_cold_references_bit_for_bit(threads):
+    """The reference takes its first round from the certificate's untilted pass: on hard poses
+    (rough ground, and the edge of the terrain, where some fall back to the reference
+    partly off) the escalated poses are those of the reference solved from scratch, bit for bit,
+    and the certificate's untilted planes are the reference's first round."""
+    from tankcd_cli.matching.match import certify, reference_planes
+    from tankcd_cli.threads import get_num_threads, set_num_threads
+
+    surface = _rough()
+    rng = np.random.default_rng(9)
+    n = 1500
+    x, y = X0 + rng.uniform(1.0, 79.0, n), Y0 + rng.uniform(1.0, 79.0, n)  # some over the edge
+    yaw = rng.uniform(-np.pi, np.pi, n)
+    before = get_num_threads()
+    set_num_threads(threads)
+    try:
+        p = match(surface, T72, x, y, yaw, "auto")
+        idx = np.flatnonzero(p.matcher >= REFERENCE)
+        assert (p.matcher >= ESCALATED).sum() > 100, "too few hard poses to tell"
+        cold, status, covered = reference_planes(surface, T72, x[idx], y[idx], yaw[idx])
+        plain = match(surface, T72, x, y, yaw, "auto", escalate=False)
+        kp = np.flatnonzero(plain.matcher < REFERENCE)
+        cert = certify(surface, T72, x[kp], y[kp], yaw[kp], plain.plane[kp], TOL)
+        zero = np.zeros(len(kp))
+        level = surface.support_plane_under(x[kp], y[kp], yaw[kp], patch_quads(T72, zero, zero))
+    finally:
+        set_num_threads(before)
+    ok = status == 0
+    np.testing.assert_array_equal(p.plane[idx[ok]], cold[ok])
+    assert np.isnan(p.plane[idx[~ok]]).all()
+    for got, want in zip(cert.level, level):
+        np.testing.assert_array_equal(got, want)
