@@ -16,6 +16,9 @@ from libc.stdlib cimport free, malloc, qsort
 from tankcd_cli.geometry._support_plane cimport support_plane_c, support_plane_from_c
 
 MAX_POLY = 16
+# batches of at most this many blocks of poses (under a millisecond of work) run in the calling
+# thread: on a busy machine a parallel region's end waits for a descheduled thread far longer
+SERIAL_BLOCKS = 8
 
 cdef enum:
     _MAX_POLY = 16
@@ -758,9 +761,8 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
     cdef int err = 0
     cdef int* err_ptr = &err
     sc = NULL
-    if nblock == 1:
-        # one task: run it here, as a parallel region's start and end barrier cost more than a
-        # block of poses when the other core is busy (the reference's late rounds are this size)
+    if nblock <= SERIAL_BLOCKS:
+        # a few tasks: run here (SERIAL_BLOCKS; the reference's late rounds are this size)
         with nogil:
             sc = _scratch_new()
             if sc == NULL:
