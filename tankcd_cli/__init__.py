@@ -18,4 +18,12 @@ below it, never one above, never in a circle, and no other module's private name
 9. command line: ``cli/`` (thin: parse, call one function, report)
 """
 
+import os as _os
+
 __version__ = "0.1.0"
+
+# The kernels' OpenMP threads sleep between parallel loops instead of spinning, unless the
+# environment says otherwise (read once, when the OpenMP runtime loads with the first kernel):
+# on cores busy with other work a spinning thread takes the core the Python thread needs
+# between loops (measured: a replay 20 % faster in wall time, 25 % less CPU, on a shared 2-core machine)
+_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
