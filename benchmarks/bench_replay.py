@@ -1,6 +1,8 @@
-"""Benchmark: `tankcd replay` end to end (whole process) on the sample terrain.
+"""Benchmark: `tankcd replay` end to end (whole process) on the sample terrain, or on a game-sized DEM.
 
     python benchmarks/bench_replay.py [--rows 100000] [--out benchmarks/results/replay.md]
+    python benchmarks/bench_replay.py --dem [--rows 1000000] [--before CHECKOUT] [--repeats 5]
+        [--out benchmarks/results/replay_dem.md]
 
 A wandering trajectory of ROWS rows over the sample battlefield, replayed as a
 user would run it (a fresh process, the terrain store read from disk, poses
@@ -8,6 +10,12 @@ written to a file): terrain only (no obstacles, no drums), the sample scene
 with its obstacles and drums and a moving turret, and matching alone
 (`--terrain`) for comparison. Reports rows/s and, from `--summary`, the share
 of time per effect.
+
+With ``--dem``: a made DEM like a 1 km game terrain (``ridged_dem``: 512 x 512 posts at 2 m,
+ridged fractal noise, heights +-30 m), classified to a grid store, and a random walk of ROWS
+rows at 10 Hz over it (``dem_walk``), T-72 terrain only: the default replay (``auto``,
+escalating) against ``--no-escalate``, and, with ``--before``, against the same replay run by
+another checkout of tankcd (its folder put first on PYTHONPATH), runs alternated.
 """
 
 from __future__ import annotations
@@ -50,12 +58,62 @@ def trajectory(path, rows, seed=3):
         np.savetxt(fh, np.column_stack([t, x, y, np.degrees(heading), turret, gun]), fmt="%.3f", delimiter=",")
 
 
-def once(args):
-    """One fresh process: seconds, peak resident memory (MB) and its --summary."""
+def ridged_dem(path, posts=512, spacing=2.0, relief=30.0, gain=0.4, seed=7):
+    """Write an ESRI ASCII DEM of ``posts`` x ``posts`` at ``spacing`` m: ridged value noise of
+    7 octaves (each ``gain`` times the one before), scaled to +-``relief`` m. Returns its
+    south-west post's x, y and its side (m)."""
+    rng = np.random.default_rng(seed)
+    z = np.zeros((posts, posts))
+    amp, total = 1.0, 0.0
+    for octave in range(1, 8):
+        k = 2 ** octave + 1
+        g = rng.uniform(-1, 1, (k, k))
+        t = np.linspace(0, k - 1, posts)
+        i = np.minimum(t.astype(int), k - 2)
+        f = t - i
+        f = f * f * (3 - 2 * f)
+        rows = g[i] * (1 - f)[:, None] + g[i + 1] * f[:, None]
+        layer = rows[:, i] * (1 - f)[None, :] + rows[:, i + 1] * f[None, :]
+        z += amp * (1 - np.abs(layer)) ** 2  # ridges where the noise crosses zero
+        total += amp
+        amp *= gain
+    z = (z - z.min()) / (z.max() - z.min()) * 2 * relief - relief
+    x0, y0 = 300000.0, 5000000.0
+    with open(path, "w") as fh:
+        fh.write(f"ncols {posts}\nnrows {posts}\nxllcenter {x0}\nyllcenter {y0}\ncellsize {spacing}\n"
+                 "NODATA_value -9999\n")
+        np.savetxt(fh, z[::-1], fmt="%.3f")
+    return x0, y0, (posts - 1) * spacing
+
+
+def dem_walk(path, rows, x0, y0, size, margin=15.0, seed=5):
+    """Write a trajectory of ``rows`` rows at 10 Hz, 5 m/s, wandering over the square terrain of
+    side ``size`` m from (x0, y0), folded back at ``margin`` m from its edges (the heading
+    mirrored where a fold reverses the travel)."""
+    rng = np.random.default_rng(seed)
+    heading = np.cumsum(rng.normal(0, 0.02, rows))
+    x, y = np.cumsum(0.5 * np.cos(heading)), np.cumsum(0.5 * np.sin(heading))
+    span = size - 2 * margin
+    sx = np.where(x % (2 * span) < span, -1.0, 1.0)
+    sy = np.where(y % (2 * span) < span, -1.0, 1.0)
+    x = x0 + margin + np.abs(x % (2 * span) - span)
+    y = y0 + margin + np.abs(y % (2 * span) - span)
+    yaw = np.degrees(np.arctan2(sy * np.sin(heading), sx * np.cos(heading)))
+    with open(path, "w") as fh:
+        fh.write("t,x,y,yaw_deg\n")
+        np.savetxt(fh, np.column_stack([np.arange(rows) * 0.1, x, y, yaw]), fmt="%.3f", delimiter=",")
+
+
+def once(args, checkout=None):
+    """One fresh process (of tankcd in ``checkout``, else this one's): seconds, peak resident
+    memory (MB) and its --summary."""
+    env = None
+    if checkout:
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([checkout, os.environ.get("PYTHONPATH", "")])}
     with tempfile.TemporaryFile("w+") as err:
         s = time.perf_counter()
         proc = subprocess.Popen([sys.executable, "-m", "tankcd_cli", *args, "--summary"], stdout=subprocess.DEVNULL,
-                                stderr=err)
+                                stderr=err, env=env)
         _, status, usage = os.wait4(proc.pid, 0)
         seconds = time.perf_counter() - s
         proc.returncode = os.waitstatus_to_exitcode(status)
@@ -75,23 +133,93 @@ def run(args, repeats=3):
     return float(np.median(times)), min(times), max(times), summary, max(peaks)
 
 
-def paired(a_args, b_args, repeats=7):
-    """Runs of a and b alternated (the honest ratio on a shared machine): medians and the median ratio a / b."""
+def paired(a_args, b_args, repeats=7, a_checkout=None, b_checkout=None, spread=False):
+    """Runs of a and b alternated (the honest ratio on a shared machine): medians and the median
+    ratio a / b (with ``spread``, also the smallest and largest of the paired ratios)."""
     ta, tb, pa, pb, sa, sb = [], [], [], [], None, None
     for _ in range(repeats):
-        t, p, sa = once(a_args)
+        t, p, sa = once(a_args, a_checkout)
         ta.append(t), pa.append(p)
-        t, p, sb = once(b_args)
+        t, p, sb = once(b_args, b_checkout)
         tb.append(t), pb.append(p)
-    return (float(np.median(ta)), max(pa), sa), (float(np.median(tb)), max(pb), sb), \
-        float(np.median(np.array(ta) / np.array(tb)))
+    ratios = np.array(ta) / np.array(tb)
+    ratio = (float(np.median(ratios)), float(ratios.min()), float(ratios.max())) if spread else float(np.median(ratios))
+    return (float(np.median(ta)), max(pa), sa), (float(np.median(tb)), max(pb), sb), ratio
+
+
+def escalated_share(summary, rows):
+    return sum(c for m, c in summary["matchers"].items() if "+" in m) / rows
+
+
+def dem_main(a):
+    """The --dem report: the default replay against --no-escalate and, with --before, against
+    another checkout's."""
+    rows = a.rows
+    with tempfile.TemporaryDirectory() as tmp:
+        dem = os.path.join(tmp, "ridged.asc")
+        x0, y0, size = ridged_dem(dem)
+        store = os.path.join(tmp, "ridged.h5")
+        subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", dem, "-o", store], check=True)
+        traj = os.path.join(tmp, "walk.csv")
+        dem_walk(traj, rows, x0, y0, size)
+        scene = os.path.join(tmp, "terrain_only.toml")
+        with open(scene, "w") as fh:
+            fh.write(f'[terrain]\npath = "{store}"\n[vehicle]\npreset = "t72"\nfuel_drums = false\n')
+        only = ["replay", traj, "--scene", scene, "--poses", os.path.join(tmp, "poses.csv")]
+        lines = ["# Benchmark: replay end to end on a game-sized DEM", "",
+                 f"`python benchmarks/bench_replay.py --dem --rows {rows}"
+                 + (" --before CHECKOUT`" if a.before else "`") + ": a made 1 km game terrain (512 x 512 posts at "
+                 "2 m, ridged fractal noise, heights +-30 m: `ridged_dem`), classified to a grid store, and a "
+                 f"{rows:,}-row random walk at 10 Hz over it (`dem_walk`), T-72 terrain only; a fresh process "
+                 f"each run, runs alternated, medians of {a.repeats} (ratio: the median of the paired ratios, "
+                 "smallest-largest in brackets).", ""]
+        (te, pe, se), (tp, pp, sp), (r, rlo, rhi) = paired(only, only + ["--no-escalate"], a.repeats, spread=True)
+        lines += ["| replay | seconds | rows/s | peak memory | matching | between rows | terrain contact | escalated |",
+                  "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+        for name, t, peak, s in (("default (auto, escalating)", te, pe, se), ("--no-escalate", tp, pp, sp)):
+            sec = s["seconds_by_effect"]
+            lines.append(f"| {name} | {t:.2f} | {rows / t:,.0f} | {peak:,.0f} MB | {sec['matching']:.2f} s | "
+                         f"{sec.get('between', 0.0):.2f} s | {sec['terrain']:.2f} s | {escalated_share(s, rows):.1%} |")
+        escalated = escalated_share(se, rows) * rows
+        lines += ["", f"Escalating costs {r:.2f}x ({rlo:.2f}-{rhi:.2f}) `--no-escalate`'s whole process: "
+                  f"{(te - tp) / max(escalated, 1) * 1e6:.0f} us more a row escalated (the certificate of every "
+                  "row and the escalation of the poses between rows included)."]
+        if a.before:
+            (tb, pb, sb), (tn, pn, sn), (r, rlo, rhi) = paired(only, only, a.repeats, a_checkout=a.before,
+                                                               spread=True)
+            lines += ["", "## Before and after", "",
+                      f"The default replay run by the checkout before (`{a.before}`) and by this one, alternated.", "",
+                      "| checkout | seconds | rows/s | peak memory | matching | between rows | escalated |",
+                      "| --- | --- | --- | --- | --- | --- | --- |"]
+            for name, t, peak, s in (("before", tb, pb, sb), ("after", tn, pn, sn)):
+                sec = s["seconds_by_effect"]
+                lines.append(f"| {name} | {t:.2f} | {rows / t:,.0f} | {peak:,.0f} MB | {sec['matching']:.2f} s | "
+                             f"{sec.get('between', 0.0):.2f} s | {escalated_share(s, rows):.1%} |")
+            lines += ["", f"Before / after: {r:.2f}x ({rlo:.2f}-{rhi:.2f})."]
+        try:
+            import trimesh
+
+            embree = bool(trimesh.ray.has_embree)
+        except ImportError:
+            embree = False
+        if not embree:
+            lines += ["", "trimesh with embree is not installed here: no ray-casting peer in this run."]
+    save_report("\n".join(lines + [""]), a.out or os.path.join(HERE, "results", "replay_dem.md"))
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--rows", type=int, default=100_000)
-    ap.add_argument("--out", default=os.path.join(HERE, "results", "replay.md"))
+    ap.add_argument("--rows", type=int, default=None, help="default 100,000 (1,000,000 with --dem)")
+    ap.add_argument("--out", default=None)
+    ap.add_argument("--dem", action="store_true", help="the made game-sized DEM instead of the sample terrain")
+    ap.add_argument("--before", default=None, help="with --dem: another checkout to run the same replay with")
+    ap.add_argument("--repeats", type=int, default=5, help="with --dem: alternated runs of each")
     a = ap.parse_args()
+    if a.dem:
+        a.rows = a.rows or 1_000_000
+        return dem_main(a)
+    a.rows = a.rows or 100_000
+    a.out = a.out or os.path.join(HERE, "results", "replay.md")
     with tempfile.TemporaryDirectory() as tmp:
         store = os.path.join(tmp, "battlefield.h5")
         subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", os.path.join(SAMPLE, "battlefield.asc"),
