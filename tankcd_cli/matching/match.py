@@ -172,7 +172,6 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
     measured = np.zeros(n, dtype=bool)  # penetration and coverage already known from the certificate's pass
-    first = None  # the reference's first round, where the certificate's untilted pass already made it
     if escalate or (escalate is None and matcher == "auto"):
         # the reference starts level for these too (a start nearer the answer can settle on
         # another fixed point where the ground offers several: not the reference's pose)
@@ -180,15 +179,13 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
         tol = escalation_tolerance(vehicle) if tolerance is None else float(tolerance)
         cert = certify(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol)
         choice[kp[~cert.passed]] += ESCALATED
-        first = (kp, cert.level)
         if measure:
             passed = kp[cert.passed]
             penetration[passed], covered[passed] = cert.penetration[cert.passed], cert.covered[cert.passed]
             measured[passed] = True
     idx = np.flatnonzero(choice >= REFERENCE)
     if len(idx):
-        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations,
-                                                       first=_first_round(idx, first))
+        plane[idx], st, covered_ref = reference_planes(surface, vehicle, x[idx], y[idx], yaw[idx], tilt_iterations)
         status[idx] = np.maximum(status[idx], np.where(covered_ref < 1 - 1e-9, PARTLY_OFF, OK))
         status[idx[st != 0]] = OFF
     plane[status == OFF] = np.nan
@@ -208,36 +205,12 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     return Poses(position, roll, pitch, yaw, quat, plane, region, choice, status, penetration, gap, covered)
 
 
-def _first_round(idx: np.ndarray, first):
-    """The reference's first round for poses ``idx`` from the certificate's untilted pass over poses
-    ``kp`` (``first`` = (kp, level)): (planes, covered, status, known) with ``known`` (len(idx),) bool
-    where the pass was made; None when it was made for none of them."""
-    if first is None:
-        return None
-    kp, level = first
-    n = len(idx)
-    at = np.searchsorted(kp, idx)  # both sorted (np.flatnonzero)
-    known = np.zeros(n, dtype=bool)
-    inside = at < len(kp)
-    known[inside] = kp[at[inside]] == idx[inside]
-    if not known.any():
-        return None
-    planes = np.full((n, 3), np.nan)
-    covered = np.zeros(n)
-    status = np.ones(n, dtype=np.int64)
-    planes[known], covered[known], status[known] = level[0][at[known]], level[1][at[known]], level[2][at[known]]
-    return planes, covered, status, known
-
-
 class Certificate(NamedTuple):
     """The certificate's verdict on N planes, and what its passes measured on the way (N,) each."""
 
     passed: np.ndarray  # bool
     penetration: np.ndarray  # m: the highest ground under the patches above the plane (>= 0; NaN: not checked)
     covered: np.ndarray  # the share of the contact patches over terrain (NaN: not checked)
-    # the untilted pass: the lowest plane under the untilted patches (N, 3), their covered share (N,) and the
-    # pass's status (N,): the reference's first round for these poses (``reference_planes``' ``first``)
-    level: tuple = ()
 
 
 def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> Certificate:
@@ -256,26 +229,21 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
       two poses (balanced across a crest, it rests tipped either way), the plane is the one
       the reference takes, not the other.
 
-    Each is one exact footprint pass. The untilted pass comes first, searching from level as the
-    reference's first round does (its planes, covered shares and statuses are that round's, bit
-    for bit: ``level``, which the reference takes for the poses that fail); the pass at the
-    plane's own tilt, searching from the plane's slopes, is made only for the planes that pass
-    it, and it also gives their penetration and covered share as ``footprint_penetration``
-    measures them (the same patches, the same ground), so a pose that passes needs no third.
-    A plane the passes cannot check (not finite, no support found) fails.
+    Each is one exact footprint pass, both searching from the given plane's slopes. The
+    untilted pass comes first; the pass at the plane's own tilt is made only for the planes
+    that pass it, and it also gives their penetration and covered share as
+    ``footprint_penetration`` measures them (the same patches, the same ground), so a pose that
+    passes needs no third. A plane the passes cannot check (not finite, no support found) fails.
     """
     n = len(x)
     ok = np.zeros(n, dtype=bool)
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
-    # the untilted pass walks from level, as the reference's first round does: its planes are that round's,
-    # bit for bit, and the reference takes them for the poses that fail (a start from the given slopes
-    # saved under 2 % of this pass, the gathering of the ground being most of it)
-    level = surface.support_plane_under(x, y, yaw, patch_quads(vehicle, np.zeros(n), np.zeros(n)))
+    level = surface.support_plane_under(x, y, yaw, patch_quads(vehicle, np.zeros(n), np.zeros(n)), start=planes)
     with np.errstate(invalid="ignore"):
         near = np.flatnonzero((level[2] == 0) & (corner_gap(vehicle, planes, level[0]) <= tolerance))
     if len(near) == 0:
-        return Certificate(ok, penetration, covered, level)
+        return Certificate(ok, penetration, covered)
     p = planes[near]
     roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
     lowest, high, covered[near], status = surface.support_and_highest(
@@ -283,7 +251,7 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     penetration[near] = np.maximum(high, 0.0)
     with np.errstate(invalid="ignore"):
         ok[near] = (status == 0) & (corner_gap(vehicle, p, lowest) <= tolerance)
-    return Certificate(ok, penetration, covered, level)
+    return Certificate(ok, penetration, covered)
 
 
 def corner_gap(vehicle: Vehicle, p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -371,15 +339,8 @@ def patch_quads(vehicle: Vehicle, roll: np.ndarray, pitch: np.ndarray) -> np.nda
     return np.stack([xi * cp + eta * sp * sr, eta * cr], axis=-1)
 
 
-def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10,
-                     first=None):
+def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, tilt_tolerance: float = 1e-10):
     """The rigid-hull reference: planes (N, 3), status (N,) (0 ok), covered share (N,).
-
-    ``first``: the first round (the lowest plane under the untilted patches) where it is already
-    known, (planes (N, 3), covered (N,), status (N,), known (N,) bool), as the certificate's
-    untilted pass makes it (``_first_round``): that round is then solved only for the others. The
-    pass walks from the key-point plane's slopes rather than from level: the same plane to rounding,
-    and the same bits where the answer may not be unique (the walk is made again from level there).
 
     The contact patches seen from above depend on the hull's tilt, which the
     plane decides: a fixed point. Solve, re-project the patches for the new
@@ -403,18 +364,10 @@ def reference_planes(surface, vehicle, x, y, yaw, tilt_iterations: int = 30, til
     status = np.ones(n, dtype=np.int64)
     active = np.arange(n)
     for round_ in range(max(1, tilt_iterations)):
-        if round_ == 0 and first is not None:
-            pl, cov, st, known = first
-            pl, cov, st = pl.copy(), cov.copy(), st.copy()
-            todo = np.flatnonzero(~known)
-            if len(todo):
-                pl[todo], cov[todo], st[todo] = surface.support_plane_under(
-                    x[todo], y[todo], yaw[todo], patch_quads(vehicle, np.zeros(len(todo)), np.zeros(len(todo))))
-        else:
-            quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
-            # after the first round, the search starts from the last plane (the answer moves little)
-            pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads,
-                                                      start=planes[active] if round_ else None)
+        quads = patch_quads(vehicle, tilt[active, 0], tilt[active, 1])
+        # after the first round, the search starts from the last plane (the answer moves little)
+        pl, cov, st = surface.support_plane_under(x[active], y[active], yaw[active], quads,
+                                                  start=planes[active] if round_ else None)
         good = st == 0
         if round_ == 0:
             planes[active], covered[active], status[active] = pl, cov, st
