@@ -147,6 +147,13 @@ def paired(a_args, b_args, repeats=7, a_checkout=None, b_checkout=None, spread=F
     return (float(np.median(ta)), max(pa), sa), (float(np.median(tb)), max(pb), sb), ratio
 
 
+def _commit(checkout):
+    """The short commit a checkout is at (with '+' when its tracked files differ from it)."""
+    head = subprocess.run(["git", "-C", checkout, "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
+    dirty = subprocess.run(["git", "-C", checkout, "diff", "--quiet", "HEAD"]).returncode != 0
+    return (head.stdout.strip() or "unknown") + ("+" if dirty else "")
+
+
 def escalated_share(summary, rows):
     return sum(c for m, c in summary["matchers"].items() if "+" in m) / rows
 
@@ -188,7 +195,8 @@ def dem_main(a):
             (tb, pb, sb), (tn, pn, sn), (r, rlo, rhi) = paired(only, only, a.repeats, a_checkout=a.before,
                                                                spread=True)
             lines += ["", "## Before and after", "",
-                      f"The default replay run by the checkout before (`{a.before}`) and by this one, alternated.", "",
+                      f"The default replay run by the checkout before (commit {_commit(a.before)}) and by this one "
+                      f"(commit {_commit(os.path.dirname(HERE))}), alternated.", "",
                       "| checkout | seconds | rows/s | peak memory | matching | between rows | escalated |",
                       "| --- | --- | --- | --- | --- | --- | --- |"]
             for name, t, peak, s in (("before", tb, pb, sb), ("after", tn, pn, sn)):
