@@ -178,32 +178,44 @@ def dem_main(a):
                  + (" --before CHECKOUT`" if a.before else "`") + ": a made 1 km game terrain (512 x 512 posts at "
                  "2 m, ridged fractal noise, heights +-30 m: `ridged_dem`), classified to a grid store, and a "
                  f"{rows:,}-row random walk at 10 Hz over it (`dem_walk`), T-72 terrain only; a fresh process "
-                 f"each run, runs alternated, medians of {a.repeats} (ratio: the median of the paired ratios, "
-                 "smallest-largest in brackets).", ""]
-        (te, pe, se), (tp, pp, sp), (r, rlo, rhi) = paired(only, only + ["--no-escalate"], a.repeats, spread=True)
-        lines += ["| replay | seconds | rows/s | peak memory | matching | between rows | terrain contact | escalated |",
-                  "| --- | --- | --- | --- | --- | --- | --- | --- |"]
-        for name, t, peak, s in (("default (auto, escalating)", te, pe, se), ("--no-escalate", tp, pp, sp)):
-            sec = s["seconds_by_effect"]
-            lines.append(f"| {name} | {t:.2f} | {rows / t:,.0f} | {peak:,.0f} MB | {sec['matching']:.2f} s | "
-                         f"{sec.get('between', 0.0):.2f} s | {sec['terrain']:.2f} s | {escalated_share(s, rows):.1%} |")
-        escalated = escalated_share(se, rows) * rows
-        lines += ["", f"Escalating costs {r:.2f}x ({rlo:.2f}-{rhi:.2f}) `--no-escalate`'s whole process: "
-                  f"{(te - tp) / max(escalated, 1) * 1e6:.0f} us more a row escalated (the certificate of every "
-                  "row and the escalation of the poses between rows included)."]
+                 f"each run, every case once a round, medians of {a.repeats} rounds (ratios: the median of the "
+                 "ratios within a round, smallest-largest in brackets).", ""]
+        cases = [("after", "default", only, None), ("after", "--no-escalate", only + ["--no-escalate"], None)]
         if a.before:
-            (tb, pb, sb), (tn, pn, sn), (r, rlo, rhi) = paired(only, only, a.repeats, a_checkout=a.before,
-                                                               spread=True)
-            lines += ["", "## Before and after", "",
-                      f"The default replay run by the checkout before (commit {_commit(a.before)}) and by this one "
-                      f"(commit {_commit(os.path.dirname(HERE))}), alternated.", "",
-                      "| checkout | seconds | rows/s | peak memory | matching | between rows | escalated |",
-                      "| --- | --- | --- | --- | --- | --- | --- |"]
-            for name, t, peak, s in (("before", tb, pb, sb), ("after", tn, pn, sn)):
-                sec = s["seconds_by_effect"]
-                lines.append(f"| {name} | {t:.2f} | {rows / t:,.0f} | {peak:,.0f} MB | {sec['matching']:.2f} s | "
-                             f"{sec.get('between', 0.0):.2f} s | {escalated_share(s, rows):.1%} |")
-            lines += ["", f"Before / after: {r:.2f}x ({rlo:.2f}-{rhi:.2f})."]
+            cases += [("before", "default", only, a.before),
+                      ("before", "--no-escalate", only + ["--no-escalate"], a.before)]
+        runs = {(who, what): [] for who, what, _, _ in cases}
+        for _ in range(a.repeats):  # every case once a round: the load is shared alike
+            for who, what, args, checkout in cases:
+                runs[who, what].append(once(args, checkout))
+        seconds = {k: np.array([t for t, _, _ in v]) for k, v in runs.items()}
+
+        def ratio(k1, k2):
+            r = seconds[k1] / seconds[k2]
+            return f"{np.median(r):.2f}x ({r.min():.2f}-{r.max():.2f})"
+
+        if a.before:
+            lines += [f"Before: commit {_commit(a.before)}; after: commit {_commit(os.path.dirname(HERE))}.", ""]
+        lines += ["| checkout | replay | seconds | rows/s | peak memory | matching | between rows | terrain contact "
+                  "| escalated |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+        for who, what, _, _ in cases:
+            t = float(np.median(seconds[who, what]))
+            peak = max(p for _, p, _ in runs[who, what])
+            sec = runs[who, what][-1][2]["seconds_by_effect"]
+            lines.append(f"| {who} | {what} | {t:.2f} | {rows / t:,.0f} | {peak:,.0f} MB | {sec['matching']:.2f} s | "
+                         f"{sec.get('between', 0.0):.2f} s | {sec['terrain']:.2f} s | "
+                         f"{escalated_share(runs[who, what][-1][2], rows):.1%} |")
+        lines.append("")
+        for who in ("before", "after") if a.before else ("after",):
+            escalated = escalated_share(runs[who, "default"][-1][2], rows) * rows
+            extra = np.median(seconds[who, "default"] - seconds[who, "--no-escalate"]) / max(escalated, 1)
+            lines.append(f"- {who}: escalating costs {ratio((who, 'default'), (who, '--no-escalate'))} "
+                         f"`--no-escalate`'s whole process, {extra * 1e6:.0f} us more a row escalated (the "
+                         "certificate of every row and the escalation of the poses between rows included)")
+        if a.before:
+            lines += [f"- before / after, the default replay: {ratio(('before', 'default'), ('after', 'default'))}",
+                      f"- before / after, `--no-escalate`: "
+                      f"{ratio(('before', '--no-escalate'), ('after', '--no-escalate'))}"]
         try:
             import trimesh
 
