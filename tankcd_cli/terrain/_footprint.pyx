@@ -768,7 +768,8 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
             if sc == NULL:
                 err = _ERR_MEMORY
             else:
-                _block(&job, sc, 0, npose)
+                if not sc.err:  # its buffers allocated
+                    _block(&job, sc, 0, npose)
                 err = sc.err
             _scratch_free(sc)
         if err == _ERR_MEMORY:
