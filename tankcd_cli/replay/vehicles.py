@@ -165,13 +165,20 @@ class VehicleContacts:
                 ma = _cut(s, i[sel], u0[sel], u1[sel])
                 mb = _cut(s, j[sel], u0[sel], u1[sel])
                 self.queries += len(sel)
-                hits = first_vehicle_contacts(body_a, ma, body_b, mb)
+                # a contact already there at the span's start continues one that began before it: the
+                # exact test at that instant (one tree walk) spares such spans the sweep, which would
+                # find them too (they touch at s = 0) and give no event
+                every = np.arange(len(sel))
+                at_start = np.zeros(len(sel), dtype=bool)
+                at_start[first_vehicle_contacts(body_a, _still(ma, every), body_b, _still(mb, every)).span] = True
+                sweep = np.flatnonzero(~at_start | fresh[sel])
+                if len(sweep) == 0:
+                    continue
+                sel = sel[sweep]
+                hits = first_vehicle_contacts(body_a, ma.take(sweep), body_b, mb.take(sweep))
                 if len(hits.span) == 0:
                     continue
-                # a contact already there at the span's start continues one that began before it
-                at_start = first_vehicle_contacts(body_a, _still(ma, hits.span), body_b, _still(mb, hits.span))
-                at_first = np.zeros(len(hits.span), dtype=bool)
-                at_first[at_start.span] = True
+                at_first = at_start[sweep][hits.span]
                 touching = at_first & ~fresh[sel[hits.span]]
                 for h in np.flatnonzero(~touching):
                     q = sel[hits.span[h]]
