@@ -95,6 +95,7 @@ def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities
         from tankcd_cli.replay.vehicles import VehicleContacts
 
         run.vehicles = VehicleContacts(world, continuous=options.continuous)
+        run.seconds["vehicles"] = 0.0
     return run
 
 
@@ -113,10 +114,14 @@ def replay_chunks(run: ReplayRun, chunks, lead=None) -> Iterator[tuple[object, P
     for chunk in chunks:
         poses, events = _chunk(run, chunk)
         if run.vehicles is not None:
+            t0 = time.perf_counter()
             events += run.vehicles.ready(chunk)
+            run.seconds["vehicles"] += time.perf_counter() - t0
         yield chunk, poses, events
     if run.vehicles is not None:
+        t0 = time.perf_counter()
         tail = run.vehicles.finish()
+        run.seconds["vehicles"] += time.perf_counter() - t0
         if tail:
             yield None, None, tail
 
