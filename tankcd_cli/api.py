@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_fleet",
+__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_fleet", "export_trajectory",
            "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
@@ -195,6 +195,26 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
     w = _world(world, scene, terrain, vehicle, up, cache, None)
     return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
                       _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe)
+
+
+def export_trajectory(trajectory: str, output: str, scene: str | None = None, terrain: str | None = None,
+                      crs: str | None = None, fmt: str | None = None, up: str | None = None) -> dict:
+    """Write any trajectory input (a trajectory CSV, a geographic CSV, GPX, a DIS capture) as the
+    trajectory CSV tankcd reads (``t,entity,x,y,yaw_deg,turret_deg,gun_deg``, the layout of
+    docs/formats.md, "Trajectory CSV written by tankcd"), converted to a CRS: the terrain's (a
+    store, any terrain input, or a scene's terrain) or ``crs`` (EPSG code or WKT). Geographic
+    inputs need one of them; a CSV in metres needs none. ``output``: a file (written beside and
+    renamed when complete) or ``-``. ``fmt``: the input's format when its suffix does not say
+    (csv, gpx, pcap, pcapng). Returns {"rows", "entities", "skipped"} (packets or lines skipped,
+    by reason)."""
+    from tankcd_cli.io.trajectory import export_trajectory as _export
+
+    given = [v is not None for v in (scene, terrain, crs)]
+    if sum(given) > 1:
+        raise ValueError("give at most one of scene=, terrain= and crs=")
+    if scene is not None or terrain is not None:
+        crs = load_world(scene=scene, terrain=terrain, up=up).crs
+    return _export(trajectory, output, crs=crs, fmt=fmt)
 
 
 def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, terrain: str | None = None,
