@@ -158,20 +158,25 @@ def replay_metadata(world, trajectories, options, hash_trajectories: bool = True
             if kind.mesh:
                 sources.append({"role": "vehicle_mesh", "name": kind.label, "path": kind.mesh,
                                 "sha256": sha256_of(kind.mesh)})
-    sources.append(_terrain_source(world.terrain))
+    sources.append(_terrain_source(world))
     how = {"matcher": options.matcher, "escalate": options.escalate, "tolerance": options.tolerance,
            "mode": "continuous" if options.continuous else "discrete"}
     return output_metadata(world.crs, sources, replay=how)
 
 
-def _terrain_source(opened) -> dict:
+def _terrain_source(world) -> dict:
     """The terrain's entry in ``tankcd.sources``, from the store's attributes (no file read whole)."""
+    opened = world.terrain
     if opened.mesh_store is not None:
         attrs = dict(opened.mesh_store.attrs)
     else:
         from tankcd_cli.terrain.store import read_attrs
 
         attrs = read_attrs(opened.store_path) if opened.store_path else {}
+    spec = world.spec
+    if spec is not None and spec.store is not None:  # a fleet's, classified once for its workers: name the input
+        terrain = world.scene.terrain_path if world.scene is not None else spec.terrain
+        return {"role": "terrain", "path": terrain, "sha256": str(attrs.get("source_sha256", ""))}
     given_a_store = opened.store_path is not None and opened.source == opened.store_path and not opened.classified
     if given_a_store:
         return {"role": "terrain", "path": opened.source, "source": str(attrs.get("source", "")),
