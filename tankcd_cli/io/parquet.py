@@ -159,11 +159,11 @@ class ParquetTableWriter:
         encoding.update({name: "DELTA_BINARY_PACKED" for name, kind in schema if kind == "int64"})
         try:
             leveled = str(compression).lower() in ("zstd", "gzip", "brotli")
-            self._writer = pq.ParquetWriter(tmp, self.schema, compression=compression,
-                                            compression_level=compression_level if leveled else None,
-                                            use_dictionary=[name for name, kind in schema if kind == "dict"] or False,
-                                            column_encoding=encoding or None,
-                                            write_statistics=True if statistics is None else list(statistics))
+            self._writer = self._disk(pq.ParquetWriter, tmp, self.schema, compression=compression,
+                                      compression_level=compression_level if leveled else None,
+                                      use_dictionary=[name for name, kind in schema if kind == "dict"] or False,
+                                      column_encoding=encoding or None,
+                                      write_statistics=True if statistics is None else list(statistics))
         except BaseException:
             self._stack.__exit__(*sys.exc_info())
             raise
@@ -193,7 +193,7 @@ class ParquetTableWriter:
 
     def _write_table(self, table) -> None:
         if self._pool is None:
-            self._writer.write_table(table)
+            self._disk(self._writer.write_table, table)
         else:
             self._wait()
             self._pending = self._pool.submit(self._writer.write_table, table)
@@ -203,7 +203,17 @@ class ParquetTableWriter:
         """The row group being written (threaded) is written; its error, if any, raised here."""
         pending, self._pending = self._pending, None
         if pending is not None:
-            pending.result()
+            self._disk(pending.result)
+
+    def _disk(self, call, *args, **kw):
+        """``call(*args, **kw)``, an OSError of the disk (full, gone, refused) as bad output naming the
+        target, as ``io.atomic`` says it of every output (the command line's exit 3, one line)."""
+        try:
+            return call(*args, **kw)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise InputError(self.target, f"cannot write output: {exc.strerror or exc}") from None
 
     def _array(self, name, kind, values, n):
         pa = self._pa
@@ -257,7 +267,7 @@ class ParquetTableWriter:
         self._stop_pool()
         writer, self._writer = self._writer, None
         try:
-            writer.close()
+            self._disk(writer.close)
         except BaseException:
             self._stack.__exit__(*sys.exc_info())
             raise
