@@ -377,6 +377,7 @@ EVENT_SCHEMA = (
     ("a", "dict"), ("b", "dict"),  # the two parts (for kind vehicle: the two entities, sorted)
     ("entity", "dict"),         # the vehicle the event concerns
     ("a_part", "dict"), ("b_part", "dict"),  # kind vehicle: the two vehicles' parts
+    ("a_step", "int64"), ("b_step", "int64"),  # kind vehicle: each one's earlier row of the interval they met in
     ("between", "bool"),        # a contact that begins between two rows
     ("point_x", "float64"), ("point_y", "float64"), ("point_z", "float64"),  # the contact's world position, m
     ("depth", "float64"),       # m
@@ -428,9 +429,7 @@ def event_columns(events: Sequence) -> dict:
             col = [None] * n
             for i, v in values:
                 col[i] = v if v is None else (str(v) if kind == "dict" else v)
-            if kind == "int32":
-                col = np.array(col, dtype=object)
-            elif kind == "bool":
+            if kind in ("int32", "int64", "bool"):  # None for null: the writer masks them
                 col = np.array(col, dtype=object)
         cols[name] = col
     cols["extra"] = extra
@@ -461,6 +460,8 @@ def _fits(key: str, value) -> bool:
         return isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
     if kind == "int32":
         return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and -2**31 <= value < 2**31
+    if kind == "int64":
+        return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and -2**63 <= value < 2**63
     if kind == "bool":
         return isinstance(value, (bool, np.bool_))
     return isinstance(value, str)
