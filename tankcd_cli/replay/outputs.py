@@ -153,7 +153,8 @@ def replay_metadata(world, trajectories, options, hash_trajectories: bool = True
         for ob in scene.obstacles:
             sources.append({"role": "obstacle", "name": ob.name, "path": ob.path, "sha256": sha256_of(ob.path)})
         if scene.vehicle_mesh:
-            sources.append({"role": "vehicle_mesh", "path": scene.vehicle_mesh, "sha256": sha256_of(scene.vehicle_mesh)})
+            sources.append({"role": "vehicle_mesh", "path": scene.vehicle_mesh,
+                            "sha256": sha256_of(scene.vehicle_mesh)})
         for kind in world.kinds[1:]:  # the [[entity]] tables' own meshes
             if kind.mesh:
                 sources.append({"role": "vehicle_mesh", "name": kind.label, "path": kind.mesh,

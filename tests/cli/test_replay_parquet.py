@@ -272,8 +272,8 @@ def test_a_fleet_writes_parquet_per_trajectory_and_joins_a_split_one(run, tmp_pa
         assert_events_as_the_jsonl(tmp_path / "pq" / f"{name}.events.parquet",
                                    tmp_path / "csv" / f"{name}.events.jsonl")
     assert sorted(p.name for p in (tmp_path / "pq").iterdir()) == [  # no part left, the terrain classified once
-        ".fleet-terrain.h5", "ex.events.parquet", "ex.poses.parquet", "fleet.json", "patrol.events.parquet", "patrol.poses.parquet",
-        "short.events.parquet", "short.poses.parquet"]
+        ".fleet-terrain.h5", "ex.events.parquet", "ex.poses.parquet", "fleet.json", "patrol.events.parquet",
+        "patrol.poses.parquet", "short.events.parquet", "short.poses.parquet"]
     # the joined file: the lone replay's rows in two row groups, the whole trajectory's SHA-256 named once
     assert run("replay", tmp_path / "patrol.csv", "--scene", scene, "--poses", "alone.parquet").exit_code == 0
     joined = tmp_path / "pq" / "patrol.poses.parquet"
