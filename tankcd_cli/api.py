@@ -224,7 +224,7 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
 
     paths = expand_trajectories(list(trajectories))
     tasks = plan_tasks(paths, out_dir, split_lines, out_format)
-    check_writable(tasks[0].poses)  # Parquet without pyarrow: before any directory or work
+    check_writable(tasks[0].whole_poses or tasks[0].poses)  # Parquet without pyarrow: before any directory or work
     os.makedirs(out_dir, exist_ok=True)
     spec = WorldSpec(scene=os.path.abspath(scene) if scene else None,
                      terrain=os.path.abspath(terrain) if terrain else None, vehicle=vehicle, up=up)
