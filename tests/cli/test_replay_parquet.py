@@ -96,8 +96,9 @@ def test_one_vehicle_parquet_is_the_csv_value_for_value_with_events_of_every_kin
 
 
 def _exercise(path):
-    """The sample patrol as entity ``patrol``, and a tank parked across its path as ``parked``: contacts
-    between the two vehicles beside the patrol's own obstacle, drum and terrain events."""
+    """The sample patrol as entity ``patrol``, a tank parked across its path as ``parked`` (contacts
+    between the two vehicles beside the patrol's own obstacle, drum and terrain events) and one straying
+    off the terrain as ``stray``."""
     with open(SAMPLE / "patrol.csv") as fh:
         reader = csv.DictReader(fh)
         rows = [dict(r, entity="patrol") for r in reader]
@@ -106,7 +107,10 @@ def _exercise(path):
     t_end = rows[-1]["t"]
     parked = [{"t": t, "x": x, "y": y, "yaw_deg": f"{yaw:.3f}", "turret_deg": "0", "gun_deg": "0", "entity": "parked"}
               for t in ("0.00", t_end)]
-    merged = sorted(rows + parked, key=lambda r: float(r["t"]))  # stable: the patrol's row first at a tie
+    # and one that strays off the terrain's west edge: rows without a pose, off_terrain events
+    stray = [{"t": t, "x": x0, "y": "4500050", "yaw_deg": "0", "turret_deg": "0", "gun_deg": "0", "entity": "stray"}
+             for t, x0 in (("1.00", "500001"), ("2.00", "499990"), ("3.00", "499970"))]
+    merged = sorted(rows + parked + stray, key=lambda r: float(r["t"]))  # stable: the patrol's row first at a tie
     with open(path, "w", newline="") as fh:
         w = csv.DictWriter(fh, ["t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg"])
         w.writeheader()
@@ -118,12 +122,13 @@ def test_an_exercise_parquet_carries_entity_in_poses_and_events_and_is_the_csv(r
     _exercise(tmp_path / "ex.csv")
     replay_both(run, "ex.csv", "--scene", SAMPLE / "scene.toml")
     poses = assert_poses_as_the_csv(tmp_path / "p.parquet", tmp_path / "p.csv")
-    assert set(poses.column("entity").to_pylist()) == {"patrol", "parked"}
+    assert set(poses.column("entity").to_pylist()) == {"patrol", "parked", "stray"}
+    assert set(poses.column("status").to_pylist()) >= {"ok", "partly_off", "off"}
     table, events = assert_events_as_the_jsonl(tmp_path / "e.parquet", tmp_path / "e.jsonl")
     kinds = {e["kind"] for e in events}
-    assert {"obstacle", "internal", "terrain", "vehicle"} <= kinds, kinds
+    assert {"obstacle", "internal", "terrain", "vehicle", "off_terrain"} <= kinds, kinds
     assert any(e.get("between") for e in events)
-    assert all(e["entity"] in ("patrol", "parked") for e in events)
+    assert all(e["entity"] in ("patrol", "parked", "stray") for e in events)
     vehicle = [e for e in events if e["kind"] == "vehicle"]
     assert vehicle and all((e["a"], e["b"]) == ("parked", "patrol") and "a_part" in e and "point" in e
                            for e in vehicle)
