@@ -7,6 +7,7 @@ terrain = api.open_terrain("battlefield.h5")           # a store, or any terrain
 poses = api.place(terrain, x, y, yaw_deg)              # dict of arrays keyed by the poses CSV's columns
 poses, events = api.replay("patrol.csv", scene="scene.toml")     # or terrain=...; or a dict of arrays
 summary = api.replay_to_files("patrol.csv", poses="poses.csv", events="events.jsonl", scene="scene.toml")
+# (poses="poses.parquet", events="events.parquet": Parquet, with pip install 'tankcd[parquet]')
 store = api.classify("dem.tif", "dem.h5")              # the terrain store, as `tankcd classify` writes it
 events = api.collide("scene.toml", poses)              # the vehicle at given poses against the obstacles
 envelope = api.gun_envelope("t72")                     # the lowest safe gun elevation per turret azimuth
@@ -185,16 +186,22 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
                     world=None, up: str | None = None, cache: bool = False,
                     progress: Callable[[int], None] | None = None, observe: Callable | None = None):
     """Replay a trajectory streamed to files, as ``tankcd replay`` does: the poses CSV (``-``
-    standard output, None: none) and the events JSON Lines (None: only counted), written under
-    temporary names and renamed together when complete; memory bounded by the chunk whatever the
-    trajectory's length. Returns the closing summary (``replay.records.ReplaySummary``).
+    standard output, None: none) and the events JSON Lines (None: only counted), or Parquet for a
+    name ending in ``.parquet`` (typed columns, the CRS, conventions and sources' SHA-256 in the
+    file's metadata; pyarrow is the ``parquet`` extra, its absence an InputError before any work);
+    written under temporary names and renamed together when complete; memory bounded by the chunk
+    whatever the trajectory's length. Returns the closing summary (``replay.records.ReplaySummary``).
     ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk."""
+    from tankcd_cli.io.parquet import check_writable
     from tankcd_cli.replay.records import ReplayOutputs
     from tankcd_cli.replay.run import run_replay
 
+    check_writable(poses, events)  # before the world is loaded
     w = _world(world, scene, terrain, vehicle, up, cache, None)
+    sources = [str(p) for p in trajectory] if isinstance(trajectory, (list, tuple)) else None
     return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
-                      _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe)
+                      _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe,
+                      sources=sources)
 
 
 def export_trajectory(trajectory: str, output: str, scene: str | None = None, terrain: str | None = None,
@@ -221,20 +228,24 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
                  vehicle: str = "t72", up: str | None = None, matcher: str = "auto", discrete: bool = False,
                  escalate: bool | None = None, tolerance: float | None = None, jobs: int | None = None,
                  scheduler: str | None = None, split_lines: int | None = 1_000_000,
-                 progress: Callable[[str], None] | None = None, on_result: Callable | None = None):
+                 progress: Callable[[str], None] | None = None, on_result: Callable | None = None,
+                 out_format: str = "csv"):
     """Replay many trajectories (paths, globs, ``@lists``) as ``tankcd replay ... --out-dir`` does: each
-    into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl``, in ``jobs`` processes (default: the
+    into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl`` (``out_format="parquet"``:
+    ``NAME.poses.parquet`` and ``NAME.events.parquet``), in ``jobs`` processes (default: the
     cores) or on the Dask cluster at ``scheduler``, long ones in parts of ``split_lines`` lines;
     writes ``out_dir/fleet.json`` and returns its ``replay.fleet.FleetSummary``. A failing
     trajectory does not stop the others (its result says why)."""
     import os
 
+    from tankcd_cli.io.parquet import check_writable
     from tankcd_cli.replay.fleet import FleetWorld, expand_trajectories, plan_tasks, run_fleet, write_summary
     from tankcd_cli.replay.world import WorldSpec, classify_once
 
     paths = expand_trajectories(list(trajectories))
+    tasks = plan_tasks(paths, out_dir, split_lines, out_format)
+    check_writable(tasks[0].whole_poses or tasks[0].poses)  # Parquet without pyarrow: before any directory or work
     os.makedirs(out_dir, exist_ok=True)
-    tasks = plan_tasks(paths, out_dir, split_lines)
     spec = WorldSpec(scene=os.path.abspath(scene) if scene else None,
                      terrain=os.path.abspath(terrain) if terrain else None, vehicle=vehicle, up=up)
     jobs = jobs or os.cpu_count() or 1

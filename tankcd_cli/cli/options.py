@@ -85,8 +85,8 @@ def strict_option(f):
 
 
 def no_parquet(instead: str, reading: bool = False):
-    """An option callback: a path ending in .parquet is a usage error until Parquet is read and
-    written (the interface plans it for poses and events); ``instead`` is the suffix to give."""
+    """An option callback: a path ending in .parquet is a usage error where Parquet is not read or
+    written (replay writes it; collide does not read it); ``instead`` is the suffix to give."""
     def check(ctx, param, value):
         for path in value if isinstance(value, (tuple, list)) else (value,):
             if isinstance(path, str) and path.lower().endswith(".parquet"):
@@ -221,9 +221,13 @@ REPLAY_RULES = (
     Needs("tolerance", ESCALATION, "it is the certificate's tolerance, which only escalation checks"),
     *(Needs(name, "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
                              "trajectory there") for name in ("jobs", "scheduler", "split_lines")),
+    Needs("out_format", "out_dir", "it sets the format of the files a fleet writes there (one replay writes Parquet "
+                                   "to --poses and --events ending in .parquet)"),
     Excludes("up", "scene", "the scene's [terrain] up key decides"),
-    Excludes("poses_path", FLEET, "a fleet writes OUT/NAME.poses.csv for each trajectory"),
-    Excludes("events_path", FLEET, "a fleet writes OUT/NAME.events.jsonl for each trajectory"),
+    Excludes("poses_path", FLEET, "a fleet writes OUT/NAME.poses.csv for each trajectory (.parquet with "
+                                  "--out-format parquet)"),
+    Excludes("events_path", FLEET, "a fleet writes OUT/NAME.events.jsonl for each trajectory (.parquet with "
+                                   "--out-format parquet)"),
     Excludes("cache", FLEET, "a fleet does not save its terrain beside it (classify it first with tankcd classify)"),
 )
 

@@ -8,7 +8,6 @@ from tankcd_cli.cli.options import (
     REPLAY_VEHICLE_HELP,
     check_replay_options,
     no_dash_directory,
-    no_parquet,
     no_stdin,
     refuse_clashes,
     vehicle_option,
@@ -32,10 +31,11 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--terrain", "terrain", type=click.Path(), default=None,
               help="Terrain store, or any terrain input (classified on the fly), instead of a scene.")
 @click.option("--poses", "poses_path", type=click.Path(dir_okay=False, allow_dash=True), default="-",
-              show_default=True, callback=no_parquet(".csv"), help="Poses CSV output (- for stdout).")
+              show_default=True, help="Poses CSV output (- for stdout); a name ending in .parquet writes Parquet "
+                                      "(pip install 'tankcd[parquet]').")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
-              callback=no_parquet(".jsonl"),
-              help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
+              help="Events JSON Lines output (collisions, terrain contact, off-terrain); a name ending in .parquet "
+                   "writes Parquet.")
 @click.option("--matcher", type=click.Choice(MATCHER_CHOICES),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
 @click.option("--escalate/--no-escalate", default=None,
@@ -71,6 +71,9 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
 @click.option("--out-dir", type=click.Path(file_okay=False), default=None, callback=no_dash_directory,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
+@click.option("--out-format", type=click.Choice(["csv", "parquet"]), default="csv", show_default=True,
+              help="Fleet mode: the per-trajectory files as NAME.poses.csv and NAME.events.jsonl, or as "
+                   "NAME.poses.parquet and NAME.events.parquet (pip install 'tankcd[parquet]').")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,
               help="Fleet mode: parallel processes (default: the number of cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
@@ -81,15 +84,20 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.pass_obj
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, together,
            discrete, vehicle_name, up, cache,
-           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, jobs, scheduler, split_lines):
+           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
+           split_lines):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
     motion, no gun checks; the hull bottom against the terrain always).
 
+    Poses and events to a name ending in .parquet are written as Parquet (typed columns; the CRS,
+    conventions and the sources' SHA-256 in the file's metadata).
+
     Fleets: several trajectories, globs ('runs/*.csv') or list files (@runs.txt) with --out-dir
-    replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl, in parallel (--jobs) or on a
-    Dask cluster (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
+    replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl (--out-format parquet:
+    NAME.poses.parquet and NAME.events.parquet), in parallel (--jobs) or on a Dask cluster
+    (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
     others; the exit code is 3 (bad input) or 4 (internal error) if any failed.
 
     Headings: yaw_deg is measured from east (+x), counter-clockwise (90 = north), as in the
@@ -117,8 +125,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
         return _fleet(report, trajectories, scene, terrain, dict(matcher=matcher, escalate=escalate,
                                                                  tolerance=tolerance, discrete=discrete),
-                      vehicle_name, up, out_dir, jobs, scheduler, fail_on_collision, allow_off_terrain, summary_path,
-                      split_lines)
+                      vehicle_name, up, out_dir, out_format, jobs, scheduler, fail_on_collision, allow_off_terrain,
+                      summary_path, split_lines)
     from tankcd_cli import api
 
     trajectory = trajectories[0]
@@ -134,6 +142,9 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     if events_path == "-" and summary_path == "-":
         raise click.UsageError("events already go to stdout: give --summary FILE")
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
+    from tankcd_cli.io.parquet import check_writable
+
+    check_writable(poses_path, events_path)  # before the world is loaded
     report.kernels()
     step = report.progress("replay")
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
@@ -215,7 +226,7 @@ def _exit_on_failures(result, fail_on_collision: bool, allow_off_terrain: bool) 
         click.get_current_context().exit(EXIT_COLLISION)
 
 
-def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, jobs, scheduler,
+def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
            fail_on_collision, allow_off_terrain, summary_path, split_lines):
     import json
 
@@ -235,7 +246,7 @@ def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir,
 
     fleet = api.replay_fleet(list(trajectories), out_dir, scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
                              jobs=jobs, scheduler=scheduler, split_lines=split_lines, progress=step,
-                             on_result=on_result, **how)
+                             on_result=on_result, out_format=out_format, **how)
     report.bar(None)
     for failure in fleet.failures:
         click.echo(f"tankcd: error: {failure['error']}", err=True)
