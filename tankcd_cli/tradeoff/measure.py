@@ -69,12 +69,13 @@ class Budget:
     collide_poses: int
     brute_poses: int
     internal_step_deg: float
+    pair_repeats: int  # pairs behind each ratio (the headline's)
 
 
 QUICK = Budget(repeats=3, curvature_half_extent=15.0, match_poses=600, path_step=0.25, collide_poses=120,
-               brute_poses=40, internal_step_deg=2.0)
+               brute_poses=40, internal_step_deg=2.0, pair_repeats=7)
 FULL = Budget(repeats=7, curvature_half_extent=50.0, match_poses=20_000, path_step=0.05, collide_poses=3000,
-              brute_poses=400, internal_step_deg=0.25)
+              brute_poses=400, internal_step_deg=0.25, pair_repeats=15)
 
 
 def timed(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
@@ -121,24 +122,56 @@ def paired(fn_a: Callable[[], object], fn_b: Callable[[], object], repeats: int)
     return Paired(spread(ta), spread(tb), float(np.median(ratios)), float(ratios.min()), float(ratios.max()))
 
 
+WIDE_SPREAD = 1.5
+"""A ratio whose pairs range over more than this factor (highest / lowest) is not a figure to read."""
+
+
+def spread_flag(lo: float, hi: float) -> str:
+    """The short form of ``spread_caveat``, for a table's cell ("" when the range supports the ratio)."""
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0:
+        return "no spread"
+    if lo <= 1.0 <= hi:
+        return "the range holds 1.0x: cannot tell which is faster"
+    if hi / lo > WIDE_SPREAD:
+        return f"the range spans a factor of {hi / lo:.1f}: too wide to read"
+    return ""
+
+
+def spread_caveat(lo: float, hi: float) -> str:
+    """Why a ratio's range cannot support it ("" when it can): the pairs disagree which is faster
+    (the range holds 1), or they range over more than ``WIDE_SPREAD``."""
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0:
+        return "no spread measured: the figure cannot be judged"
+    if lo <= 1.0 <= hi:
+        return "this machine's spread cannot tell which is faster"
+    if hi / lo > WIDE_SPREAD:
+        return (f"the pairs range over a factor of {hi / lo:.1f}, more than {WIDE_SPREAD:g}: this machine's "
+                "spread cannot support the figure")
+    return ""
+
+
 def ratio_text(value: float, lo: float, hi: float, faster: str, slower: str, what: str = "") -> str:
     """A ratio as words a reader can trust: "3.1x faster (pairs 2.8-3.4x)", "1.6x slower", or, where
-    the pairs disagree which is faster, that the spread cannot tell."""
+    the pairs disagree which is faster, that the spread cannot tell; where they range over more than
+    a factor of ``WIDE_SPREAD``, the figure with that caveat beside it."""
+    caveat = spread_caveat(lo, hi)
     if lo <= 1.0 <= hi:
-        return (f"within noise of {what or 'the other'} (pairs {lo:.2f}-{hi:.2f}x: this machine's spread cannot "
-                "tell which is faster)")
+        return f"within noise of {what or 'the other'} (pairs {lo:.2f}-{hi:.2f}x: {caveat})"
+    note = f"; {caveat}" if caveat else ""
     if value >= 1.0:
-        return f"{value:.1f}x {faster} (pairs {lo:.1f}-{hi:.1f}x)"
-    return f"{1 / value:.1f}x {slower} (pairs {1 / hi:.1f}-{1 / lo:.1f}x)"
+        return f"{value:.1f}x {faster} (pairs {lo:.1f}-{hi:.1f}x{note})"
+    return f"{1 / value:.1f}x {slower} (pairs {1 / hi:.1f}-{1 / lo:.1f}x{note})"
 
 
 def cost_text(value: float, lo: float, hi: float, of: str) -> str:
     """What one workload costs against another: "1.9x the time of plain auto (pairs 1.7-2.1x)", or,
-    where the pairs disagree which is faster, that the spread cannot tell."""
+    where the pairs disagree which is faster, that the spread cannot tell; a range wider than a
+    factor of ``WIDE_SPREAD`` is said beside the figure."""
+    caveat = spread_caveat(lo, hi)
     if lo <= 1.0 <= hi:
-        return (f"within noise of {of} (pairs {lo:.2f}-{hi:.2f}x: this machine's spread cannot tell which is "
-                "faster)")
-    return f"{value:.2f}x the time of {of} (pairs {lo:.2f}-{hi:.2f}x)"
+        return f"within noise of {of} (pairs {lo:.2f}-{hi:.2f}x: {caveat})"
+    note = f"; {caveat}" if caveat else ""
+    return f"{value:.2f}x the time of {of} (pairs {lo:.2f}-{hi:.2f}x{note})"
 
 
 def machine() -> dict:
@@ -218,7 +251,8 @@ def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
                         ("error_median_relative", rel, "1"),
                         ("class_changed_share", float(np.mean(classes != exact_class)), "1")):
                     res.records.append(Record("curvature", case, method, measure, value, unit, truth))
-                res.records.append(Record("curvature", case, method, "time_per_vertex", t / n, "s", truth, lo / n, hi / n))
+                res.records.append(Record("curvature", case, method, "time_per_vertex", t / n, "s", truth, lo / n,
+                                          hi / n))
     for method in METHODS:
         t = np.array(times[method])
         res.points.append(Point("curvature", method, float(np.median(t[:, 0])), float(np.median(t[:, 1])),
@@ -489,7 +523,8 @@ def collision_stage(res: Results, surface, vehicle, obstacle_tris: list, budget:
         run = peer_run[0]
         tm, lo, hi = timed(run, budget.repeats)
         hits = run()
-        res.records.append(Record("collision", case, peer, "disagreement_with_truth", float(np.mean(hits[:nb] != brute)),
+        res.records.append(Record("collision", case, peer, "disagreement_with_truth",
+                                  float(np.mean(hits[:nb] != brute)),
                                   "1", truth))
         res.records.append(Record("collision", case, peer, "time_per_pose", tm / n, "s", truth, lo / n, hi / n))
 
@@ -549,8 +584,8 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
         return match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True)
 
     # timed in pairs, in turn: a ratio of two medians taken minutes apart is at the mercy of the machine
-    vs_ref = paired(plain, reference, budget.repeats)
-    vs_esc = paired(plain, escalated, budget.repeats)
+    vs_ref = paired(plain, reference, budget.pair_repeats)
+    vs_esc = paired(plain, escalated, budget.pair_repeats)
     t_auto, t_ref, t_esc = vs_ref.a, vs_ref.b, vs_esc.b
     a = match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=False)
     r = match(surface, vehicle, x, y, yaw, "reference", measure=True)
@@ -564,15 +599,18 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
     used = np.bincount(a.matcher, minlength=len(PLACED_BY))
     truth = "reference (rigid hull on every terrain triangle under the tracks)"
     h = {"trajectory": name, "poses": n,
-         "auto_seconds": t_auto[0], "auto_spread": t_auto[1:], "reference_seconds": t_ref[0], "reference_spread": t_ref[1:],
+         "auto_seconds": t_auto[0], "auto_spread": t_auto[1:], "reference_seconds": t_ref[0],
+         "reference_spread": t_ref[1:],
          "speedup": vs_ref.ratio, "speedup_spread": (vs_ref.ratio_lo, vs_ref.ratio_hi),
          "time_saved_share": 1.0 - 1.0 / vs_ref.ratio,
+         "time_saved_share_spread": (1.0 - 1.0 / vs_ref.ratio_lo, 1.0 - 1.0 / vs_ref.ratio_hi),
          "escalation_cost": vs_esc.ratio, "escalation_cost_spread": (vs_esc.ratio_lo, vs_esc.ratio_hi),
          "attitude_error_median_deg": float(np.median(att)), "attitude_error_p95_deg": _pct(att, 95),
          "attitude_error_max_deg": _pct(att, 100),
          "height_error_median_m": float(np.median(dz)), "height_error_p95_m": _pct(dz, 95),
          "height_error_max_m": _pct(dz, 100),
-         "penetration_p95_auto_m": _pct(a.penetration[ok], 95), "penetration_p95_reference_m": _pct(r.penetration[ok], 95),
+         "penetration_p95_auto_m": _pct(a.penetration[ok], 95),
+         "penetration_p95_reference_m": _pct(r.penetration[ok], 95),
          "matchers_used": {m: int(c) for m, c in zip(PLACED_BY, used) if c},
          "escalated_seconds": t_esc[0], "escalated_spread": t_esc[1:],
          "escalated_share": float(np.mean(e.matcher >= ESCALATED)) if n else 0.0,
@@ -588,7 +626,9 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
                 "attitude_error_p95_deg", "attitude_error_max_deg", "height_error_median_m", "height_error_p95_m",
                 "height_error_max_m", "escalated_seconds", "escalated_share", "escalated_attitude_error_p95_deg",
                 "escalated_height_error_max_m"):
-        unit = "s" if key.endswith("seconds") else ("deg" if key.endswith("deg") else ("m" if key.endswith("_m") else "1"))
+        unit = ("s" if key.endswith("seconds") else "deg" if key.endswith("deg") else
+                "m" if key.endswith("_m") else "1")
         spread = h.get(key.replace("seconds", "spread") if unit == "s" else f"{key}_spread", (float("nan"),) * 2)
-        res.records.append(Record("headline", f"{name} ({n:,} poses)", "auto vs reference", key, float(h[key]), unit, truth,
-                                  *spread))
+        res.records.append(Record("headline", f"{name} ({n:,} poses)", "auto vs reference", key, float(h[key]), unit,
+                                  truth, *spread))
+

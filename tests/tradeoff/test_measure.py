@@ -21,3 +21,11 @@ def test_pairs_run_in_turn_and_count_every_call():
     result = paired(lambda: calls.append("a"), lambda: calls.append("b"), 3)
     assert calls == ["a", "b"] + ["a", "b"] * 3  # one warm-up each, then alternately
     assert result.ratio_lo <= result.ratio <= result.ratio_hi
+
+
+def test_a_ratio_whose_pairs_range_too_wide_says_so_beside_the_figure():
+    text = ratio_text(4.9, 3.0, 6.0, "faster", "slower", "reference")
+    assert text.startswith("4.9x faster (pairs 3.0-6.0x; ") and "factor of 2.0" in text and "cannot support" in text
+    text = cost_text(3.56, 2.18, 8.68, "plain auto")
+    assert text.startswith("3.56x the time of plain auto (pairs 2.18-8.68x; ") and "cannot support" in text
+    assert ratio_text(0.25, 0.2, 0.4, "faster", "slower").startswith("4.0x slower (pairs 2.5-5.0x; ")
