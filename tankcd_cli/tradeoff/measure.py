@@ -71,6 +71,7 @@ class Budget:
     brute_poses: int
     internal_step_deg: float
     pair_repeats: int  # pairs behind each ratio (the headline's, the sampling rates')
+    turn_seconds: float = 0.1  # the least time of each turn of a pair (``paired``'s min_seconds)
 
 
 QUICK = Budget(repeats=3, curvature_half_extent=15.0, match_poses=600, path_step=0.25, collide_poses=120,
@@ -108,18 +109,27 @@ class Paired:
         return self.ratio_lo > 1.0 or self.ratio_hi < 1.0
 
 
-def paired(fn_a: Callable[[], object], fn_b: Callable[[], object], repeats: int, warm_up: bool = True) -> Paired:
+def paired(fn_a: Callable[[], object], fn_b: Callable[[], object], repeats: int, warm_up: bool = True,
+           min_seconds: float = 0.0) -> Paired:
     """``fn_a`` and ``fn_b`` timed alternately (see ``Paired``); ``warm_up=False`` where the caller
-    has already run each once."""
+    has already run each once. With ``min_seconds``, each turn calls its function again until that
+    long has passed and counts the mean call: a call of a few milliseconds is at the mercy of one
+    preemption on a shared machine, a turn of 0.1 s much less so."""
     if warm_up:
         fn_a()
         fn_b()
     ta, tb = [], []
     for _ in range(repeats):
         for fn, times in ((fn_a, ta), (fn_b, tb)):
+            calls = 0
             start = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - start)
+            while True:
+                fn()
+                calls += 1
+                elapsed = time.perf_counter() - start
+                if elapsed >= min_seconds:
+                    break
+            times.append(elapsed / calls)
     ratios = np.array(tb) / np.array(ta)
     spread = lambda v: (float(np.median(v)), float(min(v)), float(max(v)))  # noqa: E731
     return Paired(spread(ta), spread(tb), float(np.median(ratios)), float(ratios.min()), float(ratios.max()))
@@ -587,8 +597,8 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
         return match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True)
 
     # timed in pairs, in turn: a ratio of two medians taken minutes apart is at the mercy of the machine
-    vs_ref = paired(plain, reference, budget.pair_repeats)
-    vs_esc = paired(plain, escalated, budget.pair_repeats)
+    vs_ref = paired(plain, reference, budget.pair_repeats, min_seconds=budget.turn_seconds)
+    vs_esc = paired(plain, escalated, budget.pair_repeats, min_seconds=budget.turn_seconds)
     t_auto, t_ref, t_esc = vs_ref.a, vs_ref.b, vs_esc.b
     a = match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=False)
     r = match(surface, vehicle, x, y, yaw, "reference", measure=True)
@@ -750,7 +760,8 @@ def _kinds(items) -> dict:
     return counts
 
 
-def rate_row(world, columns: dict, hz: float, repeats: int, has_turret: bool | None = None) -> RateRow:
+def rate_row(world, columns: dict, hz: float, repeats: int, has_turret: bool | None = None,
+             min_seconds: float = 0.0) -> RateRow:
     """One sampling rate (``RateRow``) of the trajectory ``columns`` in ``world`` (``replay.world.World``):
     each mode replayed once for its events (the warm-up), then both timed in pairs. ``has_turret``:
     the trajectory gives turret and gun angles (None: where any of them is not 0), as a CSV with
@@ -778,7 +789,7 @@ def rate_row(world, columns: dict, hz: float, repeats: int, has_turret: bool | N
             return replay_rows(world, chunks, ReplayOptions(continuous=not discrete))[1]
 
     cont, disc = run(False), run(True)
-    timing = paired(lambda: run(True), lambda: run(False), repeats, warm_up=False)
+    timing = paired(lambda: run(True), lambda: run(False), repeats, warm_up=False, min_seconds=min_seconds)
     missed, late = missed_contacts(cont, disc)
     return RateRow(hz, len(rows["t"]), _kinds(contacts(cont)), _kinds(missed), _kinds(late),
                    max((lag for _, lag in late), default=0.0), timing.b, timing.a, timing.ratio, timing.ratio_lo,
@@ -794,7 +805,7 @@ def rate_stage(res: Results, world, columns: dict, budget: Budget, say, name: st
     res.axes["rate"] = ("replay", "contacts the rows-only check misses")
     for hz in rates:
         say(f"rate: {name} at {hz:g} Hz, continuous and rows only")
-        r = rate_row(world, columns, hz, budget.pair_repeats, columns.get("has_turret"))
+        r = rate_row(world, columns, hz, budget.pair_repeats, columns.get("has_turret"), budget.turn_seconds)
         res.rates.append(r)
         case = f"{name} at {hz:g} Hz ({r.rows:,} rows)"
         for kind in CONTACT_KINDS:

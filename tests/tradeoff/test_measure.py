@@ -29,3 +29,17 @@ def test_a_ratio_whose_pairs_range_too_wide_says_so_beside_the_figure():
     text = cost_text(3.56, 2.18, 8.68, "plain auto")
     assert text.startswith("3.56x the time of plain auto (pairs 2.18-8.68x; ") and "cannot support" in text
     assert ratio_text(0.25, 0.2, 0.4, "faster", "slower").startswith("4.0x slower (pairs 2.5-5.0x; ")
+
+
+def test_a_turn_of_a_pair_calls_again_until_its_least_time_and_counts_the_mean_call():
+    import time
+
+    calls = []
+
+    def a():
+        calls.append("a")
+        time.sleep(0.004)
+
+    result = paired(a, lambda: calls.append("b"), 2, warm_up=False, min_seconds=0.02)
+    assert calls.count("b") > calls.count("a") >= 2  # b is far quicker: called far more in its turns
+    assert result.a[0] >= 0.004 and result.b[0] < 0.004  # the mean call of each
