@@ -230,8 +230,9 @@ def rate_table(res: Results) -> str:
              "check at the same rate is the truth. Missed: no row of the contact has its event in the rows-only "
              "replay. Seen late: the contact began between rows and the rows-only replay first reports it at a "
              "later row (the longest delay in brackets). Times: one whole replay in this process (the world "
-             "loaded once), each mode once for its events, then the two in turn; the ratio is continuous over "
-             "rows only, pair by pair (median, lowest-highest).", "",
+             "loaded once), each mode once for its events, then the two in turn, each turn replaying again until "
+             "0.1 s has passed (the mean replay counts); the ratio is continuous over rows only, pair by pair "
+             "(median, lowest-highest).", "",
              "| rate | rows | contacts (continuous) | missed by the rows alone | seen late (longest delay) | "
              "continuous | rows only | continuous / rows only |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in res.rates:
@@ -255,7 +256,8 @@ def markdown(res: Results) -> str:
     out = ["# What accuracy costs in time", "",
            f"{inp.get('date', '')}, `{inp.get('command', '')}` ({inp.get('mode')} mode: times are medians of "
            f"{inp.get('repeats')} runs after a warm-up, min-max in brackets; every ratio is the median of "
-           f"{inp.get('pairs')} pairs run in turn, their range beside it, and said where that range cannot "
+           f"{inp.get('pairs')} pairs run in turn (each turn at least 0.1 s of calls), their range beside it, and said "
+           "where that range cannot "
            "support it: it holds 1.0x, or spans more than a factor of 1.5).", "",
            f"Machine: {m.get('cpu')}, {m.get('cores')} cores ({m.get('threads')} kernel threads), {m.get('os')}. "
            f"Versions: tankcd {m.get('tankcd')}, Python {m.get('python')}, numpy {m.get('numpy')}, "
