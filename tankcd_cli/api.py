@@ -258,9 +258,10 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
 
 
 def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
-    """A dict of arrays (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``) as the
-    chunks a replay streams, checked as a CSV's rows are: every value finite, ``t`` never
-    decreasing (an InputError names the first bad row, counting from 0)."""
+    """A dict of arrays (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``, and
+    ``entity``: each row's vehicle, which makes the rows an exercise) as the chunks a replay
+    streams, checked as a CSV's rows are: every value finite, ``t`` never decreasing (within each
+    entity), entity names usable as CSV cells (an InputError names the first bad row, from 0)."""
     from tankcd_cli.errors import InputError
     from tankcd_cli.io.trajectory import TrajectoryChunk
 
@@ -283,20 +284,58 @@ def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
             raise InputError("trajectory", f"{name} is not a finite number ({values[bad[0]]!r})",
                              where=f"row {int(bad[0])}")
         cols[name] = values
-    back = np.flatnonzero(np.diff(cols["t"]) < 0)
+    if "entity" in columns:
+        names, codes = _entity_codes(columns["entity"], n)
+    else:
+        names, codes = (), np.zeros(n, dtype=np.int64)
+    # t never decreasing within each entity (a stable sort keeps each entity's rows in order)
+    order = np.argsort(codes, kind="stable")
+    t_sorted, c_sorted = cols["t"][order], codes[order]
+    back = np.flatnonzero((np.diff(t_sorted) < 0) & (c_sorted[1:] == c_sorted[:-1]))
     if len(back):
-        k = int(back[0]) + 1
-        raise InputError("trajectory", f"time goes back ({cols['t'][k]!r} after {cols['t'][k - 1]!r}); t must be "
-                                       "non-decreasing", where=f"row {k}")
+        k, j = int(order[back[0] + 1]), int(order[back[0]])
+        who = f"entity {names[codes[k]]!r}: " if names else ""
+        raise InputError("trajectory", f"{who}time goes back ({cols['t'][k]!r} after {cols['t'][j]!r} at row {j}); t "
+                                       "must be non-decreasing" + (" within each entity" if names else ""),
+                         where=f"row {k}")
+    piece_start = np.zeros(n, dtype=bool)
+    piece_start[order[np.r_[True, c_sorted[1:] != c_sorted[:-1]]] if n else []] = True
 
     def chunks():
+        seen = 0
         for start in range(0, n, chunk_rows):
             sl = slice(start, min(start + chunk_rows, n))
             step = np.arange(sl.start, sl.stop)
+            if not names:
+                yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl],
+                                      cols["yaw_deg"][sl], cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret,
+                                      step.copy())
+                continue
+            seen = max(seen, int(codes[sl].max()) + 1)  # codes in order of first appearance: a prefix
             yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl], cols["yaw_deg"][sl],
-                                  cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret, step.copy())
+                                  cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret, step.copy(),
+                                  codes[sl], names[:seen], piece_start[sl], True)
 
     return chunks()
+
+
+def _entity_codes(values, n: int) -> tuple[tuple, np.ndarray]:
+    """Entity names (in order of first appearance) and each row's code into them; a name must be
+    text without a comma, quote or line break (it becomes a CSV cell), not empty."""
+    from tankcd_cli.errors import InputError
+
+    ids = np.asarray(values, dtype=object).ravel()
+    if ids.shape != (n,):
+        raise InputError("trajectory", f"column entity has {ids.size} values, t has {n}")
+    text = np.array([str(v).strip() for v in ids], dtype=object)
+    bad = [i for i, v in enumerate(text) if not v or any(c in v for c in ',"\n\r')]
+    if bad:
+        raise InputError("trajectory", f"entity {text[bad[0]]!r} is empty or holds a comma, quote or line break",
+                         where=f"row {bad[0]}")
+    names, first, inverse = np.unique(text.astype(str), return_index=True, return_inverse=True)
+    rank = np.empty(len(names), dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(names))
+    return tuple(str(v) for v in names[np.argsort(first, kind="stable")]), rank[inverse.ravel()]
 
 
 @dataclass

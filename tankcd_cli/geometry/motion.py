@@ -37,7 +37,7 @@ absolute values: two bodies closing head-on never cancel (each body's bound is a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -81,6 +81,10 @@ class RowIntervals:
 
     def __len__(self) -> int:
         return len(self.t0)
+
+    def take(self, idx) -> "RowIntervals":
+        """The intervals ``idx`` (indices, a mask or a slice), in that order."""
+        return RowIntervals(*(getattr(self, f.name)[idx] for f in fields(self)))
 
     @property
     def travel(self) -> np.ndarray:
