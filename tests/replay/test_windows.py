@@ -226,3 +226,44 @@ def test_a_dask_run_that_loses_a_worker_is_the_local_run(world, flat, tmp_path):
     _same_bytes(local, tmp_path)
     summary = json.loads(stderr.strip().splitlines()[-1])
     assert summary["rows"] == len(rows) and summary["vehicle_contacts"] >= 3
+
+
+@pytest.mark.parametrize("entities", [False, True])
+def test_obstacles_drums_and_terrain_across_windows_as_the_local_run(tmp_path, entities):
+    # the sample scene (a depot, a wall, the rear drums; the gun turning; a ditch): its patrol alone, and
+    # as an exercise of three vehicles on it at other times and places, one leaving early; rows cut
+    # into chunks of 97 and windows of 4 s
+    from pathlib import Path
+
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    sample = Path(__file__).resolve().parents[2] / "sample_data"
+    lines = (sample / "patrol.csv").read_text().splitlines()
+    lines = lines[:1] + lines[1::3]  # every third row: 3.3 Hz
+    path = tmp_path / "patrol.csv"
+    if entities:
+        rows = []
+        for line in lines[1:]:
+            t, x, y, yaw, turret, gun = map(float, line.split(","))
+            for v, (dt, dx, dy) in enumerate([(0, 0, 0), (3.3, 1.5, -2.0), (7.1, -2.5, 1.0)]):
+                if not (v == 2 and t > 60):
+                    rows.append((round(t + dt, 3), f"T{v}", round(x + dx, 3), round(y + dy, 3), yaw, turret, gun))
+        path.write_text("t,entity,x,y,yaw_deg,turret_deg,gun_deg\n" + "".join(",".join(map(str, r)) + "\n"
+                                                                             for r in sorted(rows)))
+    else:
+        path.write_text("\n".join(lines) + "\n")
+    world = api.load_world(scene=str(sample / "scene.toml"))
+    options = ReplayOptions(chunk_rows=97)
+    (tmp_path / "local").mkdir()
+    (tmp_path / "windows").mkdir()
+    run_replay(world, str(path), ReplayOutputs(str(tmp_path / "local" / "p.csv"), str(tmp_path / "local" / "e.jsonl")),
+               options)
+    plan = plan_windows(str(path), options, 4.0)
+    run_windows(str(path), ReplayOutputs(str(tmp_path / "windows" / "p.csv"), str(tmp_path / "windows" / "e.jsonl")),
+                in_process(world, options), plan, options)
+    _same_bytes(tmp_path / "local", tmp_path / "windows")
+    kinds = {json.loads(line)["kind"] for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()}
+    assert {"obstacle", "internal", "terrain"} <= kinds, kinds
