@@ -149,11 +149,19 @@ def test_a_window_without_rows_of_its_own_still_runs_the_motion_across_it(world,
     # two vehicles with rows 7 s apart, meeting in the middle: windows of 2 s hold none of their rows
     rows = [(0.0, "P", 20.0, 30.0, 0.0), (7.0, "P", 90.0, 30.0, 0.0),
             (0.0, "Q", 120.0, 30.0, 180.0), (7.0, "Q", 50.0, 30.0, 180.0)]
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.windows import plan_windows
+
     _write(flat / "sparse.csv", rows)
     local = _local(world, flat, "sparse", 65536)
-    plan, _ = _windowed(world, flat, "sparse", 65536, 2.0, tmp_path)
+    plan = plan_windows(str(flat / "sparse.csv"), ReplayOptions(), 2.0)
     assert len(plan.tasks) == 4 and [len(t.lead) for t in plan.tasks] == [0, 2, 2, 2]
+    assert [len(t.trailing) for t in plan.tasks] == [2, 2, 2, 0]
+    summary = api.replay_windows(str(flat / "sparse.csv"), str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl"),
+                                 world=world, window_seconds=2.0)  # the Python API
     _same_bytes(local, tmp_path)
+    assert summary.rows == 4 and summary.entities == 2 and summary.vehicle_contacts == 1
     assert any(json.loads(line)["kind"] == "vehicle" for line in (tmp_path / "e.jsonl").read_text().splitlines())
 
 
