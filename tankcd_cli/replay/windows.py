@@ -174,7 +174,7 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
     first_step = np.zeros(0, np.int64)
     last = np.full((0, 2), -1, np.int64)  # each entity's last two rows' steps (older, newer)
     last_t = np.zeros(0)
-    crossings = []  # (lo task, hi task, the row after, the row before, the one before that)
+    crossings = []  # arrays of (lo task, hi task, the row after, the row before, the one before that)
     own_min: dict = {}
     own_max: dict = {}
     own_parts: dict = {}
@@ -232,8 +232,8 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
     for j in range(n_tasks):
         ks = range(j * per_task, min((j + 1) * per_task, n_windows))
         windows = tuple(ContactWindow(k, edges[k], edges[k + 1], emits[k], edges[k + 1] > t_end) for k in ks)
-        extra_lead = np.asarray(sorted(lead.get(j, ())), np.int64)
-        extra_trailing = np.asarray(sorted(trailing.get(j, ())), np.int64)
+        extra_lead = lead.get(j, np.zeros(0, np.int64))
+        extra_trailing = trailing.get(j, np.zeros(0, np.int64))
         needed = set(own_parts.get(j, ()))
         if part_steps is not None:
             for s in np.r_[extra_lead, extra_trailing]:
@@ -270,35 +270,51 @@ def _crossings(codes, steps, t, task, starts, first_step, last, last_t, out) -> 
     after), with the row before that: what the tasks between them read besides their own rows.
     ``first_step``, ``last`` (each entity's last two steps) and ``last_t`` carry across chunks."""
     order = np.argsort(codes, kind="stable")
-    for idx in np.split(order, np.flatnonzero(np.diff(codes[order])) + 1):
-        if not len(idx):
-            continue
-        e = int(codes[idx[0]])
-        if first_step[e] < 0:
-            first_step[e] = int(steps[idx[0]])
-        s = steps[idx]
-        prev = np.r_[last[e, 1], s[:-1]]
-        prev2 = np.r_[last[e, 0], last[e, 1], s[:-2]][: len(s)]
-        prev_t = np.r_[last_t[e], t[idx][:-1]]
-        prev_task = np.maximum(np.searchsorted(starts, prev_t, side="right") - 1, 0)
-        cross = np.flatnonzero((prev >= 0) & (prev_task < task[idx]))
-        for k in cross:
-            out.append((int(prev_task[k]), int(task[idx[k]]), int(s[k]), int(prev[k]), int(prev2[k])))
-        last[e, 0] = prev[-1] if len(s) >= 1 else last[e, 0]
-        last[e, 1] = s[-1]
-        last_t[e] = t[idx[-1]]
+    e, s, ts, task = codes[order], steps[order], t[order], task[order]
+    n = len(e)
+    head = np.r_[True, e[1:] != e[:-1]]
+    tail = np.r_[head[1:], True]
+    begin = np.maximum.accumulate(np.where(head, np.arange(n), 0))
+    pos = np.arange(n) - begin  # the row's place among its entity's rows in the chunk
+    new = head & (first_step[e] < 0)
+    first_step[e[new]] = s[new]
+    prev = np.where(pos == 0, last[e, 1], np.r_[-1, s[:-1]])
+    prev2 = np.where(pos == 0, last[e, 0], np.where(pos == 1, last[e, 1], np.r_[-1, -1, s[:-2]][:n]))
+    prev_t = np.where(pos == 0, last_t[e], np.r_[-np.inf, ts[:-1]])
+    prev_task = np.maximum(np.searchsorted(starts, prev_t, side="right") - 1, 0)
+    cross = (prev >= 0) & (prev_task < task)
+    if cross.any():
+        out.append(np.column_stack([prev_task[cross], task[cross], s[cross], prev[cross], prev2[cross]]))
+    last[e[tail], 0] = prev[tail]
+    last[e[tail], 1] = s[tail]
+    last_t[e[tail]] = ts[tail]
 
 
 def _extra_rows(crossings, n_tasks):
     """Per task, the steps of the rows before its start (lead) and after its end (trailing)."""
-    lead: dict = {}
-    trailing: dict = {}
-    for lo, hi, after, before, before2 in crossings:
-        for j in range(lo + 1, min(hi, n_tasks - 1) + 1):
-            lead.setdefault(j, set()).update(s for s in (before, before2) if s >= 0)
-        for j in range(lo, min(hi, n_tasks)):
-            trailing.setdefault(j, set()).add(after)
-    return lead, trailing
+    if not crossings:
+        return {}, {}
+    lo, hi, after, before, before2 = np.concatenate(crossings).T
+
+    def spread(first, stop, values):  # (task, step) for every task first..stop-1 of each crossing
+        count = np.maximum(stop - first, 0)
+        tasks = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+        steps = np.repeat(values, count)
+        keep = steps >= 0
+        return tasks[keep], steps[keep]
+
+    hi_lead = np.minimum(hi, n_tasks - 1) + 1
+    j1, s1 = spread(lo + 1, hi_lead, before)
+    j2, s2 = spread(lo + 1, hi_lead, before2)
+    j3, s3 = spread(lo, np.minimum(hi, n_tasks), after)
+    return _by_task(np.r_[j1, j2], np.r_[s1, s2]), _by_task(j3, s3)
+
+
+def _by_task(tasks, steps) -> dict:
+    order = np.lexsort((steps, tasks))
+    tasks, steps = tasks[order], steps[order]
+    cuts = np.flatnonzero(np.diff(tasks)) + 1
+    return {int(g[0]): np.unique(v) for g, v in zip(np.split(tasks, cuts), np.split(steps, cuts)) if len(g)}
 
 
 # --- one window ---------------------------------------------------------------------------------
