@@ -275,3 +275,24 @@ def test_obstacles_drums_and_terrain_across_windows_as_the_local_run(tmp_path, e
     _same_bytes(tmp_path / "local", tmp_path / "windows")
     kinds = {json.loads(line)["kind"] for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()}
     assert {"obstacle", "internal", "terrain"} <= kinds, kinds
+
+
+@pytest.mark.parametrize("chunk_rows", [10, 65536])
+def test_a_vehicle_silent_past_the_horizon_gives_what_the_local_run_gives(world, flat, tmp_path, chunk_rows):
+    # A sends a row at 0 s and the next at 60 s, driving through B's path at 30 s: silent longer than
+    # the 30 s after which it no longer holds the contact windows back. In chunks of 10 rows the local
+    # run has closed the windows of 30 s by the time A's second row comes, and checks A's gap only
+    # against what it still holds; in one chunk it holds everything. The windows give the same.
+    rows = [(0.0, "A", 80.0, 65.0, -90.0), (60.0, "A", 80.0, 5.0, -90.0)]
+    rows += [(float(t), "B", 20.0 + 2 * t, 30.0, 0.0) for t in range(61)]
+    rows += [(float(t), "C", 140.0, 70.0, 0.0) for t in range(61)]
+    _write(flat / "silent.csv", rows)
+    local = _local(world, flat, "silent", chunk_rows)
+    for seconds in (2.0, 10.0):
+        out = tmp_path / f"w{seconds}"
+        out.mkdir()
+        _windowed(world, flat, "silent", chunk_rows, seconds, out)
+        _same_bytes(local, out)
+    found = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
+    pairs = [(e["a"], e["b"]) for e in found if e["kind"] == "vehicle"]
+    assert pairs == ([] if chunk_rows == 10 else [("A", "B")])  # the local run's own limit, kept as it is
