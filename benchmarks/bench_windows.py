@@ -1,7 +1,8 @@
 """Benchmark: one exercise through `tankcd replay`, in one piece and by time windows (here and on Dask).
 
     pip install ".[dask]"
-    python benchmarks/bench_windows.py [--vehicles 100] [--seconds 300] [--window 60] [--out benchmarks/results/windows.md]
+    python benchmarks/bench_windows.py [--vehicles 100] [--seconds 300] [--window 60]
+        [--out benchmarks/results/windows.md]
 
 The sample scene (obstacles, drums) and VEHICLES wandering vehicles in one
 trajectory file with an entity column, each reporting at 2 Hz for SECONDS,
