@@ -224,9 +224,13 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         from tankcd_cli.replay.fleet import FleetWorld
         from tankcd_cli.replay.world import WorldSpec
 
+        import dataclasses
+
         spec = world.spec if world is not None and world.spec is not None else WorldSpec(
-            scene=os.path.abspath(scene) if scene else None, terrain=os.path.abspath(terrain) if terrain else None,
-            vehicle=vehicle, up=up)
+            scene=scene, terrain=terrain, vehicle=vehicle, up=up)
+        # workers elsewhere may run in another directory
+        spec = dataclasses.replace(spec, **{k: os.path.abspath(getattr(spec, k)) for k in ("scene", "terrain", "store")
+                                            if getattr(spec, k)})
         runner = on_dask(FleetWorld(spec, options), scheduler)
         path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
     else:
