@@ -44,7 +44,9 @@ def exercise(path, vehicles, seconds, hz=2.0):
         speed = rng.uniform(2, 6) / hz
         x = np.abs((rng.uniform(0, 440) + np.cumsum(speed * np.cos(heading))) % 880 - 440) + 500_010
         y = np.abs((rng.uniform(0, 280) + np.cumsum(speed * np.sin(heading))) % 560 - 280) + 4_500_010
-        cols.append((t, np.full(n, v), x, y, np.degrees(heading)))
+        # the heading of the travel itself (the walls fold the path back on itself)
+        yaw = np.degrees(np.arctan2(np.gradient(y), np.gradient(x)))
+        cols.append((t, np.full(n, v), x, y, yaw))
     t, e, x, y, yaw = (np.concatenate(c) for c in zip(*cols))
     order = np.lexsort((e, t))
     with open(path, "w") as fh:
