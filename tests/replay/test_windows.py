@@ -296,3 +296,54 @@ def test_a_vehicle_silent_past_the_horizon_gives_what_the_local_run_gives(world,
     found = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
     pairs = [(e["a"], e["b"]) for e in found if e["kind"] == "vehicle"]
     assert pairs == ([] if chunk_rows == 10 else [("A", "B")])  # the local run's own limit, kept as it is
+
+
+@pytest.mark.parametrize("chunk_rows", [9, 65536])
+def test_gpx_tracks_by_windows_as_the_local_run(tmp_path, chunk_rows):
+    # an input that is no CSV is read whole by every window: two GPX tracks (each an entity), one in two
+    # segments (two pieces of motion), crossing each other on a flat UTM ground. The file holds A's
+    # points, then B's: in chunks of 9 rows the local run has closed the windows of A's time before it
+    # reads B, and their contact is not found; by windows neither (the same bytes either way)
+    rasterio = pytest.importorskip("rasterio")
+    pyproj = pytest.importorskip("pyproj")
+    from rasterio.transform import from_origin
+
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    x0, yn = 400000.0, 5001000.0
+    with rasterio.open(tmp_path / "flat.tif", "w", driver="GTiff", height=200, width=300, count=1, dtype="float32",
+                       crs="EPSG:32633", transform=from_origin(x0 - 0.5, yn + 0.5, 1.0, 1.0)) as dst:
+        dst.write(np.full((200, 300), GROUND, np.float32), 1)
+    to_geo = pyproj.Transformer.from_crs("EPSG:32633", "EPSG:4326", always_xy=True)
+
+    def track(name, points):
+        segs = []
+        for seg in points:
+            out = []
+            for t, x, y in seg:
+                lon, lat = to_geo.transform(x, y)
+                out.append(f'<trkpt lat="{lat!r}" lon="{lon!r}"><time>2026-05-04T10:00:{t:02d}Z</time></trkpt>\n')
+            segs.append("<trkseg>\n" + "".join(out) + "</trkseg>\n")
+        return f"<trk>\n<name>{name}</name>\n" + "".join(segs) + "</trk>\n"
+
+    a = [[(t, x0 + 90 + 4 * t, yn - 100) for t in range(0, 7)], [(t, x0 + 90 + 4 * t, yn - 100) for t in range(8, 30)]]
+    b = [[(t, x0 + 150, yn - 40 - 4 * t) for t in range(2, 30)]]
+    head = '<?xml version="1.0"?>\n<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">\n'
+    (tmp_path / "t.gpx").write_text(head + track("A", a) + track("B", b) + "</gpx>\n")
+    world = api.load_world(terrain=str(tmp_path / "flat.tif"))
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    for name in ("local", "windows"):
+        (tmp_path / name).mkdir()
+    outputs = {name: ReplayOutputs(str(tmp_path / name / "p.csv"), str(tmp_path / name / "e.jsonl"))
+               for name in ("local", "windows")}
+    run_replay(world, str(tmp_path / "t.gpx"), outputs["local"], options)
+    plan = plan_windows(str(tmp_path / "t.gpx"), options, 4.0)
+    assert len(plan.tasks) > 3 and all(task.parts is None for task in plan.tasks)
+    run_windows(str(tmp_path / "t.gpx"), outputs["windows"], in_process(world, options), plan, options)
+    _same_bytes(tmp_path / "local", tmp_path / "windows")
+    events = [json.loads(line) for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()]
+    if chunk_rows == 65536:
+        assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
