@@ -30,8 +30,8 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_fleet", "export_trajectory",
-           "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
+__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
+           "replay_fleet", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -222,6 +222,55 @@ def export_trajectory(trajectory: str, output: str, scene: str | None = None, te
     if scene is not None or terrain is not None:
         crs = load_world(scene=scene, terrain=terrain, up=up).crs
     return _export(trajectory, output, crs=crs, fmt=fmt)
+
+
+def replay_windows(trajectory: str, poses: str | None = "-", events: str | None = None, scene: str | None = None,
+                   terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto", discrete: bool = False,
+                   escalate: bool | None = None, tolerance: float | None = None, window_seconds: float = 60.0,
+                   scheduler: str | None = None, world=None, up: str | None = None,
+                   progress: Callable[[int], None] | None = None):
+    """Replay an exercise (one trajectory file, usually with an ``entity`` column) by time windows of
+    ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
+    ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
+    lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
+    ``replay.windows``); memory follows the window. Returns the closing summary
+    (``replay.records.ReplaySummary``). ``progress(rows)`` as windows are written."""
+    import os
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay.records import ReplayOutputs
+    from tankcd_cli.replay.windows import in_process, on_dask, plan_windows, run_windows
+
+    if not isinstance(trajectory, str) or trajectory == "-":
+        raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
+                                          "its own rows), not standard input or arrays")
+    if not window_seconds > 0:
+        raise ValueError(f"window_seconds must be positive, not {window_seconds!r}")
+    from tankcd_cli.io.parquet import is_parquet
+
+    for out in (poses, events):
+        if is_parquet(out):
+            raise ValueError(f"{out}: a replay by time windows writes the poses CSV and the events JSON Lines "
+                             "(Parquet: replay in one piece, or convert the outputs)")
+    options = _options(matcher, escalate, tolerance, discrete)
+    if scheduler:
+        from tankcd_cli.replay.fleet import FleetWorld
+        from tankcd_cli.replay.world import WorldSpec
+
+        import dataclasses
+
+        spec = world.spec if world is not None and world.spec is not None else WorldSpec(
+            scene=scene, terrain=terrain, vehicle=vehicle, up=up)
+        # workers elsewhere may run in another directory
+        spec = dataclasses.replace(spec, **{k: os.path.abspath(getattr(spec, k)) for k in ("scene", "terrain", "store")
+                                            if getattr(spec, k)})
+        runner = on_dask(FleetWorld(spec, options), scheduler)
+        path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
+    else:
+        runner = in_process(_world(world, scene, terrain, vehicle, up, False, None), options)
+        path = trajectory
+    plan = plan_windows(path, options, window_seconds)
+    return run_windows(path, ReplayOutputs(poses, events), runner, plan, options, progress=progress)
 
 
 def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, terrain: str | None = None,

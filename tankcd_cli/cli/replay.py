@@ -78,6 +78,10 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: parallel processes (default: the number of cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
+@click.option("--window-seconds", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
+              help="Replay one exercise by time windows of about S seconds (a whole number of the 2 s contact "
+                   "windows), each a task: here one after the other, or on the Dask cluster at --scheduler; the "
+                   "poses and events of a run in one piece, byte for byte.")
 @click.option("--split-lines", type=click.IntRange(1000, None), default=1_000_000, show_default=True,
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
@@ -85,7 +89,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, together,
            discrete, vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
-           split_lines):
+           split_lines, window_seconds):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
@@ -104,7 +108,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     poses; a compass bearing (from north, clockwise) is 90 - bearing."""
     import os
 
-    fleet_mode = out_dir is not None or jobs is not None or scheduler is not None or len(trajectories) > 1 \
+    fleet_mode = out_dir is not None or jobs is not None or (scheduler is not None and window_seconds is None) \
+        or len(trajectories) > 1 \
         or any((t.startswith("@") or any(ch in t for ch in "*?[")) and not os.path.exists(t) for t in trajectories)
     if together:
         if out_dir is not None or jobs is not None or scheduler is not None:
@@ -151,6 +156,15 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     refuse_clashes({**({f"TRAJECTORY {p}": p for p in trajectory} if together else {"TRAJECTORY": trajectory}),
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
+    if window_seconds is not None:
+        from tankcd_cli.io.parquet import is_parquet
+
+        if is_parquet(poses_path) or is_parquet(events_path):
+            raise click.UsageError("--window-seconds writes the poses CSV and the events JSON Lines: give --poses and "
+                                   "--events names ending in .csv and .jsonl (Parquet: replay in one piece)")
+        return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
+                        discrete, escalate, tolerance, window_seconds, scheduler, summary_path, fail_on_collision,
+                        allow_off_terrain, step)
     world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
     drawing = None
     if png:
@@ -170,6 +184,26 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         mesh_store = opened.mesh_store if opened.classified else None
         with atomic_path(png, ".png") as tmp:
             drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
+    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
+    _exit_on_failures(result, fail_on_collision, allow_off_terrain)
+
+
+def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher, discrete,
+             escalate, tolerance, window_seconds, scheduler, summary_path, fail_on_collision, allow_off_terrain, step):
+    """--window-seconds: one exercise by time windows, here or on the cluster (replay.windows)."""
+    from tankcd_cli import api
+
+    if trajectory == "-":
+        raise click.UsageError("--window-seconds reads a trajectory file (each window reads its own rows), not "
+                               "standard input")
+    world = None if scheduler else api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
+                                                  cache=cache, progress=step)
+    result = api.replay_windows(trajectory, poses_path, events_path, scene=scene, terrain=terrain,
+                                vehicle=vehicle_name, up=up, world=world, matcher=matcher, discrete=discrete,
+                                escalate=escalate, tolerance=tolerance, window_seconds=window_seconds,
+                                scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
+    report.bar(None)
+    result.seconds = round(report.elapsed(), 3)
     _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 

@@ -108,6 +108,12 @@ class VehicleContacts:
         self.buffer = []
         return events
 
+    def close_window(self, w0: float, w1: float, last: bool = False) -> list:
+        """The contacts that begin in the window [w0, w1) among the segments buffered (``add``), for a
+        caller that decides itself when a window is complete (``replay.windows``: a task given every
+        segment its windows need); the buffer keeps only what reaches past ``w1``, as ``ready`` does."""
+        return self._window(w0, w1, last)
+
     # -- one window ----------------------------------------------------------------------------
     def _window(self, w0: float, w1: float, last: bool = False) -> list:
         """Every contact that begins in [w0, w1) (its end included at the last window)."""

@@ -128,7 +128,13 @@ FLEET_NEEDS = "it sets how a fleet runs, and a fleet writes one poses and one ev
     (["--no-escalate", "--tolerance", "0.1"],
      f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
     (["--jobs", "2"], f"--jobs needs --out-dir: {FLEET_NEEDS}"),
-    (["--scheduler", "tcp://localhost:8786"], f"--scheduler needs --out-dir: {FLEET_NEEDS}"),
+    (["--scheduler", "tcp://localhost:8786"], "--scheduler needs --out-dir or --window-seconds: it runs a fleet's "
+                                              "trajectories or an exercise's time windows on the cluster"),
+    (["--out-dir", "o", "--window-seconds", "60"],
+     f"--window-seconds does not apply with {FLEET}: it cuts one exercise into time windows, written into --poses "
+     "and --events"),
+    (["--window-seconds", "60", "--png", "a.png"],
+     "--png does not apply with --window-seconds: it draws a replay run in one piece"),
     (["--split-lines", "5000"], f"--split-lines needs --out-dir: {FLEET_NEEDS}"),
     (["--out-format", "parquet"], "--out-format needs --out-dir: it sets the format of the files a fleet writes "
                                   "there (one replay writes Parquet to --poses and --events ending in .parquet)"),
