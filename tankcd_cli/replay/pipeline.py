@@ -87,14 +87,15 @@ class ReplayRun:
         return self._kind_codes[codes] if len(self._kind_codes) else np.zeros(len(codes), dtype=np.int64)
 
 
-def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities: bool = False) -> ReplayRun:
+def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities: bool = False,
+              source: str = "trajectory") -> ReplayRun:
     """A replay's run of ``world`` for a trajectory whose turret or gun moves (or not), with many
     vehicles (``entities``: their checks against each other too) or one."""
     run = ReplayRun(world, options, turret_moves)
     if entities:
         from tankcd_cli.replay.vehicles import VehicleContacts
 
-        run.vehicles = VehicleContacts(world, continuous=options.continuous)
+        run.vehicles = VehicleContacts(world, continuous=options.continuous, source=source)
         run.seconds["vehicles"] = 0.0
     return run
 

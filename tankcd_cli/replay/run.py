@@ -52,7 +52,7 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
         source, chunks = "trajectory", iter(trajectory)
     first = next(chunks, None)
     entities = bool(first is not None and first.has_entity)
-    run = start_run(world, options, bool(first is not None and first.has_turret), entities=entities)
+    run = start_run(world, options, bool(first is not None and first.has_turret), entities=entities, source=source)
     lead = lead_row(trajectory, part, crs=world.crs) if part is not None and isinstance(trajectory, str) else None
     counts = ReplayCounts()
     stream = _chain(first, chunks)
