@@ -1,6 +1,6 @@
 """Benchmark: `tankcd replay` end to end (whole process) on the sample terrain, or on a game-sized DEM.
 
-    python benchmarks/bench_replay.py [--rows 100000] [--out benchmarks/results/replay.md]
+    python benchmarks/bench_replay.py [--rows 100000] [--repeats 7] [--out benchmarks/results/replay.md]
     python benchmarks/bench_replay.py --dem [--rows 1000000] [--before CHECKOUT] [--repeats 5]
         [--out benchmarks/results/replay_dem.md]
 
@@ -11,11 +11,19 @@ with its obstacles and drums and a moving turret, and matching alone
 (`--terrain`) for comparison. Reports rows/s and, from `--summary`, the share
 of time per effect.
 
+Then what the check along the motion between rows (the default) costs against
+`--discrete` (the rows alone), runs alternated, REPEATS pairs, the ratio's
+median and range over the pairs: the sample scene with every effect at 10 Hz
+(target: at most 1.25x), the same drive logged at 1 Hz (ROWS rows 5 m apart,
+reported), and a scene whose obstacles the path never approaches (the drive
+held to the west of the battlefield, the depot and the wall moved to its east
+end: target at most 1.05x).
+
 With ``--dem``: a made DEM like a 1 km game terrain (``ridged_dem``: 512 x 512 posts at 2 m,
 ridged fractal noise, heights +-30 m), classified to a grid store, and a random walk of ROWS
 rows at 10 Hz over it (``dem_walk``), T-72 terrain only: the default replay (``auto``,
-escalating) against ``--no-escalate``, and, with ``--before``, against the same replay run by
-another checkout of tankcd (its folder put first on PYTHONPATH), runs alternated.
+escalating) and ``--no-escalate``, and with ``--before`` both again as another checkout of
+tankcd runs them (its folder put first on PYTHONPATH), every case once a round.
 """
 
 from __future__ import annotations
@@ -36,21 +44,25 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLE = os.path.join(os.path.dirname(HERE), "sample_data")
 
 
-def random_walk(rows, seed=3):
-    """A wandering drive over the sample battlefield: x, y (m) and heading (rad), (rows,) each."""
+def random_walk(rows, seed=3, width=230.0):
+    """A wandering drive over the sample battlefield: x, y (m) and heading (rad), (rows,) each, 0.5 m a
+    row, folded back into x from 500005 to 500005 + width."""
     rng = np.random.default_rng(seed)
     heading = np.cumsum(rng.normal(0, 0.02, rows))
     x = 500120 + np.cumsum(0.5 * np.cos(heading))
     y = 4500080 + np.cumsum(0.5 * np.sin(heading))
     # keep it on the terrain: fold the walk back into the battlefield
-    x = 500005 + np.abs((x - 500005) % 460 - 230)
+    x = 500005 + np.abs((x - 500005) % (2 * width) - width)
     y = 4500005 + np.abs((y - 4500005) % 300 - 150)
     return x, y, heading
 
 
-def trajectory(path, rows, seed=3):
-    x, y, heading = random_walk(rows, seed)
-    t = np.arange(rows) * 0.1
+def trajectory(path, rows, seed=3, hz=10.0, width=230.0):
+    """ROWS rows of the walk (10 rows a second at 0.5 m a row: 5 m/s), logged at ``hz``: every
+    (10 / hz)-th row of a walk that many times longer."""
+    every = int(round(10.0 / hz))
+    x, y, heading = (v[::every] for v in random_walk(rows * every, seed, width))
+    t = np.arange(rows) / hz
     turret = (t * 12.0) % 360 - 180
     gun = -6 + 8 * (0.5 + 0.5 * np.sin(t / 7))
     with open(path, "w") as fh:
@@ -133,18 +145,33 @@ def run(args, repeats=3):
     return float(np.median(times)), min(times), max(times), summary, max(peaks)
 
 
-def paired(a_args, b_args, repeats=7, a_checkout=None, b_checkout=None, spread=False):
-    """Runs of a and b alternated (the honest ratio on a shared machine): medians and the median
-    ratio a / b (with ``spread``, also the smallest and largest of the paired ratios)."""
+def paired(a_args, b_args, repeats=7):
+    """Runs of a and b alternated (the honest ratio on a shared machine): medians, peaks and summaries,
+    and the ratio a / b pair by pair: (median, lowest, highest)."""
     ta, tb, pa, pb, sa, sb = [], [], [], [], None, None
     for _ in range(repeats):
-        t, p, sa = once(a_args, a_checkout)
+        t, p, sa = once(a_args)
         ta.append(t), pa.append(p)
-        t, p, sb = once(b_args, b_checkout)
+        t, p, sb = once(b_args)
         tb.append(t), pb.append(p)
     ratios = np.array(ta) / np.array(tb)
-    ratio = (float(np.median(ratios)), float(ratios.min()), float(ratios.max())) if spread else float(np.median(ratios))
-    return (float(np.median(ta)), max(pa), sa), (float(np.median(tb)), max(pb), sb), ratio
+    return (float(np.median(ta)), max(pa), sa), (float(np.median(tb)), max(pb), sb), \
+        (float(np.median(ratios)), float(ratios.min()), float(ratios.max()))
+
+
+def verdict(ratio, target=None):
+    """Whether the pairs support a ratio against its target, in words."""
+    med, lo, hi = ratio
+    said = []
+    if target is not None:
+        said.append(f"target at most {target:.2f}x: " + ("met" if hi <= target else "**not met**" if lo > target
+                                                           else "met by the median" if med <= target else
+                                                           "**not met** by the median"))
+    if hi / lo > 1.5:
+        said.append(f"the pairs range over a factor of {hi / lo:.2f}: too wide to read")
+    elif lo <= 1.0 <= hi:
+        said.append("the pairs hold 1.0x: this machine cannot tell the two apart")
+    return "; ".join(said)
 
 
 def _commit(checkout):
@@ -230,16 +257,20 @@ def dem_main(a):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--rows", type=int, default=None, help="default 100,000 (1,000,000 with --dem)")
-    ap.add_argument("--out", default=None)
+    ap.add_argument("--repeats", type=int, default=7, help="pairs behind each ratio (rounds of every case with --dem)")
+    ap.add_argument("--only-between", action="store_true",
+                    help="only the check along the motion against --discrete (default --out: between_rows.md)")
+    ap.add_argument("--out", default=None, help="default: benchmarks/results/replay.md (between_rows.md with "
+                                                "--only-between, replay_dem.md with --dem)")
     ap.add_argument("--dem", action="store_true", help="the made game-sized DEM instead of the sample terrain")
-    ap.add_argument("--before", default=None, help="with --dem: another checkout to run the same replay with")
-    ap.add_argument("--repeats", type=int, default=5, help="with --dem: alternated runs of each")
+    ap.add_argument("--before", default=None, help="with --dem: another checkout to run the same replays with")
     a = ap.parse_args()
     if a.dem:
         a.rows = a.rows or 1_000_000
         return dem_main(a)
     a.rows = a.rows or 100_000
-    a.out = a.out or os.path.join(HERE, "results", "replay.md")
+    if a.out is None:
+        a.out = os.path.join(HERE, "results", "between_rows.md" if a.only_between else "replay.md")
     with tempfile.TemporaryDirectory() as tmp:
         store = os.path.join(tmp, "battlefield.h5")
         subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", os.path.join(SAMPLE, "battlefield.asc"),
@@ -255,15 +286,29 @@ def main():
         with open(os.path.join(tmp, "terrain_only.toml"), "w") as fh:
             fh.write(f'[terrain]\npath = "{store}"\n[vehicle]\nfuel_drums = false\n')
         out = os.path.join(tmp, "poses.csv")
-        subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "bvh", "--scene", os.path.join(tmp, "full.toml")], check=True)
-        cases = [("matching alone (--terrain, an M1: no drums)", ["replay", traj, "--terrain", store, "--vehicle", "m1", "--poses", out]),
-                 ("scene, everything off but terrain contact", ["replay", traj, "--scene", os.path.join(tmp, "terrain_only.toml"), "--poses", out]),
-                 ("sample scene: obstacles, drums, turret sweep", ["replay", traj, "--scene", os.path.join(tmp, "full.toml"), "--poses", out,
-                                                                   "--events", os.path.join(tmp, "e.jsonl")])]
-        lines = ["# Benchmark: replay end to end", "",
+        subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "bvh", "--scene", os.path.join(tmp, "full.toml")],
+                       check=True)
+        cases = [("matching alone (--terrain, an M1: no drums)",
+                  ["replay", traj, "--terrain", store, "--vehicle", "m1", "--poses", out]),
+                 ("scene, everything off but terrain contact",
+                  ["replay", traj, "--scene", os.path.join(tmp, "terrain_only.toml"), "--poses", out]),
+                 ("sample scene: obstacles, drums, turret sweep",
+                  ["replay", traj, "--scene", os.path.join(tmp, "full.toml"), "--poses", out,
+                   "--events", os.path.join(tmp, "e.jsonl")])]
+        made = (f"`python benchmarks/{' '.join([os.path.basename(sys.argv[0])] + sys.argv[1:])}`, "
+                f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores (load average "
+                f"{os.getloadavg()[0]:.1f} at the start: the machine is shared).")
+        if a.only_between:
+            lines = ["# Benchmark: the check along the motion between rows against the rows alone", "", made,
+                     "", f"{a.rows:,} rows on the sample battlefield in each case."]
+            save_report("\n".join(lines + between_rows(a, tmp, store, full, traj, out) + [""]), a.out)
+            return
+        lines = ["# Benchmark: replay end to end", "", made, "",
                  f"{a.rows:,} rows on the sample battlefield, a fresh process each run (start-up, reading, "
-                 "matching, effects, writing poses); medians of 3 (min-max).", "",
-                 "| case | seconds | rows/s | peak memory | matching | terrain contact | obstacles | internal | collisions |",
+                 "matching, effects, writing poses, and the check along the motion between rows, the default); "
+                 "medians of 3 (min-max).", "",
+                 "| case | seconds | rows/s | peak memory | matching | terrain contact | obstacles | internal | "
+                 "collisions |",
                  "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         for name, args in cases:
             med, lo, hi, s, peak = run(args)
@@ -272,20 +317,63 @@ def main():
                          f"{sec['matching']:.2f} s | {sec['terrain']:.2f} s | {sec['obstacles']:.2f} s | "
                          f"{sec['internal']:.2f} s | {sum(s['collisions'].values()):,} |")
         only = ["replay", traj, "--scene", os.path.join(tmp, "terrain_only.toml"), "--poses", out]
-        (te, pe, se), (tp, pp, sp), ratio = paired(only, only + ["--no-escalate"])
+        (te, pe, se), (tp, pp, sp), esc = paired(only, only + ["--no-escalate"], a.repeats)
+        ratio = esc[0]
         share = 1 - sum(c for m, c in se["matchers"].items() if "+" not in m) / a.rows
         lines += ["", "## What auto's escalation costs", "",
                   "The terrain-only scene, `auto` (escalating: every key-point pose checked against the "
                   "reference's certificate, those that fail solved by the reference) against `auto "
-                  "--no-escalate`, runs alternated, medians of 7.", "",
-                  "| auto | seconds | rows/s | peak memory | matching | escalated rows |", "| --- | --- | --- | --- | --- | --- |",
+                  f"--no-escalate`, runs alternated, medians of {a.repeats}.", "",
+                  "| auto | seconds | rows/s | peak memory | matching | escalated rows |",
+                  "| --- | --- | --- | --- | --- | --- |",
                   f"| escalating (default) | {te:.3f} | {a.rows / te:,.0f} | {pe:,.0f} MB | "
                   f"{se['seconds_by_effect']['matching']:.3f} s | {share:.1%} |",
                   f"| --no-escalate | {tp:.3f} | {a.rows / tp:,.0f} | {pp:,.0f} MB | "
                   f"{sp['seconds_by_effect']['matching']:.3f} s | 0 |", "",
-                  f"Escalating costs {ratio:.2f}x the plain rule's whole process (the median of the paired ratios); "
-                  f"its matching stage alone {se['seconds_by_effect']['matching'] / sp['seconds_by_effect']['matching']:.2f}x."]
+                  f"Escalating costs {ratio:.2f}x the plain rule's whole process (the median of the paired ratios; "
+                  f"pairs {esc[1]:.2f}-{esc[2]:.2f}x{'; ' + verdict(esc) if verdict(esc) else ''}); its matching "
+                  "stage alone "
+                  f"{se['seconds_by_effect']['matching'] / sp['seconds_by_effect']['matching']:.2f}x (one run each)."]
+        lines += between_rows(a, tmp, store, full, traj, out)
     save_report("\n".join(lines + [""]), a.out)
+
+
+def between_rows(a, tmp, store, full, traj, out):
+    """The section on the check along the motion: continuous against --discrete, pairs alternated."""
+    slow = os.path.join(tmp, "traj_1hz.csv")
+    trajectory(slow, a.rows, hz=1.0)
+    west = os.path.join(tmp, "traj_west.csv")
+    trajectory(west, a.rows, width=140.0)  # x from 500005 to 500145
+    far = full.replace("position = [500112.0, 4500012.0, 99.5]", "position = [500222.0, 4500030.0, 99.5]")
+    far = far.replace("position = [500100.0, 4500077.5, 98.5]", "position = [500225.0, 4500120.0, 98.5]")
+    assert far != full and far.count("50022") == 2, "the sample scene's obstacles moved: update the far scene"
+    with open(os.path.join(tmp, "far.toml"), "w") as fh:
+        fh.write(far)
+    subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "bvh", "--scene", os.path.join(tmp, "far.toml")],
+                   check=True)
+    events = os.path.join(tmp, "e.jsonl")
+    cases = [("sample scene, every effect, 10 Hz", traj, "full.toml", 1.25),
+             ("sample scene, every effect, 1 Hz (rows 5 m apart)", slow, "full.toml", None),
+             ("obstacles the path never approaches (60 m off), every effect, 10 Hz", west, "far.toml", 1.05)]
+    lines = ["", "## What the check along the motion costs", "",
+             f"Each case replayed along the motion between rows (the default) and with `--discrete` (the rows "
+             f"alone), fresh processes alternated, {a.repeats} pairs; seconds are medians, the ratio is "
+             "continuous over discrete pair by pair (median, lowest-highest). The walk: 5 m/s, the turret "
+             "sweeping at 12 deg/s, the gun nodding; at 1 Hz the same walk keeps every tenth row (the same "
+             "number of rows, ten times the time). The far scene: the sample scene with the depot and the "
+             "wall moved to the east end of the battlefield (east of x = 500214) and the walk held west of "
+             "x = 500145 (60 m and more from both, counting the hull).", "",
+             "| case | continuous, s | --discrete, s | continuous / discrete | peak memory (cont. / discr.) | "
+             "between rows: s, sub-steps, events | verdict |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name, path, scene, target in cases:
+        common = ["replay", path, "--scene", os.path.join(tmp, scene), "--poses", out, "--events", events]
+        (tc, pc, sc), (td, pd, sd), ratio = paired(common, common + ["--discrete"], a.repeats)
+        motion = sc.get("motion", {})
+        lines.append(f"| {name} | {tc:.2f} | {td:.2f} | {ratio[0]:.3f}x ({ratio[1]:.3f}-{ratio[2]:.3f}x) | "
+                     f"{pc:,.0f} / {pd:,.0f} MB | {sc['seconds_by_effect'].get('between', 0):.2f} s, "
+                     f"{motion.get('substeps', 0):,}, {sum(sc['between'].values()):,} | "
+                     f"{verdict(ratio, target) or 'reported (no target)'} |")
+    return lines
 
 
 if __name__ == "__main__":

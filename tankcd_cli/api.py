@@ -7,6 +7,7 @@ terrain = api.open_terrain("battlefield.h5")           # a store, or any terrain
 poses = api.place(terrain, x, y, yaw_deg)              # dict of arrays keyed by the poses CSV's columns
 poses, events = api.replay("patrol.csv", scene="scene.toml")     # or terrain=...; or a dict of arrays
 summary = api.replay_to_files("patrol.csv", poses="poses.csv", events="events.jsonl", scene="scene.toml")
+# (poses="poses.parquet", events="events.parquet": Parquet, with pip install 'tankcd[parquet]')
 store = api.classify("dem.tif", "dem.h5")              # the terrain store, as `tankcd classify` writes it
 events = api.collide("scene.toml", poses)              # the vehicle at given poses against the obstacles
 envelope = api.gun_envelope("t72")                     # the lowest safe gun elevation per turret azimuth
@@ -29,8 +30,8 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_fleet",
-           "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
+__all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
+           "replay_fleet", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -185,36 +186,115 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
                     world=None, up: str | None = None, cache: bool = False,
                     progress: Callable[[int], None] | None = None, observe: Callable | None = None):
     """Replay a trajectory streamed to files, as ``tankcd replay`` does: the poses CSV (``-``
-    standard output, None: none) and the events JSON Lines (None: only counted), written under
-    temporary names and renamed together when complete; memory bounded by the chunk whatever the
-    trajectory's length. Returns the closing summary (``replay.records.ReplaySummary``).
+    standard output, None: none) and the events JSON Lines (None: only counted), or Parquet for a
+    name ending in ``.parquet`` (typed columns, the CRS, conventions and sources' SHA-256 in the
+    file's metadata; pyarrow is the ``parquet`` extra, its absence an InputError before any work);
+    written under temporary names and renamed together when complete; memory bounded by the chunk
+    whatever the trajectory's length. Returns the closing summary (``replay.records.ReplaySummary``).
     ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk."""
+    from tankcd_cli.io.parquet import check_writable
     from tankcd_cli.replay.records import ReplayOutputs
     from tankcd_cli.replay.run import run_replay
 
+    check_writable(poses, events)  # before the world is loaded
     w = _world(world, scene, terrain, vehicle, up, cache, None)
+    sources = [str(p) for p in trajectory] if isinstance(trajectory, (list, tuple)) else None
     return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
-                      _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe)
+                      _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe,
+                      sources=sources)
+
+
+def export_trajectory(trajectory: str, output: str, scene: str | None = None, terrain: str | None = None,
+                      crs: str | None = None, fmt: str | None = None, up: str | None = None) -> dict:
+    """Write any trajectory input (a trajectory CSV, a geographic CSV, GPX, a DIS capture) as the
+    trajectory CSV tankcd reads (``t,entity,x,y,yaw_deg,turret_deg,gun_deg``, the layout of
+    docs/formats.md, "Trajectory CSV written by tankcd"), converted to a CRS: the terrain's (a
+    store, any terrain input, or a scene's terrain) or ``crs`` (EPSG code or WKT). Geographic
+    inputs need one of them; a CSV in metres needs none. ``output``: a file (written beside and
+    renamed when complete) or ``-``. ``fmt``: the input's format when its suffix does not say
+    (csv, gpx, pcap, pcapng). Returns {"rows", "entities", "skipped"} (packets or lines skipped,
+    by reason)."""
+    from tankcd_cli.io.trajectory import export_trajectory as _export
+
+    given = [v is not None for v in (scene, terrain, crs)]
+    if sum(given) > 1:
+        raise ValueError("give at most one of scene=, terrain= and crs=")
+    if scene is not None or terrain is not None:
+        crs = load_world(scene=scene, terrain=terrain, up=up).crs
+    return _export(trajectory, output, crs=crs, fmt=fmt)
+
+
+def replay_windows(trajectory: str, poses: str | None = "-", events: str | None = None, scene: str | None = None,
+                   terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto", discrete: bool = False,
+                   escalate: bool | None = None, tolerance: float | None = None, window_seconds: float = 60.0,
+                   scheduler: str | None = None, world=None, up: str | None = None,
+                   progress: Callable[[int], None] | None = None):
+    """Replay an exercise (one trajectory file, usually with an ``entity`` column) by time windows of
+    ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
+    ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
+    lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
+    ``replay.windows``); memory follows the window. Returns the closing summary
+    (``replay.records.ReplaySummary``). ``progress(rows)`` as windows are written."""
+    import os
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay.records import ReplayOutputs
+    from tankcd_cli.replay.windows import in_process, on_dask, plan_windows, run_windows
+
+    if not isinstance(trajectory, str) or trajectory == "-":
+        raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
+                                          "its own rows), not standard input or arrays")
+    if not window_seconds > 0:
+        raise ValueError(f"window_seconds must be positive, not {window_seconds!r}")
+    from tankcd_cli.io.parquet import is_parquet
+
+    for out in (poses, events):
+        if is_parquet(out):
+            raise ValueError(f"{out}: a replay by time windows writes the poses CSV and the events JSON Lines "
+                             "(Parquet: replay in one piece, or convert the outputs)")
+    options = _options(matcher, escalate, tolerance, discrete)
+    if scheduler:
+        from tankcd_cli.replay.fleet import FleetWorld
+        from tankcd_cli.replay.world import WorldSpec
+
+        import dataclasses
+
+        spec = world.spec if world is not None and world.spec is not None else WorldSpec(
+            scene=scene, terrain=terrain, vehicle=vehicle, up=up)
+        # workers elsewhere may run in another directory
+        spec = dataclasses.replace(spec, **{k: os.path.abspath(getattr(spec, k)) for k in ("scene", "terrain", "store")
+                                            if getattr(spec, k)})
+        runner = on_dask(FleetWorld(spec, options), scheduler)
+        path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
+    else:
+        runner = in_process(_world(world, scene, terrain, vehicle, up, False, None), options)
+        path = trajectory
+    plan = plan_windows(path, options, window_seconds)
+    return run_windows(path, ReplayOutputs(poses, events), runner, plan, options, progress=progress)
 
 
 def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, terrain: str | None = None,
                  vehicle: str = "t72", up: str | None = None, matcher: str = "auto", discrete: bool = False,
                  escalate: bool | None = None, tolerance: float | None = None, jobs: int | None = None,
                  scheduler: str | None = None, split_lines: int | None = 1_000_000,
-                 progress: Callable[[str], None] | None = None, on_result: Callable | None = None):
+                 progress: Callable[[str], None] | None = None, on_result: Callable | None = None,
+                 out_format: str = "csv"):
     """Replay many trajectories (paths, globs, ``@lists``) as ``tankcd replay ... --out-dir`` does: each
-    into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl``, in ``jobs`` processes (default: the
+    into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl`` (``out_format="parquet"``:
+    ``NAME.poses.parquet`` and ``NAME.events.parquet``), in ``jobs`` processes (default: the
     cores) or on the Dask cluster at ``scheduler``, long ones in parts of ``split_lines`` lines;
     writes ``out_dir/fleet.json`` and returns its ``replay.fleet.FleetSummary``. A failing
     trajectory does not stop the others (its result says why)."""
     import os
 
+    from tankcd_cli.io.parquet import check_writable
     from tankcd_cli.replay.fleet import FleetWorld, expand_trajectories, plan_tasks, run_fleet, write_summary
     from tankcd_cli.replay.world import WorldSpec, classify_once
 
     paths = expand_trajectories(list(trajectories))
+    tasks = plan_tasks(paths, out_dir, split_lines, out_format)
+    check_writable(tasks[0].whole_poses or tasks[0].poses)  # Parquet without pyarrow: before any directory or work
     os.makedirs(out_dir, exist_ok=True)
-    tasks = plan_tasks(paths, out_dir, split_lines)
     spec = WorldSpec(scene=os.path.abspath(scene) if scene else None,
                      terrain=os.path.abspath(terrain) if terrain else None, vehicle=vehicle, up=up)
     jobs = jobs or os.cpu_count() or 1
@@ -227,9 +307,10 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
 
 
 def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
-    """A dict of arrays (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``) as the
-    chunks a replay streams, checked as a CSV's rows are: every value finite, ``t`` never
-    decreasing (an InputError names the first bad row, counting from 0)."""
+    """A dict of arrays (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``, and
+    ``entity``: each row's vehicle, which makes the rows an exercise) as the chunks a replay
+    streams, checked as a CSV's rows are: every value finite, ``t`` never decreasing (within each
+    entity), entity names usable as CSV cells (an InputError names the first bad row, from 0)."""
     from tankcd_cli.errors import InputError
     from tankcd_cli.io.trajectory import TrajectoryChunk
 
@@ -252,20 +333,58 @@ def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
             raise InputError("trajectory", f"{name} is not a finite number ({values[bad[0]]!r})",
                              where=f"row {int(bad[0])}")
         cols[name] = values
-    back = np.flatnonzero(np.diff(cols["t"]) < 0)
+    if "entity" in columns:
+        names, codes = _entity_codes(columns["entity"], n)
+    else:
+        names, codes = (), np.zeros(n, dtype=np.int64)
+    # t never decreasing within each entity (a stable sort keeps each entity's rows in order)
+    order = np.argsort(codes, kind="stable")
+    t_sorted, c_sorted = cols["t"][order], codes[order]
+    back = np.flatnonzero((np.diff(t_sorted) < 0) & (c_sorted[1:] == c_sorted[:-1]))
     if len(back):
-        k = int(back[0]) + 1
-        raise InputError("trajectory", f"time goes back ({cols['t'][k]!r} after {cols['t'][k - 1]!r}); t must be "
-                                       "non-decreasing", where=f"row {k}")
+        k, j = int(order[back[0] + 1]), int(order[back[0]])
+        who = f"entity {names[codes[k]]!r}: " if names else ""
+        raise InputError("trajectory", f"{who}time goes back ({cols['t'][k]!r} after {cols['t'][j]!r} at row {j}); t "
+                                       "must be non-decreasing" + (" within each entity" if names else ""),
+                         where=f"row {k}")
+    piece_start = np.zeros(n, dtype=bool)
+    piece_start[order[np.r_[True, c_sorted[1:] != c_sorted[:-1]]] if n else []] = True
 
     def chunks():
+        seen = 0
         for start in range(0, n, chunk_rows):
             sl = slice(start, min(start + chunk_rows, n))
             step = np.arange(sl.start, sl.stop)
+            if not names:
+                yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl],
+                                      cols["yaw_deg"][sl], cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret,
+                                      step.copy())
+                continue
+            seen = max(seen, int(codes[sl].max()) + 1)  # codes in order of first appearance: a prefix
             yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl], cols["yaw_deg"][sl],
-                                  cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret, step.copy())
+                                  cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret, step.copy(),
+                                  codes[sl], names[:seen], piece_start[sl], True)
 
     return chunks()
+
+
+def _entity_codes(values, n: int) -> tuple[tuple, np.ndarray]:
+    """Entity names (in order of first appearance) and each row's code into them; a name must be
+    text without a comma, quote or line break (it becomes a CSV cell), not empty."""
+    from tankcd_cli.errors import InputError
+
+    ids = np.asarray(values, dtype=object).ravel()
+    if ids.shape != (n,):
+        raise InputError("trajectory", f"column entity has {ids.size} values, t has {n}")
+    text = np.array([str(v).strip() for v in ids], dtype=object)
+    bad = [i for i, v in enumerate(text) if not v or any(c in v for c in ',"\n\r')]
+    if bad:
+        raise InputError("trajectory", f"entity {text[bad[0]]!r} is empty or holds a comma, quote or line break",
+                         where=f"row {bad[0]}")
+    names, first, inverse = np.unique(text.astype(str), return_index=True, return_inverse=True)
+    rank = np.empty(len(names), dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(names))
+    return tuple(str(v) for v in names[np.argsort(first, kind="stable")]), rank[inverse.ravel()]
 
 
 @dataclass

@@ -80,6 +80,41 @@ def test_replay_of_arrays_is_the_replay_of_the_file_and_of_the_command(store, tm
     assert lines == from_file[1]
 
 
+def test_an_exercise_of_arrays_is_the_exercise_of_the_file(tmp_path):
+    """An ``entity`` array makes the arrays an exercise, as the column makes a CSV one: the same poses
+    (with the entity of each row) and events, contacts between the vehicles included."""
+    columns = _patrol(120)
+    k = len(columns["t"])
+    # a second tank parked across the patrol's path a third of the way along, for its whole time
+    parked = {c: np.full(2, columns[c][k // 3]) for c in columns}
+    parked["t"] = np.array([columns["t"][0], columns["t"][-1]])
+    both = {c: np.r_[columns[c], parked[c]] for c in columns}
+    order = np.argsort(both["t"], kind="stable")
+    both = {c: v[order] for c, v in both.items()}
+    both["entity"] = np.r_[["patrol"] * k, ["parked"] * 2][order]
+    path = tmp_path / "exercise.csv"
+    with open(path, "w") as fh:
+        fh.write("t,entity,x,y,yaw_deg,turret_deg,gun_deg\n")
+        for i in range(len(order)):
+            fh.write(",".join([repr(float(both["t"][i])), both["entity"][i]]
+                              + [repr(float(both[c][i])) for c in ("x", "y", "yaw_deg", "turret_deg", "gun_deg")])
+                     + "\n")
+    world = api.load_world(scene=str(SAMPLE / "scene.toml"))
+    from_arrays = api.replay(both, world=world)
+    from_file = api.replay(str(path), world=world)
+    assert from_arrays[0].keys() == from_file[0].keys() and "entity" in from_arrays[0]
+    for c in from_arrays[0]:
+        np.testing.assert_array_equal(from_arrays[0][c], from_file[0][c])
+    assert from_arrays[1] == from_file[1]
+    assert any(e["kind"] == "vehicle" for e in from_arrays[1])
+    with pytest.raises(InputError, match="row 3: entity 'b': time goes back"):
+        list(api.trajectory_chunks({"t": [0.0, 5.0, 1.0, 0.5], "x": [0.0] * 4, "y": [0.0] * 4,
+                                    "yaw_deg": [0.0] * 4, "entity": ["a", "b", "a", "b"]}))
+    with pytest.raises(InputError, match="row 1: entity 'x,y' is empty or holds a comma"):
+        list(api.trajectory_chunks({"t": [0.0, 1.0], "x": [0.0] * 2, "y": [0.0] * 2, "yaw_deg": [0.0] * 2,
+                                    "entity": ["a", "x,y"]}))
+
+
 def test_replay_to_files_streams_and_summarizes(store, tmp_path):
     summary = api.replay_to_files(str(SAMPLE / "patrol.csv"), poses=str(tmp_path / "p.csv"),
                                   events=str(tmp_path / "e.jsonl"), terrain=store, discrete=True)

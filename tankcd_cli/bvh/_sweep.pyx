@@ -22,6 +22,9 @@ import numpy as np
 from tankcd_cli.bvh._trees cimport Trees, fill_trees, tree_reach
 from tankcd_cli.geometry._triangles cimport tri_tri_distance_c
 
+cdef extern from "_omp_shim.h":
+    int tcd_max_threads() nogil
+
 cnp.import_array()
 
 MOTION_WIDTH = 30
@@ -321,14 +324,15 @@ cdef void _query(Py_ssize_t q, const double* ma, const int64_t* ja, const double
     levels[q] = deepest
 
 
-def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, double eps):
+def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, double eps, bint parallel_ok=True):
     """For each query, the first contact of tree ``a`` moving by ``motion_a`` with tree ``b`` moving
     by ``motion_b`` (rows of 30 doubles, ``joints`` (N,) each), ``rate`` (N,) the two motions'
     summed bound (m per unit of s), ``eps`` the bound at which a leaf is reported, m.
 
     Returns found (N,) int64, s (N,) the leaf's middle (-1 where none), pairs (N, 2) of input
     triangle indices (a, b), points (N, 3) in the world (b's placement applied), node tests (N,)
-    and the deepest bisection level (N,).
+    and the deepest bisection level (N,). ``parallel_ok`` False: one thread (a batch too small to
+    pay for waking the others).
     """
     ma = np.ascontiguousarray(motion_a, dtype=np.float64).reshape(-1, 30)
     mb = np.ascontiguousarray(motion_b, dtype=np.float64).reshape(-1, 30)
@@ -381,7 +385,8 @@ def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, dou
     cdef int failed = 0
     cdef int* failed_p = &failed
     cdef Py_ssize_t q
-    with nogil, parallel():
+    cdef int threads = tcd_max_threads() if parallel_ok else 1
+    with nogil, parallel(num_threads=threads):
         f = <double*>malloc((3 * K + 1) * sizeof(double))
         g = <double*>malloc((3 * K * T + 1) * sizeof(double))
         shift = <double*>malloc((K + 1) * sizeof(double))

@@ -51,6 +51,9 @@ from tankcd_cli.bvh._sweep import chain_placements  # noqa: F401 (the compiled c
 from tankcd_cli.geometry.motion import axis_rotation, quaternion_matrix, quaternion_slerp
 
 MOTION_WIDTH = 30
+PASS_SECONDS = 60e-6  # a moving query's bisection, about (two vehicles' hulls near each other)
+STILL_SECONDS = 4e-6  # an instant's query (one walk), about
+PARALLEL_ABOVE = 0.02  # s of estimated work: below it the batch runs on one thread
 LEAF_BOUND = 5e-4
 """m. A sub-interval whose two bodies move no more than this (each point, from its place at the
 middle) is a leaf: within it the pair counts as touching if at its middle it is this close."""
@@ -143,8 +146,12 @@ def first_contacts(moving: Tree, other: Tree, rows_a, joints_a, rows_b, joints_b
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {other.k})")
     d = kdop.directions(moving.k)
     W = np.stack([np.linalg.inv(d[t]) for t in kdop.triples(moving.k)])
+    # threads only for a batch worth waking them for: on a busy machine a parallel region waits for
+    # its threads to be scheduled (up to a time slice, milliseconds), more than a small batch's work
+    rate = np.asarray(rate, dtype=np.float64)
+    work = PASS_SECONDS * np.count_nonzero(rate > eps) + STILL_SECONDS * np.count_nonzero(rate <= eps)
     found, s, pairs, points, node_tests, levels = kernel(moving, other, d, W, rows_a, joints_a, rows_b, joints_b,
-                                                         rate, float(eps))
+                                                         rate, float(eps), work > PARALLEL_ABOVE)
     return FirstContacts(found.astype(bool), np.where(found > 0, s, np.nan), pairs, points, node_tests, levels)
 
 

@@ -20,6 +20,7 @@ COMMANDS = {
     "bvh": ("tankcd_cli.cli.bvh", "Build a serialized bounding-volume tree of a model or a scene's obstacles."),
     "collide": ("tankcd_cli.cli.collide", "Test the vehicle at given poses against the scene's obstacles."),
     "demo": ("tankcd_cli.cli.demo", "Run the whole pipeline on the bundled sample battlefield."),
+    "export": ("tankcd_cli.cli.export", "Write a trajectory (CSV, GPX, DIS capture) as the CSV replay reads."),
     "envelope": ("tankcd_cli.cli.envelope", "Lowest safe gun elevation per turret azimuth (the rear fuel drums)."),
     "replay": ("tankcd_cli.cli.replay", "Replay a trajectory over a terrain: one pose per row."),
     "tradeoff": ("tankcd_cli.cli.tradeoff", "Measure what accuracy costs in time: tables, CSV and plots."),

@@ -85,8 +85,8 @@ def strict_option(f):
 
 
 def no_parquet(instead: str, reading: bool = False):
-    """An option callback: a path ending in .parquet is a usage error until Parquet is read and
-    written (the interface plans it for poses and events); ``instead`` is the suffix to give."""
+    """An option callback: a path ending in .parquet is a usage error where Parquet is not read or
+    written (replay writes it; collide does not read it); ``instead`` is the suffix to give."""
     def check(ctx, param, value):
         for path in value if isinstance(value, (tuple, list)) else (value,):
             if isinstance(path, str) and path.lower().endswith(".parquet"):
@@ -215,15 +215,24 @@ SCENE_VEHICLE = Excludes("vehicle_name", "scene", "the scene's [vehicle] table d
 
 FLEET = "fleet mode (--out-dir, or several trajectories)"
 ESCALATION = "escalation (--escalate, or --matcher auto without --no-escalate)"
+SCHEDULED = "--out-dir or --window-seconds"
 REPLAY_RULES = (
     Needs("png_colour", "png", "it colours the path --png draws"),
     Needs("allow_off_terrain", "fail_on_collision", "it keeps rows off the terrain from failing the run"),
     Needs("tolerance", ESCALATION, "it is the certificate's tolerance, which only escalation checks"),
     *(Needs(name, "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
-                             "trajectory there") for name in ("jobs", "scheduler", "split_lines")),
+                             "trajectory there") for name in ("jobs", "split_lines")),
+    Needs("out_format", "out_dir", "it sets the format of the files a fleet writes there (one replay writes Parquet "
+                                   "to --poses and --events ending in .parquet)"),
+    Needs("scheduler", SCHEDULED, "it runs a fleet's trajectories or an exercise's time windows on the cluster"),
+    Excludes("window_seconds", FLEET, "it cuts one exercise into time windows, written into --poses and --events"),
+    Excludes("window_seconds", "together", "it reads one trajectory file (each window reads its own rows)"),
+    Excludes("png", "window_seconds", "it draws a replay run in one piece"),
     Excludes("up", "scene", "the scene's [terrain] up key decides"),
-    Excludes("poses_path", FLEET, "a fleet writes OUT/NAME.poses.csv for each trajectory"),
-    Excludes("events_path", FLEET, "a fleet writes OUT/NAME.events.jsonl for each trajectory"),
+    Excludes("poses_path", FLEET, "a fleet writes OUT/NAME.poses.csv for each trajectory (.parquet with "
+                                  "--out-format parquet)"),
+    Excludes("events_path", FLEET, "a fleet writes OUT/NAME.events.jsonl for each trajectory (.parquet with "
+                                   "--out-format parquet)"),
     Excludes("cache", FLEET, "a fleet does not save its terrain beside it (classify it first with tankcd classify)"),
 )
 
@@ -235,7 +244,8 @@ def check_replay_options(ctx: click.Context, fleet: bool) -> None:
     the scene's terrain), they are refused too."""
     p = ctx.params
     escalation = bool(p.get("escalate") or (p.get("escalate") is None and p.get("matcher") == "auto"))
-    check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation})
+    scheduled = given(ctx, "out_dir") or given(ctx, "window_seconds")
+    check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation, SCHEDULED: scheduled})
     if not (given(ctx, "cache") or given(ctx, "up")):
         return
     from tankcd_cli.terrain.store import is_hdf5

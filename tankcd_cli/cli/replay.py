@@ -8,7 +8,6 @@ from tankcd_cli.cli.options import (
     REPLAY_VEHICLE_HELP,
     check_replay_options,
     no_dash_directory,
-    no_parquet,
     no_stdin,
     refuse_clashes,
     vehicle_option,
@@ -32,10 +31,11 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--terrain", "terrain", type=click.Path(), default=None,
               help="Terrain store, or any terrain input (classified on the fly), instead of a scene.")
 @click.option("--poses", "poses_path", type=click.Path(dir_okay=False, allow_dash=True), default="-",
-              show_default=True, callback=no_parquet(".csv"), help="Poses CSV output (- for stdout).")
+              show_default=True, help="Poses CSV output (- for stdout); a name ending in .parquet writes Parquet "
+                                      "(pip install 'tankcd[parquet]').")
 @click.option("--events", "events_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
-              callback=no_parquet(".jsonl"),
-              help="Events JSON Lines output (collisions, terrain contact, off-terrain).")
+              help="Events JSON Lines output (collisions, terrain contact, off-terrain); a name ending in .parquet "
+                   "writes Parquet.")
 @click.option("--matcher", type=click.Choice(MATCHER_CHOICES),
               default="auto", show_default=True, help="Terrain matcher (auto: by the region class under the footprint).")
 @click.option("--escalate/--no-escalate", default=None,
@@ -71,32 +71,45 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
 @click.option("--out-dir", type=click.Path(file_okay=False), default=None, callback=no_dash_directory,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
+@click.option("--out-format", type=click.Choice(["csv", "parquet"]), default="csv", show_default=True,
+              help="Fleet mode: the per-trajectory files as NAME.poses.csv and NAME.events.jsonl, or as "
+                   "NAME.poses.parquet and NAME.events.parquet (pip install 'tankcd[parquet]').")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,
               help="Fleet mode: parallel processes (default: the number of cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
+@click.option("--window-seconds", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
+              help="Replay one exercise by time windows of about S seconds (a whole number of the 2 s contact "
+                   "windows), each a task: here one after the other, or on the Dask cluster at --scheduler; the "
+                   "poses and events of a run in one piece, byte for byte.")
 @click.option("--split-lines", type=click.IntRange(1000, None), default=1_000_000, show_default=True,
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
 @click.pass_obj
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, together,
            discrete, vehicle_name, up, cache,
-           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, jobs, scheduler, split_lines):
+           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
+           split_lines, window_seconds):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
     motion, no gun checks; the hull bottom against the terrain always).
 
+    Poses and events to a name ending in .parquet are written as Parquet (typed columns; the CRS,
+    conventions and the sources' SHA-256 in the file's metadata).
+
     Fleets: several trajectories, globs ('runs/*.csv') or list files (@runs.txt) with --out-dir
-    replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl, in parallel (--jobs) or on a
-    Dask cluster (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
+    replay each into OUT/NAME.poses.csv and OUT/NAME.events.jsonl (--out-format parquet:
+    NAME.poses.parquet and NAME.events.parquet), in parallel (--jobs) or on a Dask cluster
+    (--scheduler), and write OUT/fleet.json. A failing trajectory does not stop the
     others; the exit code is 3 (bad input) or 4 (internal error) if any failed.
 
     Headings: yaw_deg is measured from east (+x), counter-clockwise (90 = north), as in the
     poses; a compass bearing (from north, clockwise) is 90 - bearing."""
     import os
 
-    fleet_mode = out_dir is not None or jobs is not None or scheduler is not None or len(trajectories) > 1 \
+    fleet_mode = out_dir is not None or jobs is not None or (scheduler is not None and window_seconds is None) \
+        or len(trajectories) > 1 \
         or any((t.startswith("@") or any(ch in t for ch in "*?[")) and not os.path.exists(t) for t in trajectories)
     if together:
         if out_dir is not None or jobs is not None or scheduler is not None:
@@ -117,8 +130,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
         return _fleet(report, trajectories, scene, terrain, dict(matcher=matcher, escalate=escalate,
                                                                  tolerance=tolerance, discrete=discrete),
-                      vehicle_name, up, out_dir, jobs, scheduler, fail_on_collision, allow_off_terrain, summary_path,
-                      split_lines)
+                      vehicle_name, up, out_dir, out_format, jobs, scheduler, fail_on_collision, allow_off_terrain,
+                      summary_path, split_lines)
     from tankcd_cli import api
 
     trajectory = trajectories[0]
@@ -134,12 +147,24 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     if events_path == "-" and summary_path == "-":
         raise click.UsageError("events already go to stdout: give --summary FILE")
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
+    from tankcd_cli.io.parquet import check_writable
+
+    check_writable(poses_path, events_path)  # before the world is loaded
     report.kernels()
     step = report.progress("replay")
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
     refuse_clashes({**({f"TRAJECTORY {p}": p for p in trajectory} if together else {"TRAJECTORY": trajectory}),
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
+    if window_seconds is not None:
+        from tankcd_cli.io.parquet import is_parquet
+
+        if is_parquet(poses_path) or is_parquet(events_path):
+            raise click.UsageError("--window-seconds writes the poses CSV and the events JSON Lines: give --poses and "
+                                   "--events names ending in .csv and .jsonl (Parquet: replay in one piece)")
+        return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
+                        discrete, escalate, tolerance, window_seconds, scheduler, summary_path, fail_on_collision,
+                        allow_off_terrain, step)
     world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
     drawing = None
     if png:
@@ -159,6 +184,26 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         mesh_store = opened.mesh_store if opened.classified else None
         with atomic_path(png, ".png") as tmp:
             drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
+    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
+    _exit_on_failures(result, fail_on_collision, allow_off_terrain)
+
+
+def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher, discrete,
+             escalate, tolerance, window_seconds, scheduler, summary_path, fail_on_collision, allow_off_terrain, step):
+    """--window-seconds: one exercise by time windows, here or on the cluster (replay.windows)."""
+    from tankcd_cli import api
+
+    if trajectory == "-":
+        raise click.UsageError("--window-seconds reads a trajectory file (each window reads its own rows), not "
+                               "standard input")
+    world = None if scheduler else api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
+                                                  cache=cache, progress=step)
+    result = api.replay_windows(trajectory, poses_path, events_path, scene=scene, terrain=terrain,
+                                vehicle=vehicle_name, up=up, world=world, matcher=matcher, discrete=discrete,
+                                escalate=escalate, tolerance=tolerance, window_seconds=window_seconds,
+                                scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
+    report.bar(None)
+    result.seconds = round(report.elapsed(), 3)
     _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
@@ -215,7 +260,7 @@ def _exit_on_failures(result, fail_on_collision: bool, allow_off_terrain: bool) 
         click.get_current_context().exit(EXIT_COLLISION)
 
 
-def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, jobs, scheduler,
+def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
            fail_on_collision, allow_off_terrain, summary_path, split_lines):
     import json
 
@@ -235,7 +280,7 @@ def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir,
 
     fleet = api.replay_fleet(list(trajectories), out_dir, scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
                              jobs=jobs, scheduler=scheduler, split_lines=split_lines, progress=step,
-                             on_result=on_result, **how)
+                             on_result=on_result, out_format=out_format, **how)
     report.bar(None)
     for failure in fleet.failures:
         click.echo(f"tankcd: error: {failure['error']}", err=True)

@@ -37,7 +37,7 @@ absolute values: two bodies closing head-on never cancel (each body's bound is a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -82,6 +82,10 @@ class RowIntervals:
     def __len__(self) -> int:
         return len(self.t0)
 
+    def take(self, idx) -> "RowIntervals":
+        """The intervals ``idx`` (indices, a mask or a slice), in that order."""
+        return RowIntervals(*(getattr(self, f.name)[idx] for f in fields(self)))
+
     @property
     def travel(self) -> np.ndarray:
         """(M,) horizontal travel of the footprint centre, m."""
@@ -115,6 +119,38 @@ def row_intervals(t, x, y, yaw_deg, turret_deg, gun_deg, first=None, links=None)
                         yaw_deg[a], shorter_arc_deg(yaw_deg[a], yaw_deg[b]),
                         turret_deg[a], shorter_arc_deg(turret_deg[a], turret_deg[b]),
                         gun_deg[a], gun_deg[b] - gun_deg[a])
+
+
+def motion_at(t, x, y, yaw_deg, turret_deg, gun_deg, times) -> dict:
+    """The state of the motion through rows (N,) of one vehicle at ``times`` (M,), s: a dict of
+    (M,) arrays ``t``, ``x``, ``y``, ``yaw_deg``, ``turret_deg``, ``gun_deg`` (angles wrapped to
+    [-180, 180), the gun's as it is), what rows logged at those times would hold.
+
+    Between two rows the state is the motion's (``row_intervals``: straight, constant rates, the
+    shorter arc); at a time shared by several rows, the last of them; before the first row or
+    after the last, that row's state (the motion is not extended past its ends)."""
+    t = np.asarray(t, dtype=float)
+    times = np.asarray(times, dtype=float)
+    cols = {"x": x, "y": y, "yaw_deg": yaw_deg, "turret_deg": turret_deg, "gun_deg": gun_deg}
+    cols = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+    if len(t) == 0:
+        raise ValueError("the motion needs at least one row")
+    k = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 1)  # the last row at or before
+    out = {"t": times.copy()}
+    out.update({name: v[k].copy() for name, v in cols.items()})
+    inside = (times > t[0]) & (times < t[-1]) & (k < len(t) - 1)
+    j = k[inside]
+    dt = t[j + 1] - t[j]  # > 0: the last row at or before a time inside has a later time after it
+    s = (times[inside] - t[j]) / dt
+    for name, v in cols.items():
+        if name in ("yaw_deg", "turret_deg"):
+            change = shorter_arc_deg(v[j], v[j + 1])
+        else:
+            change = v[j + 1] - v[j]
+        out[name][inside] = v[j] + s * change
+    for name in ("yaw_deg", "turret_deg"):
+        out[name] = np.mod(out[name] + 180.0, 360.0) - 180.0
+    return out
 
 
 def substep_counts(travel: np.ndarray, turn_deg: np.ndarray, max_travel: float,

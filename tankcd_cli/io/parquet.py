@@ -3,7 +3,8 @@
 Used like the CSV writers: open at a path (written beside it under a temporary name and renamed
 onto it when complete, ``io.atomic``: an error leaves nothing), write batches, close. pyarrow is
 an extra (``pip install 'tankcd[parquet]'``), imported only when a Parquet file is written; without
-it, :class:`ParquetUnavailable` carries the one line that says so (``PYARROW_MISSING``).
+it, :class:`ParquetUnavailable` (bad input: the command line's exit 3, as a missing Dask is) carries
+the one line that says so, naming the output (``PYARROW_MISSING``).
 
 Columns are typed (the schema is fixed when the file is opened): ``float64``, ``int64``,
 ``int32``, ``int16``, ``uint8``, ``bool``, ``string``, ``dict`` (a string column dictionary-encoded:
@@ -26,6 +27,8 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from tankcd_cli.errors import InputError
+
 PYARROW_MISSING = "Parquet output needs pyarrow: pip install 'tankcd[parquet]'"
 KINDS = ("float64", "int64", "int32", "int16", "uint8", "bool", "string", "dict", "json")
 CONVENTIONS = ("world frame x east, y north, z up in the terrain's CRS (m); angles in degrees; attitude ROS REP 103: "
@@ -34,21 +37,30 @@ CONVENTIONS = ("world frame x east, y north, z up in the terrain's CRS (m); angl
 UNITS = "m, s, deg"
 
 
-class ParquetUnavailable(Exception):
-    """pyarrow is not installed. ``str()`` is the one line to show (``PYARROW_MISSING``)."""
+class ParquetUnavailable(InputError):
+    """pyarrow is not installed: ``str()`` is the one line to show, ``target: PYARROW_MISSING`` (or
+    ``PYARROW_MISSING`` alone without a target)."""
 
-    def __init__(self):
-        super().__init__(PYARROW_MISSING)
+    def __init__(self, target: str | None = None):
+        super().__init__(target, PYARROW_MISSING)
 
 
-def pyarrow_modules():
-    """(pyarrow, pyarrow.parquet), or ParquetUnavailable."""
+def pyarrow_modules(target: str | None = None):
+    """(pyarrow, pyarrow.parquet), or ParquetUnavailable naming ``target``."""
     try:
         import pyarrow
         import pyarrow.parquet
     except ImportError:
-        raise ParquetUnavailable() from None
+        raise ParquetUnavailable(target) from None
     return pyarrow, pyarrow.parquet
+
+
+def check_writable(*targets: str | None) -> None:
+    """ParquetUnavailable for the first of ``targets`` that asks for Parquet when pyarrow is missing:
+    called before any work, so that a run that cannot write its output does not start."""
+    for target in targets:
+        if is_parquet(target):
+            pyarrow_modules(target)
 
 
 def is_parquet(path: str | None) -> bool:
@@ -82,15 +94,17 @@ def sha256_of(path: str, block: int = 1 << 20) -> str:
     return h.hexdigest()
 
 
-def output_metadata(crs_wkt: str | None = None, sources: Iterable[str] = (), **extra) -> dict:
+def output_metadata(crs_wkt: str | None = None, sources: Iterable = (), **extra) -> dict:
     """tankcd's key-value metadata for an output: ``tankcd.version``, ``tankcd.units``,
     ``tankcd.conventions``, ``tankcd.crs_wkt`` (empty without a CRS), ``tankcd.sources`` (JSON:
-    a list of {"path", "sha256"}), and ``tankcd.<key>`` for each extra key (JSON unless a str)."""
+    a list of {"path", "sha256"} for each path in ``sources``; a dict there is taken as it is, for a
+    source described otherwise), and ``tankcd.<key>`` for each extra key (JSON unless a str)."""
     from tankcd_cli import __version__
 
+    described = [dict(p) if isinstance(p, dict) else {"path": str(p), "sha256": sha256_of(p)}
+                 for p in sources if isinstance(p, dict) or (p and p != "-")]
     out = {"tankcd.version": __version__, "tankcd.units": UNITS, "tankcd.conventions": CONVENTIONS,
-           "tankcd.crs_wkt": crs_wkt or "",
-           "tankcd.sources": json.dumps([{"path": str(p), "sha256": sha256_of(p)} for p in sources if p and p != "-"])}
+           "tankcd.crs_wkt": crs_wkt or "", "tankcd.sources": json.dumps(described)}
     for key, value in extra.items():
         out[f"tankcd.{key}"] = value if isinstance(value, str) else json.dumps(value)
     return out
@@ -124,7 +138,7 @@ class ParquetTableWriter:
     def __init__(self, target: str, schema: Sequence[tuple[str, str]], metadata: dict | None = None,
                  compression: str = "zstd", compression_level: int | None = 1,
                  statistics: Sequence[str] | None = None, threaded: bool = False):
-        pa, pq = pyarrow_modules()
+        pa, pq = pyarrow_modules(target)
         from tankcd_cli.io.atomic import atomic_path
 
         for name, kind in schema:
@@ -145,11 +159,11 @@ class ParquetTableWriter:
         encoding.update({name: "DELTA_BINARY_PACKED" for name, kind in schema if kind == "int64"})
         try:
             leveled = str(compression).lower() in ("zstd", "gzip", "brotli")
-            self._writer = pq.ParquetWriter(tmp, self.schema, compression=compression,
-                                            compression_level=compression_level if leveled else None,
-                                            use_dictionary=[name for name, kind in schema if kind == "dict"] or False,
-                                            column_encoding=encoding or None,
-                                            write_statistics=True if statistics is None else list(statistics))
+            self._writer = self._disk(pq.ParquetWriter, tmp, self.schema, compression=compression,
+                                      compression_level=compression_level if leveled else None,
+                                      use_dictionary=[name for name, kind in schema if kind == "dict"] or False,
+                                      column_encoding=encoding or None,
+                                      write_statistics=True if statistics is None else list(statistics))
         except BaseException:
             self._stack.__exit__(*sys.exc_info())
             raise
@@ -170,19 +184,36 @@ class ParquetTableWriter:
             raise ValueError(f"columns not in the schema: {sorted(unknown)}")
         n = lengths.pop() if lengths else 0
         arrays = [self._array(name, kind, columns.get(name), n) for name, kind in self.kinds.items()]
-        table = pa.Table.from_arrays(arrays, schema=self.schema)
+        self._write_table(pa.Table.from_arrays(arrays, schema=self.schema))
+
+    def write_arrow(self, table) -> None:
+        """One batch given as a pyarrow table of the schema's columns (a row group of another file of
+        this schema, being joined into this one): a row group."""
+        self._write_table(table.select(list(self.kinds)).cast(self.schema))
+
+    def _write_table(self, table) -> None:
         if self._pool is None:
-            self._writer.write_table(table)
+            self._disk(self._writer.write_table, table)
         else:
             self._wait()
             self._pending = self._pool.submit(self._writer.write_table, table)
-        self.rows += n
+        self.rows += table.num_rows
 
     def _wait(self) -> None:
         """The row group being written (threaded) is written; its error, if any, raised here."""
         pending, self._pending = self._pending, None
         if pending is not None:
-            pending.result()
+            self._disk(pending.result)
+
+    def _disk(self, call, *args, **kw):
+        """``call(*args, **kw)``, an OSError of the disk (full, gone, refused) as bad output naming the
+        target, as ``io.atomic`` says it of every output (the command line's exit 3, one line)."""
+        try:
+            return call(*args, **kw)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise InputError(self.target, f"cannot write output: {exc.strerror or exc}") from None
 
     def _array(self, name, kind, values, n):
         pa = self._pa
@@ -236,7 +267,7 @@ class ParquetTableWriter:
         self._stop_pool()
         writer, self._writer = self._writer, None
         try:
-            writer.close()
+            self._disk(writer.close)
         except BaseException:
             self._stack.__exit__(*sys.exc_info())
             raise
@@ -346,6 +377,7 @@ EVENT_SCHEMA = (
     ("a", "dict"), ("b", "dict"),  # the two parts (for kind vehicle: the two entities, sorted)
     ("entity", "dict"),         # the vehicle the event concerns
     ("a_part", "dict"), ("b_part", "dict"),  # kind vehicle: the two vehicles' parts
+    ("a_step", "int64"), ("b_step", "int64"),  # kind vehicle: each one's earlier row of the interval they met in
     ("between", "bool"),        # a contact that begins between two rows
     ("point_x", "float64"), ("point_y", "float64"), ("point_z", "float64"),  # the contact's world position, m
     ("depth", "float64"),       # m
@@ -397,9 +429,7 @@ def event_columns(events: Sequence) -> dict:
             col = [None] * n
             for i, v in values:
                 col[i] = v if v is None else (str(v) if kind == "dict" else v)
-            if kind == "int32":
-                col = np.array(col, dtype=object)
-            elif kind == "bool":
+            if kind in ("int32", "int64", "bool"):  # None for null: the writer masks them
                 col = np.array(col, dtype=object)
         cols[name] = col
     cols["extra"] = extra
@@ -430,6 +460,8 @@ def _fits(key: str, value) -> bool:
         return isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
     if kind == "int32":
         return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and -2**31 <= value < 2**31
+    if kind == "int64":
+        return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and -2**63 <= value < 2**63
     if kind == "bool":
         return isinstance(value, (bool, np.bool_))
     return isinstance(value, str)
@@ -461,3 +493,31 @@ def event_dicts(table) -> list:
             d.update(json.loads(row["extra"]))
         out.append(d)
     return out
+
+
+def file_metadata(path: str) -> dict:
+    """tankcd's key-value metadata of a Parquet file (pyarrow's own ``ARROW:`` keys left out)."""
+    _, pq = pyarrow_modules()
+    kv = pq.read_schema(path).metadata or {}
+    return {k.decode(): v.decode() for k, v in kv.items() if not k.startswith(b"ARROW:")}
+
+
+def join_files(target: str, paths: Sequence[str], metadata: dict | None = None) -> int:
+    """One poses or events Parquet file at ``target`` (atomically) of the row groups of ``paths`` in
+    order, files of one schema written by the writers here (the parts of a trajectory replayed on
+    several workers); its metadata the first file's, updated by ``metadata``. Returns the rows."""
+    _, pq = pyarrow_modules(target)
+    names = tuple(pq.read_schema(paths[0]).names)
+    meta = {**file_metadata(paths[0]), **(metadata or {})}
+    if names in (tuple(n for n, _ in pose_schema(False)), tuple(n for n, _ in pose_schema(True))):
+        writer = PosesParquetWriter(target, meta, entity="entity" in names)
+    elif names == tuple(n for n, _ in EVENT_SCHEMA):
+        writer = EventsParquetWriter(target, meta)
+    else:
+        raise ValueError(f"{paths[0]}: neither a poses nor an events Parquet file (columns {', '.join(names)})")
+    with writer:
+        for path in paths:
+            part = pq.ParquetFile(path)
+            for k in range(part.num_row_groups):
+                writer.write_arrow(part.read_row_group(k))
+    return writer.rows

@@ -326,8 +326,11 @@ class TrajectoryReader:
         _, bad = order.check(codes, g.t, g.line, len(names.list))
         heading = _fill_by_entity(g.heading, codes)
         ends = n if bad < 0 else bad
-        for lo in range(0, ends, self.chunk_rows):
-            hi = min(lo + self.chunk_rows, ends)
+        # the tracks come one after another in the file, not in time order: as one chunk (the file is
+        # in memory already) the checks between vehicles see every track's motion at every time
+        step = self.chunk_rows if len(names.list) <= 1 else max(ends, 1)
+        for lo in range(0, ends, step):
+            hi = min(lo + step, ends)
             if self.convert:
                 from tankcd_cli.io.geodesy import to_terrain_crs
 

@@ -50,6 +50,7 @@ def resolution(surface) -> dict:
             "obstacle_pass_m": 2 * LEAF_BOUND, "obstacle_time_travel_m": LEAF_BOUND, "gun_step_deg": GUN_PATH_STEP_DEG}
 
 
+SUBSTEP_BLOCK = 131072  # sub-steps placed and checked at once (a block of whole intervals)
 ROW_FIELDS = ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "obstacle", "internal", "terrain",
               "entity", "piece_start", "carried")
 
@@ -194,47 +195,77 @@ def check_between(rows: Rows, kind, run, counts: BetweenCounts, want_segments: b
     swept_into = np.zeros(rows.obstacle.shape, dtype=bool)
     if len(iv) == 0:
         return BetweenResult([], swept_into, _no_segments() if want_segments else None)
-    a = iv.first
-    b = a + 1
+    a_all = iv.first
+    b_all = a_all + 1
     # only intervals whose both rows have a pose carry a motion the ground defines
-    placed = (rows.poses.status[a] != OFF) & (rows.poses.status[b] != OFF)
-    counts.intervals += int(placed.sum())
-    n = substep_counts(iv.travel, iv.dyaw, substep_travel(run.surface), MAX_TURN_DEG)
-    n = np.where(placed, n, 1)
-    owner, frac = substeps(iv, n)
-    counts.substeps += len(owner)
-    at = iv.at(owner, frac)
-    sub = match(run.surface, kind.vehicle, at["x"], at["y"], np.radians(at["yaw_deg"]), matcher=run.matcher,
-                escalate=run.escalate, tolerance=run.tolerance, measure=False, regions=run.matcher == "auto")
-    # each interval's sequence of placements: its first row, its sub-steps, its second row
-    first_sub = np.cumsum(n - 1) - (n - 1)
+    placed_all = (rows.poses.status[a_all] != OFF) & (rows.poses.status[b_all] != OFF)
+    counts.intervals += int(placed_all.sum())
+    n_all = substep_counts(iv.travel, iv.dyaw, substep_travel(run.surface), MAX_TURN_DEG)
+    n_all = np.where(placed_all, n_all, 1)
+    counts.substeps += int(np.maximum(n_all - 1, 0).sum())
+    # an interval starts a piece when no motion leads into its first row: that row starts a piece,
+    # or no interval of the table ends there and it is not carried from the chunk before
+    piece_first_all = rows.piece_start[a_all] | (~np.isin(a_all, b_all) & ~rows.carried[a_all])
     events: list[BetweenEvent] = []
     effects = run.effects_of(kind)
-    if effects.terrain_contact:
-        events += _terrain(rows, kind, run, iv, a, owner, frac, at, sub, placed)
-    segments = _segments(rows, iv, a, b, n, first_sub, sub, placed)
-    if effects.obstacles and run.obstacles:
-        found, swept_into = _obstacles(rows, kind, run, iv, a, b, n, first_sub, at, sub, segments)
-        events += found
-    if effects.internal:
-        events += _internal(rows, kind, iv, a)
+    parts = []
+    # intervals in blocks of at most SUBSTEP_BLOCK sub-steps (an interval whole in one), so that the
+    # sub-steps' placements and segments take memory by the block, not by the rows' spacing: a
+    # chunk of sparse rows (1 Hz, seconds apart) holds ten times the sub-steps of a 10 Hz one
+    for block in _interval_blocks(n_all, SUBSTEP_BLOCK):
+        ivb = iv.take(block)
+        a, b, n, placed = a_all[block], b_all[block], n_all[block], placed_all[block]
+        owner, frac = substeps(ivb, n)
+        at = ivb.at(owner, frac)
+        sub = match(run.surface, kind.vehicle, at["x"], at["y"], np.radians(at["yaw_deg"]), matcher=run.matcher,
+                    escalate=run.escalate, tolerance=run.tolerance, measure=False, regions=run.matcher == "auto")
+        # each interval's sequence of placements: its first row, its sub-steps, its second row
+        first_sub = np.cumsum(n - 1) - (n - 1)
+        if effects.terrain_contact:
+            events += _terrain(rows, kind, run, ivb, a, owner, frac, at, sub, placed)
+        segments = _segments(rows, ivb, a, b, n, first_sub, sub, placed)
+        if effects.obstacles and run.obstacles:
+            found, swept = _obstacles(rows, kind, run, ivb, a, b, n, first_sub, at, sub, segments)
+            events += found
+            swept_into |= swept
+        if effects.internal:
+            events += _internal(rows, kind, ivb, a)
+        if want_segments:
+            parts.append(_public_segments(rows, ivb, a, segments, piece_first_all[block]))
     for e in events:
         counts.events[e.kind] += 1
     events.sort(key=lambda e: (e.step, e.t))
     public = None
     if want_segments:
-        ok = segments["use"]
-        i = segments["seg_iv"][ok]
-        f0, f1 = segments["f0"][ok], segments["f1"][ok]
-        # an interval starts a piece when no motion leads into its first row: that row starts a
-        # piece, or no interval of the table ends there and it is not carried from the chunk before
-        piece_first = rows.piece_start[a] | (~np.isin(a, b) & ~rows.carried[a])
-        fresh = (segments["seg_k"][ok] == 0) & piece_first[i]
-        public = Segments(rows.entity[a[i]], rows.step[a[i]], iv.t0[i] + f0 * iv.dt[i], iv.t0[i] + f1 * iv.dt[i],
-                          segments["q0"][ok], segments["c0"][ok], segments["q1"][ok], segments["c1"][ok],
-                          np.radians(iv.turret0[i] + f0 * iv.dturret[i]), np.radians((f1 - f0) * iv.dturret[i]),
-                          np.radians(iv.gun0[i] + f0 * iv.dgun[i]), np.radians((f1 - f0) * iv.dgun[i]), fresh)
+        public = Segments.join(parts) if len(parts) > 1 else parts[0] if parts else _no_segments()
     return BetweenResult(events, swept_into, public)
+
+
+def _interval_blocks(n: np.ndarray, limit: int) -> list:
+    """Slices of consecutive intervals whose sub-step counts ``n`` sum to at most ``limit`` each (an
+    interval with more is a block of its own); one slice for all when they fit."""
+    total = np.cumsum(n)
+    if len(n) == 0 or total[-1] <= limit:
+        return [slice(0, len(n))]
+    blocks, start = [], 0
+    while start < len(n):
+        base = total[start - 1] if start else 0
+        stop = max(start + 1, int(np.searchsorted(total, base + limit, side="right")))
+        blocks.append(slice(start, stop))
+        start = stop
+    return blocks
+
+
+def _public_segments(rows, iv, a, segments, piece_first) -> Segments:
+    """The placed rigid segments of a block of intervals, as the checks between vehicles take them."""
+    ok = segments["use"]
+    i = segments["seg_iv"][ok]
+    f0, f1 = segments["f0"][ok], segments["f1"][ok]
+    fresh = (segments["seg_k"][ok] == 0) & piece_first[i]
+    return Segments(rows.entity[a[i]], rows.step[a[i]], iv.t0[i] + f0 * iv.dt[i], iv.t0[i] + f1 * iv.dt[i],
+                    segments["q0"][ok], segments["c0"][ok], segments["q1"][ok], segments["c1"][ok],
+                    np.radians(iv.turret0[i] + f0 * iv.dturret[i]), np.radians((f1 - f0) * iv.dturret[i]),
+                    np.radians(iv.gun0[i] + f0 * iv.dgun[i]), np.radians((f1 - f0) * iv.dgun[i]), fresh)
 
 
 def _no_segments() -> Segments:

@@ -7,7 +7,8 @@ parent loads the world and forks its workers, which share its arrays
 copy-on-write (read-only: no page is copied); on a cluster every worker loads
 the world from the shared path once and keeps it for all its tasks.
 
-Outputs are written atomically, one poses and one events file per trajectory,
+Outputs are written atomically, one poses and one events file per trajectory (CSV and JSON
+Lines, or both Parquet: ``OUT_FORMATS``),
 so a task that dies (worker lost, killed) leaves no partial file, and the
 retry writes the whole file again: no row is lost or written twice.
 """
@@ -25,6 +26,10 @@ from typing import Callable
 from tankcd_cli.errors import InputError
 from tankcd_cli.replay.records import KINDS, ReplayOptions
 from tankcd_cli.replay.world import WorldSpec
+
+
+# a fleet's output formats: the suffixes of NAME.poses and NAME.events
+OUT_FORMATS = {"csv": (".poses.csv", ".events.jsonl"), "parquet": (".poses.parquet", ".events.parquet")}
 
 
 @dataclass(frozen=True)
@@ -95,9 +100,14 @@ def expand_trajectories(items: list[str]) -> list[str]:
 
 def written_by_tankcd(path: str) -> bool:
     """Whether a file is one of tankcd's outputs by its first line: a poses CSV's header (``step,``
-    then the pose's columns, ``qw`` and ``matcher`` among them), or an events JSON Lines record."""
+    then the pose's columns, ``qw`` and ``matcher`` among them), or an events JSON Lines record; or
+    a Parquet file whose footer (its last bytes: the metadata, then its length and ``PAR1``) names
+    ``tankcd.version``."""
     try:
         with open(path, "rb") as fh:
+            if fh.read(4) == b"PAR1":
+                return _parquet_footer_names_tankcd(fh)
+            fh.seek(0)
             head = fh.readline(4096).decode("utf-8-sig", errors="replace").strip()
     except OSError:
         return False
@@ -107,14 +117,35 @@ def written_by_tankcd(path: str) -> bool:
     return bool(cols) and cols[0] == "step" and {"qw", "matcher", "status"} <= set(cols)
 
 
-def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = None) -> list[Task]:
+def _parquet_footer_names_tankcd(fh) -> bool:
+    """Whether an open Parquet file's footer holds tankcd's metadata key (read without pyarrow)."""
+    import struct
+
+    fh.seek(0, os.SEEK_END)
+    size = fh.tell()
+    if size < 12:
+        return False
+    fh.seek(size - 8)
+    length, magic = struct.unpack("<I4s", fh.read(8))
+    if magic != b"PAR1" or length > size - 12:
+        return False
+    fh.seek(size - 8 - length)
+    return b"tankcd.version" in fh.read(length)
+
+
+def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = None,
+               out_format: str = "csv") -> list[Task]:
     """One task per trajectory, outputs named after the input (``a.csv`` -> ``a.poses.csv``,
-    ``a.events.jsonl``); inputs of the same name from different directories get the directory too.
+    ``a.events.jsonl``; with ``out_format`` "parquet", ``a.poses.parquet`` and ``a.events.parquet``);
+    inputs of the same name from different directories get the directory too.
 
     A trajectory longer than ``split_lines`` lines becomes one task per part of that many lines
     (read on their own, joined in order when all are done), so that one huge log can use many
     workers.
     """
+    if out_format not in OUT_FORMATS:
+        raise ValueError(f"unknown output format {out_format!r}; choose one of {', '.join(OUT_FORMATS)}")
+    poses_suffix, events_suffix = OUT_FORMATS[out_format]
     stems = [os.path.splitext(os.path.basename(p))[0] for p in trajectories]
     tasks = []
     for path, stem in zip(trajectories, stems):
@@ -122,8 +153,8 @@ def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = 
             parent = os.path.basename(os.path.dirname(os.path.abspath(path))) or "root"
             stem = f"{parent}__{stem}"
         out = os.path.abspath(out_dir)  # workers elsewhere (a cluster) may run in another directory
-        tasks.append(Task(os.path.abspath(path), os.path.join(out, f"{stem}.poses.csv"),
-                          os.path.join(out, f"{stem}.events.jsonl")))
+        tasks.append(Task(os.path.abspath(path), os.path.join(out, stem + poses_suffix),
+                          os.path.join(out, stem + events_suffix)))
     names = [t.poses for t in tasks]
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
@@ -151,9 +182,10 @@ def _split(task: Task, split_lines: int) -> list[Task]:
     if len(parts) < 2:
         return [task]
     folder = os.path.join(os.path.dirname(task.poses), ".parts")
-    stem = os.path.basename(task.poses)[: -len(".poses.csv")]
-    return [Task(task.trajectory, os.path.join(folder, f"{stem}.{k:05d}.poses.csv"),
-                 os.path.join(folder, f"{stem}.{k:05d}.events.jsonl"), part, task.poses, task.events)
+    poses_suffix, events_suffix = next(s for s in OUT_FORMATS.values() if task.poses.endswith(s[0]))
+    stem = os.path.basename(task.poses)[: -len(poses_suffix)]
+    return [Task(task.trajectory, os.path.join(folder, f"{stem}.{k:05d}{poses_suffix}"),
+                 os.path.join(folder, f"{stem}.{k:05d}{events_suffix}"), part, task.poses, task.events)
             for k, part in enumerate(parts)]
 
 
@@ -329,6 +361,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
     """Join the parts of split trajectories, in order, into their whole outputs (atomically), after
     checking that time does not go back across a cut; one result per trajectory."""
     from tankcd_cli.io.atomic import atomic_path, committed_together
+    from tankcd_cli.io.parquet import is_parquet, join_files
 
     by_poses = {r.poses: r for r in results}
     part_outputs = {t.poses for t in tasks if t.part is not None}
@@ -357,11 +390,17 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
                             pid=sorted({r.pid for r in rs if r.pid is not None}))
         try:
             if error is None:
-                with committed_together(), atomic_path(target, ".csv") as tmp_poses, \
-                        atomic_path(first.whole_events, ".jsonl") as tmp_events:
-                    for k, t in enumerate(parts):
-                        _append(tmp_poses, t.poses, skip_header=k > 0)
-                        _append(tmp_events, t.events, skip_header=False)
+                if is_parquet(target):  # the parts' row groups, in order (their schema is one)
+                    sources = _whole_trajectory_sources(parts[0].poses)
+                    with committed_together():
+                        join_files(target, [t.poses for t in parts], sources)
+                        join_files(first.whole_events, [t.events for t in parts], sources)
+                else:
+                    with committed_together(), atomic_path(target, ".csv") as tmp_poses, \
+                            atomic_path(first.whole_events, ".jsonl") as tmp_events:
+                        for k, t in enumerate(parts):
+                            _append(tmp_poses, t.poses, skip_header=k > 0)
+                            _append(tmp_events, t.events, skip_header=False)
                 joined.summary = _joined_summary([r.summary for r in rs])
                 joined.first_line, joined.t_first, joined.t_last = rs[0].first_line, rs[0].t_first, rs[-1].t_last
             else:
@@ -380,6 +419,18 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
         except OSError:
             pass  # something else is in it (a killed worker's temporary file): leave it
     return whole
+
+
+def _whole_trajectory_sources(part_output: str) -> dict:
+    """A joined Parquet output's ``tankcd.sources``: the part's, the trajectory's SHA-256 added (a
+    part does not hash the whole file it reads a part of: the join hashes it once)."""
+    from tankcd_cli.io.parquet import file_metadata, sha256_of
+
+    sources = json.loads(file_metadata(part_output).get("tankcd.sources", "[]"))
+    for source in sources:
+        if source.get("role") == "trajectory" and "sha256" not in source:
+            source["sha256"] = sha256_of(source["path"])
+    return {"tankcd.sources": json.dumps(sources)}
 
 
 def _joined_summary(summaries: list):

@@ -87,14 +87,16 @@ class ReplayRun:
         return self._kind_codes[codes] if len(self._kind_codes) else np.zeros(len(codes), dtype=np.int64)
 
 
-def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities: bool = False) -> ReplayRun:
+def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities: bool = False,
+              source: str = "trajectory") -> ReplayRun:
     """A replay's run of ``world`` for a trajectory whose turret or gun moves (or not), with many
     vehicles (``entities``: their checks against each other too) or one."""
     run = ReplayRun(world, options, turret_moves)
     if entities:
         from tankcd_cli.replay.vehicles import VehicleContacts
 
-        run.vehicles = VehicleContacts(world, continuous=options.continuous)
+        run.vehicles = VehicleContacts(world, continuous=options.continuous, source=source)
+        run.seconds["vehicles"] = 0.0
     return run
 
 
@@ -113,10 +115,14 @@ def replay_chunks(run: ReplayRun, chunks, lead=None) -> Iterator[tuple[object, P
     for chunk in chunks:
         poses, events = _chunk(run, chunk)
         if run.vehicles is not None:
+            t0 = time.perf_counter()
             events += run.vehicles.ready(chunk)
+            run.seconds["vehicles"] += time.perf_counter() - t0
         yield chunk, poses, events
     if run.vehicles is not None:
+        t0 = time.perf_counter()
         tail = run.vehicles.finish()
+        run.seconds["vehicles"] += time.perf_counter() - t0
         if tail:
             yield None, None, tail
 

@@ -16,29 +16,34 @@ from tankcd_cli.replay.world import World
 def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(),
                options: ReplayOptions = ReplayOptions(), part=None,
                progress: Callable[[int], None] | None = None,
-               observe: Callable | None = None) -> ReplaySummary:
+               observe: Callable | None = None, sources: list | None = None) -> ReplaySummary:
     """Replay ``trajectory`` in ``world``: one pose row per trajectory row, in order, streamed in
     chunks, and the events of the effects the world calls for.
 
     trajectory : a path (any input ``io.trajectory.read_trajectory`` reads; geographic ones are
         converted to the terrain's CRS) or an iterable of ``io.trajectory.TrajectoryChunk``
-    outputs : where the poses and events go (``ReplayOutputs``): written under temporary names
-        and renamed into place together when complete (never one without the other)
+    outputs : where the poses and events go (``ReplayOutputs``; a name ending in ``.parquet``:
+        Parquet, else CSV and JSON Lines): written under temporary names and renamed into place
+        together when complete (never one without the other)
     options : matcher, escalation, tolerance, continuous or discrete, chunk size
     part : a ``io.trajectory.TrajectoryPart`` of a CSV path: only its rows, their steps and lines
         those of the whole file; the row before it seeds the motion into its first row
     progress(rows) : after every chunk, the rows replayed so far
     observe(chunk, poses, events) : sees every chunk (a map of the replay)
+    sources : the trajectory's files, for a Parquet output's metadata (default: ``trajectory``
+        when it is a path; give them when it is chunks read from files, as an exercise's are)
 
     Steps no vehicle makes and headings that contradict the motion are set-up warnings
     (``replay.plausibility``); at the end, a trajectory mostly off the terrain is one too (the
     likeliest cause: other coordinates than the terrain's, local against UTM, or longitude and
     latitude given as x and y).
     """
-    from tankcd_cli.io.atomic import committed_together, output_text
+    from tankcd_cli.io.parquet import check_writable
     from tankcd_cli.io.trajectory import lead_row, read_trajectory
+    from tankcd_cli.replay.outputs import replay_metadata, replay_outputs
     from tankcd_cli.replay.pipeline import start_run
 
+    check_writable(outputs.poses, outputs.events)  # before the trajectory is read
     start = time.perf_counter()
     if isinstance(trajectory, str):
         source = trajectory
@@ -46,13 +51,18 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
     else:
         source, chunks = "trajectory", iter(trajectory)
     first = next(chunks, None)
-    run = start_run(world, options, bool(first is not None and first.has_turret),
-                    entities=bool(first is not None and first.has_entity))
+    entities = bool(first is not None and first.has_entity)
+    run = start_run(world, options, bool(first is not None and first.has_turret), entities=entities, source=source)
     lead = lead_row(trajectory, part, crs=world.crs) if part is not None and isinstance(trajectory, str) else None
     counts = ReplayCounts()
     stream = _chain(first, chunks)
-    with committed_together(), output_text(outputs.poses, ".csv", newline="") as poses_out, \
-            output_text(outputs.events, ".jsonl") as events_out:
+    if sources is None:
+        sources = [trajectory] if isinstance(trajectory, str) else []
+
+    def metadata():
+        return replay_metadata(world, sources, options, hash_trajectories=part is None)
+
+    with replay_outputs(outputs, entities, metadata) as (poses_out, events_out):
         write_replay(run, stream, poses_out, events_out, counts, source, lead=lead, progress=progress,
                      observe=observe)
     return summarize(counts, run, time.perf_counter() - start)
@@ -67,26 +77,18 @@ def _chain(first, rest):
 def write_replay(run: ReplayRun, chunks: Iterable, poses_out, events_out, counts: ReplayCounts,
                  source: str = "trajectory", lead=None, progress: Callable[[int], None] | None = None,
                  observe: Callable | None = None) -> ReplayCounts:
-    """Replay the chunks, writing the poses CSV to ``poses_out`` (None: none; flushed per chunk)
-    and the events to ``events_out`` (None: only counted); ``counts`` updated and returned."""
-    from tankcd_cli.io.events import event_line
-    from tankcd_cli.io.poses_csv import format_rows, header
-    from tankcd_cli.matching.match import PLACED_BY, STATUS
+    """Replay the chunks, writing the poses to ``poses_out`` and the events to ``events_out``
+    (``replay.outputs``' writers: CSV and JSON Lines, or Parquet; None: none, the events only
+    counted); ``counts`` updated and returned."""
     from tankcd_cli.replay.pipeline import replay_chunks
     from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
 
     checks = ExerciseChecks(source) if run.vehicles is not None else MotionChecks(source)
-    headed = False
     for chunk, poses, events in replay_chunks(run, _checked(chunks, checks), lead=lead):
         if poses_out is not None and chunk is not None:
-            if not headed:
-                poses_out.write(header(entity=chunk.has_entity))
-                headed = True
-            entity = chunk.entity if chunk.has_entity else None
-            poses_out.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names))
-            poses_out.flush()
+            poses_out.write(chunk, poses)
         if events_out is not None:
-            events_out.write("".join(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra) for e in events))
+            events_out.write(events)
         counts.add(chunk, poses, events)
         if chunk is None:  # the vehicles' last contacts, after the last chunk
             if observe is not None:
@@ -96,8 +98,9 @@ def write_replay(run: ReplayRun, chunks: Iterable, poses_out, events_out, counts
             observe(chunk, poses, events)
         if progress is not None:
             progress(counts.rows)
-    if poses_out is not None and not headed:
-        poses_out.write(header())
+    for out in (poses_out, events_out):
+        if out is not None:
+            out.finish()
     checks.finish()
     warn_if_beside(run.surface, counts, source, run.world.crs)
     return counts

@@ -25,8 +25,10 @@ common spans of their segments:
    span where it begins, whichever window, chunk or segment boundaries cut its time.
 
 A vehicle silent for more than ``HORIZON`` seconds no longer holds the windows back; when it speaks
-again, its gap's motion is checked against what is still buffered (the vehicles' segments of the
-last ``HORIZON`` seconds), and a warning says so.
+again, its gap's motion before the windows already checked is not checked against the other
+vehicles, and a set-up warning says so (``--strict``: exit 3). Rows out of time order across
+vehicles (a file of one vehicle's rows, then another's) meet the same limit and the same warning:
+an exercise's rows come in time order, vehicles interleaved.
 """
 
 from __future__ import annotations
@@ -43,7 +45,8 @@ class VehicleContacts:
     """The exercise's vehicle-against-vehicle checks, fed chunk by chunk (``add``), emitting events as
     windows close (``ready``) and at the end (``finish``)."""
 
-    def __init__(self, world, continuous: bool = True, window: float | None = None, horizon: float | None = None):
+    def __init__(self, world, continuous: bool = True, window: float | None = None, horizon: float | None = None,
+                 source: str = "trajectory"):
         self.world = world
         self.continuous = continuous
         self.window = WINDOW if window is None else window
@@ -54,12 +57,45 @@ class VehicleContacts:
         self.done_until = None  # windows before this are processed
         self.latest = -np.inf
         self.queries = 0
+        self.late = 0  # segments that began before the windows already checked
+        self.first_late = None  # (step, entity code, t0, windows checked up to) of the first, not yet said
+        self.source = source
 
     # -- feeding -------------------------------------------------------------------------------
     def add(self, kind, segments) -> None:
-        """A kind of vehicle's rigid segments from one chunk."""
-        if segments is not None and len(segments):
-            self.buffer.append((kind.index, segments))
+        """A kind of vehicle's rigid segments from one chunk. Motion that begins before the windows
+        already checked (a vehicle silent for longer than the horizon, or rows out of time order
+        across vehicles: one vehicle's rows after another's) cannot be checked against the vehicles
+        there any more: a set-up warning names the first such vehicle and row, ``finish`` how many
+        more."""
+        if segments is None or not len(segments):
+            return
+        self.buffer.append((kind.index, segments))
+        if self.done_until is not None:
+            late = np.flatnonzero(segments.t0 < self.done_until)
+            if len(late):
+                if self.late == 0:
+                    k = late[0]
+                    self.first_late = (int(segments.step[k]), int(segments.entity[k]), float(segments.t0[k]),
+                                       self.done_until)
+                self.late += len(late)
+
+    def _say_late(self) -> None:
+        """The warning of the first late motion, once the names of the chunk that brought it are known."""
+        if self.first_late is None:
+            return
+        step, code, t0, done = self.first_late
+        self.first_late = None
+        name = self.names[code] if code < len(self.names) else str(code)
+        self._warn(f"row {step}: entity {name!r} moves from t = {t0:g} s, after the contacts between vehicles up "
+                   f"to t = {done:g} s were checked (its rows came more than {self.horizon:g} s late, or the rows "
+                   "are not in time order across vehicles): contacts with other vehicles before then are not "
+                   "checked; give the rows in time order (sort by t)")
+
+    def _warn(self, what: str) -> None:
+        from tankcd_cli.errors import warn
+
+        warn(self.source, what)
 
     def add_rows(self, kind, chunk, poses) -> None:
         """Rows of a discrete replay: no motion between them, so no contact between vehicles is
@@ -87,6 +123,7 @@ class VehicleContacts:
     def ready(self, chunk) -> list:
         """After a chunk: the contacts of every window the watermark has passed."""
         self._observe(chunk)
+        self._say_late()
         if self.done_until is None:
             return []
         mark = self.watermark()
@@ -106,7 +143,17 @@ class VehicleContacts:
             events += self._window(self.done_until, self.done_until + self.window, last=self.done_until + self.window > end)
             self.done_until += self.window
         self.buffer = []
+        self._say_late()
+        if self.late > 1:
+            self._warn(f"{self.late:,} stretches of motion in all began before the contacts between vehicles "
+                       "there were checked (see above)")
         return events
+
+    def close_window(self, w0: float, w1: float, last: bool = False) -> list:
+        """The contacts that begin in the window [w0, w1) among the segments buffered (``add``), for a
+        caller that decides itself when a window is complete (``replay.windows``: a task given every
+        segment its windows need); the buffer keeps only what reaches past ``w1``, as ``ready`` does."""
+        return self._window(w0, w1, last)
 
     # -- one window ----------------------------------------------------------------------------
     def _window(self, w0: float, w1: float, last: bool = False) -> list:
@@ -165,13 +212,20 @@ class VehicleContacts:
                 ma = _cut(s, i[sel], u0[sel], u1[sel])
                 mb = _cut(s, j[sel], u0[sel], u1[sel])
                 self.queries += len(sel)
-                hits = first_vehicle_contacts(body_a, ma, body_b, mb)
+                # a contact already there at the span's start continues one that began before it: the
+                # exact test at that instant (one tree walk) spares such spans the sweep, which would
+                # find them too (they touch at s = 0) and give no event
+                every = np.arange(len(sel))
+                at_start = np.zeros(len(sel), dtype=bool)
+                at_start[first_vehicle_contacts(body_a, _still(ma, every), body_b, _still(mb, every)).span] = True
+                sweep = np.flatnonzero(~at_start | fresh[sel])
+                if len(sweep) == 0:
+                    continue
+                sel = sel[sweep]
+                hits = first_vehicle_contacts(body_a, ma.take(sweep), body_b, mb.take(sweep))
                 if len(hits.span) == 0:
                     continue
-                # a contact already there at the span's start continues one that began before it
-                at_start = first_vehicle_contacts(body_a, _still(ma, hits.span), body_b, _still(mb, hits.span))
-                at_first = np.zeros(len(hits.span), dtype=bool)
-                at_first[at_start.span] = True
+                at_first = at_start[sweep][hits.span]
                 touching = at_first & ~fresh[sel[hits.span]]
                 for h in np.flatnonzero(~touching):
                     q = sel[hits.span[h]]

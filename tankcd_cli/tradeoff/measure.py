@@ -54,6 +54,7 @@ class Results:
     axes: dict = field(default_factory=dict)  # stage -> (query name, error name)
     headline: dict = field(default_factory=dict)
     corpus: dict = field(default_factory=dict)  # the per-class matcher table (tradeoff.corpus)
+    rates: list = field(default_factory=list)  # one RateRow per sampling rate (``rate_stage``)
     machine: dict = field(default_factory=dict)
     inputs: dict = field(default_factory=dict)
 
@@ -69,12 +70,14 @@ class Budget:
     collide_poses: int
     brute_poses: int
     internal_step_deg: float
+    pair_repeats: int  # pairs behind each ratio (the headline's, the sampling rates')
+    turn_seconds: float = 0.1  # the least time of each turn of a pair (``paired``'s min_seconds)
 
 
 QUICK = Budget(repeats=3, curvature_half_extent=15.0, match_poses=600, path_step=0.25, collide_poses=120,
-               brute_poses=40, internal_step_deg=2.0)
+               brute_poses=40, internal_step_deg=2.0, pair_repeats=7)
 FULL = Budget(repeats=7, curvature_half_extent=50.0, match_poses=20_000, path_step=0.05, collide_poses=3000,
-              brute_poses=400, internal_step_deg=0.25)
+              brute_poses=400, internal_step_deg=0.25, pair_repeats=15)
 
 
 def timed(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
@@ -106,39 +109,82 @@ class Paired:
         return self.ratio_lo > 1.0 or self.ratio_hi < 1.0
 
 
-def paired(fn_a: Callable[[], object], fn_b: Callable[[], object], repeats: int) -> Paired:
-    """``fn_a`` and ``fn_b`` timed alternately (see ``Paired``)."""
-    fn_a()
-    fn_b()
+def paired(fn_a: Callable[[], object], fn_b: Callable[[], object], repeats: int, warm_up: bool = True,
+           min_seconds: float = 0.0) -> Paired:
+    """``fn_a`` and ``fn_b`` timed alternately (see ``Paired``); ``warm_up=False`` where the caller
+    has already run each once. With ``min_seconds``, each turn calls its function again until that
+    long has passed and counts the mean call: a call of a few milliseconds is at the mercy of one
+    preemption on a shared machine, a turn of 0.1 s much less so."""
+    if warm_up:
+        fn_a()
+        fn_b()
     ta, tb = [], []
     for _ in range(repeats):
         for fn, times in ((fn_a, ta), (fn_b, tb)):
+            calls = 0
             start = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - start)
+            while True:
+                fn()
+                calls += 1
+                elapsed = time.perf_counter() - start
+                if elapsed >= min_seconds:
+                    break
+            times.append(elapsed / calls)
     ratios = np.array(tb) / np.array(ta)
     spread = lambda v: (float(np.median(v)), float(min(v)), float(max(v)))  # noqa: E731
     return Paired(spread(ta), spread(tb), float(np.median(ratios)), float(ratios.min()), float(ratios.max()))
 
 
+WIDE_SPREAD = 1.5
+"""A ratio whose pairs range over more than this factor (highest / lowest) is not a figure to read."""
+
+
+def spread_flag(lo: float, hi: float) -> str:
+    """The short form of ``spread_caveat``, for a table's cell ("" when the range supports the ratio)."""
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0:
+        return "no spread"
+    if lo <= 1.0 <= hi:
+        return "the range holds 1.0x: cannot tell which is faster"
+    if hi / lo > WIDE_SPREAD:
+        return f"the range spans a factor of {hi / lo:.1f}: too wide to read"
+    return ""
+
+
+def spread_caveat(lo: float, hi: float) -> str:
+    """Why a ratio's range cannot support it ("" when it can): the pairs disagree which is faster
+    (the range holds 1), or they range over more than ``WIDE_SPREAD``."""
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0:
+        return "no spread measured: the figure cannot be judged"
+    if lo <= 1.0 <= hi:
+        return "this machine's spread cannot tell which is faster"
+    if hi / lo > WIDE_SPREAD:
+        return (f"the pairs range over a factor of {hi / lo:.1f}, more than {WIDE_SPREAD:g}: this machine's "
+                "spread cannot support the figure")
+    return ""
+
+
 def ratio_text(value: float, lo: float, hi: float, faster: str, slower: str, what: str = "") -> str:
     """A ratio as words a reader can trust: "3.1x faster (pairs 2.8-3.4x)", "1.6x slower", or, where
-    the pairs disagree which is faster, that the spread cannot tell."""
+    the pairs disagree which is faster, that the spread cannot tell; where they range over more than
+    a factor of ``WIDE_SPREAD``, the figure with that caveat beside it."""
+    caveat = spread_caveat(lo, hi)
     if lo <= 1.0 <= hi:
-        return (f"within noise of {what or 'the other'} (pairs {lo:.2f}-{hi:.2f}x: this machine's spread cannot "
-                "tell which is faster)")
+        return f"within noise of {what or 'the other'} (pairs {lo:.2f}-{hi:.2f}x: {caveat})"
+    note = f"; {caveat}" if caveat else ""
     if value >= 1.0:
-        return f"{value:.1f}x {faster} (pairs {lo:.1f}-{hi:.1f}x)"
-    return f"{1 / value:.1f}x {slower} (pairs {1 / hi:.1f}-{1 / lo:.1f}x)"
+        return f"{value:.1f}x {faster} (pairs {lo:.1f}-{hi:.1f}x{note})"
+    return f"{1 / value:.1f}x {slower} (pairs {1 / hi:.1f}-{1 / lo:.1f}x{note})"
 
 
 def cost_text(value: float, lo: float, hi: float, of: str) -> str:
     """What one workload costs against another: "1.9x the time of plain auto (pairs 1.7-2.1x)", or,
-    where the pairs disagree which is faster, that the spread cannot tell."""
+    where the pairs disagree which is faster, that the spread cannot tell; a range wider than a
+    factor of ``WIDE_SPREAD`` is said beside the figure."""
+    caveat = spread_caveat(lo, hi)
     if lo <= 1.0 <= hi:
-        return (f"within noise of {of} (pairs {lo:.2f}-{hi:.2f}x: this machine's spread cannot tell which is "
-                "faster)")
-    return f"{value:.2f}x the time of {of} (pairs {lo:.2f}-{hi:.2f}x)"
+        return f"within noise of {of} (pairs {lo:.2f}-{hi:.2f}x: {caveat})"
+    note = f"; {caveat}" if caveat else ""
+    return f"{value:.2f}x the time of {of} (pairs {lo:.2f}-{hi:.2f}x{note})"
 
 
 def machine() -> dict:
@@ -218,7 +264,8 @@ def curvature_stage(res: Results, vehicle, budget: Budget, say) -> None:
                         ("error_median_relative", rel, "1"),
                         ("class_changed_share", float(np.mean(classes != exact_class)), "1")):
                     res.records.append(Record("curvature", case, method, measure, value, unit, truth))
-                res.records.append(Record("curvature", case, method, "time_per_vertex", t / n, "s", truth, lo / n, hi / n))
+                res.records.append(Record("curvature", case, method, "time_per_vertex", t / n, "s", truth, lo / n,
+                                          hi / n))
     for method in METHODS:
         t = np.array(times[method])
         res.points.append(Point("curvature", method, float(np.median(t[:, 0])), float(np.median(t[:, 1])),
@@ -489,7 +536,8 @@ def collision_stage(res: Results, surface, vehicle, obstacle_tris: list, budget:
         run = peer_run[0]
         tm, lo, hi = timed(run, budget.repeats)
         hits = run()
-        res.records.append(Record("collision", case, peer, "disagreement_with_truth", float(np.mean(hits[:nb] != brute)),
+        res.records.append(Record("collision", case, peer, "disagreement_with_truth",
+                                  float(np.mean(hits[:nb] != brute)),
                                   "1", truth))
         res.records.append(Record("collision", case, peer, "time_per_pose", tm / n, "s", truth, lo / n, hi / n))
 
@@ -549,8 +597,8 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
         return match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=True)
 
     # timed in pairs, in turn: a ratio of two medians taken minutes apart is at the mercy of the machine
-    vs_ref = paired(plain, reference, budget.repeats)
-    vs_esc = paired(plain, escalated, budget.repeats)
+    vs_ref = paired(plain, reference, budget.pair_repeats, min_seconds=budget.turn_seconds)
+    vs_esc = paired(plain, escalated, budget.pair_repeats, min_seconds=budget.turn_seconds)
     t_auto, t_ref, t_esc = vs_ref.a, vs_ref.b, vs_esc.b
     a = match(surface, vehicle, x, y, yaw, "auto", measure=True, escalate=False)
     r = match(surface, vehicle, x, y, yaw, "reference", measure=True)
@@ -564,15 +612,18 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
     used = np.bincount(a.matcher, minlength=len(PLACED_BY))
     truth = "reference (rigid hull on every terrain triangle under the tracks)"
     h = {"trajectory": name, "poses": n,
-         "auto_seconds": t_auto[0], "auto_spread": t_auto[1:], "reference_seconds": t_ref[0], "reference_spread": t_ref[1:],
+         "auto_seconds": t_auto[0], "auto_spread": t_auto[1:], "reference_seconds": t_ref[0],
+         "reference_spread": t_ref[1:],
          "speedup": vs_ref.ratio, "speedup_spread": (vs_ref.ratio_lo, vs_ref.ratio_hi),
          "time_saved_share": 1.0 - 1.0 / vs_ref.ratio,
+         "time_saved_share_spread": (1.0 - 1.0 / vs_ref.ratio_lo, 1.0 - 1.0 / vs_ref.ratio_hi),
          "escalation_cost": vs_esc.ratio, "escalation_cost_spread": (vs_esc.ratio_lo, vs_esc.ratio_hi),
          "attitude_error_median_deg": float(np.median(att)), "attitude_error_p95_deg": _pct(att, 95),
          "attitude_error_max_deg": _pct(att, 100),
          "height_error_median_m": float(np.median(dz)), "height_error_p95_m": _pct(dz, 95),
          "height_error_max_m": _pct(dz, 100),
-         "penetration_p95_auto_m": _pct(a.penetration[ok], 95), "penetration_p95_reference_m": _pct(r.penetration[ok], 95),
+         "penetration_p95_auto_m": _pct(a.penetration[ok], 95),
+         "penetration_p95_reference_m": _pct(r.penetration[ok], 95),
          "matchers_used": {m: int(c) for m, c in zip(PLACED_BY, used) if c},
          "escalated_seconds": t_esc[0], "escalated_spread": t_esc[1:],
          "escalated_share": float(np.mean(e.matcher >= ESCALATED)) if n else 0.0,
@@ -588,7 +639,186 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
                 "attitude_error_p95_deg", "attitude_error_max_deg", "height_error_median_m", "height_error_p95_m",
                 "height_error_max_m", "escalated_seconds", "escalated_share", "escalated_attitude_error_p95_deg",
                 "escalated_height_error_max_m"):
-        unit = "s" if key.endswith("seconds") else ("deg" if key.endswith("deg") else ("m" if key.endswith("_m") else "1"))
+        unit = ("s" if key.endswith("seconds") else "deg" if key.endswith("deg") else
+                "m" if key.endswith("_m") else "1")
         spread = h.get(key.replace("seconds", "spread") if unit == "s" else f"{key}_spread", (float("nan"),) * 2)
-        res.records.append(Record("headline", f"{name} ({n:,} poses)", "auto vs reference", key, float(h[key]), unit, truth,
-                                  *spread))
+        res.records.append(Record("headline", f"{name} ({n:,} poses)", "auto vs reference", key, float(h[key]), unit,
+                                  truth, *spread))
+
+
+# --- the sampling rate: what a check at the rows alone misses ----------------------------
+
+RATES_HZ = (1.0, 2.0, 5.0, 10.0, 50.0)
+CONTACT_KINDS = ("obstacle", "internal", "terrain", "off_terrain", "vehicle")
+
+
+@dataclass
+class RateRow:
+    """One sampling rate: the trajectory's motion logged at ``hz`` (``rows`` rows), replayed along
+    the motion (continuous) and at the rows alone (``--discrete``).
+
+    contacts, missed, late : {kind: count} the contacts the continuous check finds, those of them
+        the rows-only check misses (no row of the contact has its event there), and those it sees
+        only at a row after the contact began between rows
+    lag_max : s, the longest of those delays (0 without any)
+    continuous, discrete : (median, fastest, slowest) seconds a replay
+    ratio, ratio_lo, ratio_hi : continuous / discrete, pair by pair (``Paired``)
+    """
+
+    hz: float
+    rows: int
+    contacts: dict
+    missed: dict
+    late: dict
+    lag_max: float
+    continuous: tuple
+    discrete: tuple
+    ratio: float
+    ratio_lo: float
+    ratio_hi: float
+
+
+def _contact_key(e: dict) -> tuple:
+    """What a contact is between: the vehicle and the thing met (an obstacle, a drum, the ground; for
+    two vehicles both). A vehicle part is not part of it: the gun meeting a wall, then the hull, is
+    one contact with the wall."""
+    if e["kind"] == "vehicle":
+        return e.get("entity"), e["kind"], e["a"], e["b"]
+    return e.get("entity"), e["kind"], e["b"]
+
+
+def contacts(events: list) -> list[dict]:
+    """A replay's events (dicts as the events file's lines) grouped into contacts, in the order they
+    begin: each {"key", "kind", "t" (first contact), "between" (it began between two rows), "steps"
+    (the rows in contact, a sorted list)}.
+
+    A contact with one thing is a run of consecutive rows in contact with it, or it begins between
+    two rows (an event with ``"between": true`` under the earlier row's step) and runs on through the
+    rows after it that are in contact; it ends at the first row after it not in contact. Rows are
+    numbered by ``step`` (consecutive rows of one vehicle, as a single trajectory's are)."""
+    by_key: dict = {}
+    for e in events:
+        by_key.setdefault(_contact_key(e), []).append(e)
+    found = []
+    for key, evs in by_key.items():
+        # a row's event before the contact that begins after it in the same interval
+        evs.sort(key=lambda e: (e["step"], bool(e.get("between")), e["t"] if e["t"] is not None else 0.0))
+        open_c, last = None, None  # the contact still open, and where it was last seen (step, between)
+        for e in evs:
+            step, between = int(e["step"]), bool(e.get("between"))
+            if between:
+                open_c = {"key": key, "kind": e["kind"], "t": e["t"], "between": True, "steps": []}
+                found.append(open_c)
+            elif open_c is not None and last is not None and (last == (step - 1, False) or last == (step - 1, True)):
+                open_c["steps"].append(step)
+            elif last == (step, False):
+                continue  # the same row again (two parts, or two events of one pair): one row in contact
+            else:
+                open_c = {"key": key, "kind": e["kind"], "t": e["t"], "between": False, "steps": [step]}
+                found.append(open_c)
+            last = (step, between)
+    found.sort(key=lambda c: (c["t"] if c["t"] is not None else 0.0))
+    return found
+
+
+def missed_contacts(continuous: list, discrete: list) -> tuple[list, list]:
+    """Of the contacts of a continuous replay's events, those the rows-only replay's events miss (no
+    event of the same pair at any row of the contact), and those it sees late (the contact began
+    between rows; the rows-only check's first event is at a later row): (missed, late), each a list
+    of (contact, lag s) with lag the delay to the first row that sees it (None when missed)."""
+    at_rows = {}
+    for e in discrete:
+        at_rows.setdefault(_contact_key(e), {})[int(e["step"])] = e["t"]
+    missed, late = [], []
+    for c in contacts(continuous):
+        seen = [at_rows.get(c["key"], {}).get(s) for s in c["steps"]]
+        seen = [t for t in seen if t is not None]
+        if not seen:
+            missed.append((c, None))
+        elif c["between"]:
+            late.append((c, float(min(seen)) - float(c["t"])))
+    return missed, late
+
+
+def resample(columns: dict, hz: float) -> dict:
+    """The motion of a trajectory's rows (``columns``: t, x, y, yaw_deg, turret_deg, gun_deg, (N,)
+    each) logged at ``hz``: rows every 1 / hz s from its first row to its last, their states the
+    motion's there (``geometry.motion.motion_at``)."""
+    from tankcd_cli.geometry.motion import motion_at
+
+    t = np.asarray(columns["t"], dtype=float)
+    times = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * hz + 1e-9)) + 1) / hz
+    return motion_at(t, columns["x"], columns["y"], columns["yaw_deg"], columns["turret_deg"],
+                     columns["gun_deg"], times)
+
+
+def _kinds(items) -> dict:
+    counts = dict.fromkeys(CONTACT_KINDS, 0)
+    for c in items:
+        c = c[0] if isinstance(c, tuple) else c
+        counts[c["kind"]] = counts.get(c["kind"], 0) + 1
+    return counts
+
+
+def rate_row(world, columns: dict, hz: float, repeats: int, has_turret: bool | None = None,
+             min_seconds: float = 0.0) -> RateRow:
+    """One sampling rate (``RateRow``) of the trajectory ``columns`` in ``world`` (``replay.world.World``):
+    each mode replayed once for its events (the warm-up), then both timed in pairs. ``has_turret``:
+    the trajectory gives turret and gun angles (None: where any of them is not 0), as a CSV with
+    those columns does (the gun's checks run only then)."""
+    import warnings
+
+    from tankcd_cli.errors import SetupWarning
+    from tankcd_cli.io.trajectory import TrajectoryChunk
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.run import replay_rows
+
+    rows = resample(columns, hz)
+    if has_turret is None:
+        has_turret = bool(np.any(columns["turret_deg"]) or np.any(columns["gun_deg"]))
+    n, size = len(rows["t"]), ReplayOptions().chunk_rows
+    chunks = []
+    for start in range(0, n, size):  # the chunks a reader would give: memory follows one
+        step = np.arange(start, min(start + size, n))
+        chunks.append(TrajectoryChunk(step, start, *(rows[k][step] for k in ("t", "x", "y", "yaw_deg", "turret_deg",
+                                                                              "gun_deg")), has_turret, step.copy()))
+
+    def run(discrete):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SetupWarning)  # said once by a replay of the trajectory itself
+            return replay_rows(world, chunks, ReplayOptions(continuous=not discrete))[1]
+
+    cont, disc = run(False), run(True)
+    timing = paired(lambda: run(True), lambda: run(False), repeats, warm_up=False, min_seconds=min_seconds)
+    missed, late = missed_contacts(cont, disc)
+    return RateRow(hz, len(rows["t"]), _kinds(contacts(cont)), _kinds(missed), _kinds(late),
+                   max((lag for _, lag in late), default=0.0), timing.b, timing.a, timing.ratio, timing.ratio_lo,
+                   timing.ratio_hi)
+
+
+def rate_stage(res: Results, world, columns: dict, budget: Budget, say, name: str,
+               rates=RATES_HZ) -> None:
+    """The trajectory's motion logged at each of ``rates`` (Hz), replayed continuous and rows-only:
+    the contacts found, those the rows-only check misses per kind, and the cost of each
+    (``RateRow``); the truth is the continuous check at the same rate."""
+    truth = "the continuous check at the same rate (every contact along the motion between rows)"
+    res.axes["rate"] = ("replay", "contacts the rows-only check misses")
+    for hz in rates:
+        say(f"rate: {name} at {hz:g} Hz, continuous and rows only")
+        r = rate_row(world, columns, hz, budget.pair_repeats, columns.get("has_turret"), budget.turn_seconds)
+        res.rates.append(r)
+        case = f"{name} at {hz:g} Hz ({r.rows:,} rows)"
+        for kind in CONTACT_KINDS:
+            if r.contacts.get(kind) or r.missed.get(kind):
+                res.records.append(Record("rate", case, "continuous", f"contacts_{kind}", r.contacts[kind], "1", truth))
+                res.records.append(Record("rate", case, "rows only (--discrete)", f"missed_{kind}", r.missed[kind],
+                                          "1", truth))
+        res.records.append(Record("rate", case, "rows only (--discrete)", "seen_late", sum(r.late.values()), "1",
+                                  truth))
+        res.records.append(Record("rate", case, "rows only (--discrete)", "lag_max", r.lag_max, "s", truth))
+        res.records.append(Record("rate", case, "continuous", "time_per_replay", r.continuous[0], "s", truth,
+                                  *r.continuous[1:]))
+        res.records.append(Record("rate", case, "rows only (--discrete)", "time_per_replay", r.discrete[0], "s", truth,
+                                  *r.discrete[1:]))
+        res.records.append(Record("rate", case, "continuous", "cost_vs_discrete", r.ratio, "1", truth, r.ratio_lo,
+                                  r.ratio_hi))

@@ -11,7 +11,7 @@ from typing import Callable
 
 import numpy as np
 
-from tankcd_cli.tradeoff.measure import FULL, QUICK, Results, cost_text, ratio_text
+from tankcd_cli.tradeoff.measure import CONTACT_KINDS, FULL, QUICK, Results, cost_text, ratio_text, spread_flag
 
 STAGES = ("curvature", "matching", "collision", "internal")
 
@@ -47,15 +47,18 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
         say(f"terrain: {scene.terrain_path}")
         surface = open_terrain(scene.terrain_path, up=scene.terrain_up, vehicle=vehicle).surface
         obstacle_tris = [placed_triangles(spec)[0] for spec in scene.obstacles]
+        columns = None
         if trajectory is not None:
-            x, y, yaw = _trajectory_xy(trajectory)
+            columns = _trajectory_columns(trajectory)
+            x, y, yaw = columns["x"], columns["y"], np.radians(columns["yaw_deg"])
             traj_name = os.path.basename(trajectory)
         else:
             x, y, yaw = _lawnmower(surface, vehicle)
             traj_name = "a lawnmower drive over the terrain"
         res.inputs = {"scene": scene_name, "terrain": os.path.basename(scene.terrain_path), "vehicle": vehicle.name,
                       "obstacles": [spec.name for spec in scene.obstacles], "trajectory": traj_name,
-                      "mode": "quick" if quick else "full", "repeats": budget.repeats, "command": command,
+                      "mode": "quick" if quick else "full", "repeats": budget.repeats, "pairs": budget.pair_repeats,
+                      "command": command,
                       "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
         course = synthetic.surface_of(synthetic.dem_terrain(synthetic.obstacle_course(0.5), name="obstacle course",
                                                             spacing=0.5), vehicle)
@@ -65,15 +68,28 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
                                vehicle, budget, say)
         measure.collision_stage(res, surface, vehicle, obstacle_tris, budget, say)
         measure.internal_stage(res, vehicle, budget, say)
-        from tankcd_cli.tradeoff.corpus import measure_corpus
+        if columns is None or columns["entities"] > 1 or columns["pieces"] > 1:
+            res.inputs["rate_skipped"] = ("the lawnmower drive has no times" if columns is None else
+                                          "the trajectory names several vehicles" if columns["entities"] > 1 else
+                                          "the trajectory's motion comes in several pieces")
+        else:
+            from tankcd_cli.replay.world import WorldSpec
 
-        say("corpus: which key-point matcher each region class gets")
-        res.corpus = measure_corpus(vehicle)
+            say("rate: loading the world")
+            measure.rate_stage(res, WorldSpec(scene=scene_path).load(), columns, budget, say, traj_name)
+        if quick:
+            res.inputs["corpus_skipped"] = True  # its 45 s would be most of a quick run; its own test holds it
+        else:
+            from tankcd_cli.tradeoff.corpus import measure_corpus
+
+            say("corpus: which key-point matcher each region class gets")
+            res.corpus = measure_corpus(vehicle)
     write_report(res, out_dir)
     return res
 
 
-def _trajectory_xy(path: str):
+def _trajectory_columns(path: str) -> dict:
+    """The trajectory's t, x, y, yaw_deg, turret_deg, gun_deg (N,) and how many vehicles it names."""
     from tankcd_cli.io.trajectory import read_trajectory
 
     chunks = list(read_trajectory(path))
@@ -82,7 +98,12 @@ def _trajectory_xy(path: str):
 
         raise InputError(path, "has no rows: the headline needs a trajectory to replay")
     cat = lambda name: np.concatenate([getattr(c, name) for c in chunks])  # noqa: E731
-    return cat("x"), cat("y"), np.radians(cat("yaw_deg"))
+    cols = {name: cat(name) for name in ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")}
+    cols["has_turret"] = any(c.has_turret for c in chunks)
+    cols["entities"] = len(np.unique(cat("entity"))) if chunks[0].entity is not None else 1
+    starts = cat("piece_start") if chunks[0].piece_start is not None else np.zeros(1, dtype=bool)
+    cols["pieces"] = max(int(np.count_nonzero(starts[1:])) + 1, 1)
+    return cols
 
 
 def _lawnmower(surface, vehicle, lanes: int = 6, step: float = 0.5):
@@ -181,18 +202,74 @@ def headline_table(res: Results) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _kind_counts(counts: dict) -> str:
+    shown = [f"{kind} {counts[kind]}" for kind in CONTACT_KINDS if counts.get(kind)]
+    return ", ".join(shown) if shown else "0"
+
+
+def ratio_cell(value: float, lo: float, hi: float) -> str:
+    """A ratio in a table: the median of the pairs, their range, and why the range cannot support it."""
+    flag = spread_flag(lo, hi)
+    return f"{value:.2f}x ({lo:.2f}-{hi:.2f}x)" + (f" **{flag}**" if flag else "")
+
+
+def rate_table(res: Results) -> str:
+    """The sampling-rate section: per rate, what the continuous check finds, what the rows alone miss,
+    and what each costs."""
+    inp = res.inputs
+    if not res.rates:
+        reason = inp.get("rate_skipped")
+        return ("## Sampling rate: what a check at the rows alone misses\n\nSkipped" +
+                (f" ({reason})." if reason else ".") + "\n") if reason else ""
+    lines = ["## Sampling rate: what a check at the rows alone misses", "",
+             f"The motion of {inp.get('trajectory')} logged at each rate (rows every 1 / rate s, each the state "
+             "of the motion between the trajectory's own rows there: docs/formats.md, \"Motion between rows\"), "
+             "replayed in the scene along the motion (the default) and at the rows alone (`--discrete`). "
+             "A contact is a run of rows in contact with one thing (an obstacle, a drum, the ground), or one "
+             "that begins between two rows and runs on through the rows after it in contact; the continuous "
+             "check at the same rate is the truth. Missed: no row of the contact has its event in the rows-only "
+             "replay. Seen late: the contact began between rows and the rows-only replay first reports it at a "
+             "later row (the longest delay in brackets). Times: one whole replay in this process (the world "
+             "loaded once), each mode once for its events, then the two in turn, each turn replaying again until "
+             "0.1 s has passed (the mean replay counts); the ratio is continuous over rows only, pair by pair "
+             "(median, lowest-highest).", "",
+             "| rate | rows | contacts (continuous) | missed by the rows alone | seen late (longest delay) | "
+             "continuous | rows only | continuous / rows only |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in res.rates:
+        c, d = r.continuous, r.discrete
+        late = sum(r.late.values())
+        lines.append(f"| {r.hz:g} Hz | {r.rows:,} | {_kind_counts(r.contacts)} | {_kind_counts(r.missed)} | "
+                     f"{late}" + (f" ({r.lag_max:.2f} s)" if late else "") + f" | {fmt_value(c[0], 's')} "
+                     f"({fmt_value(c[1], 's')}-{fmt_value(c[2], 's')}) | {fmt_value(d[0], 's')} "
+                     f"({fmt_value(d[1], 's')}-{fmt_value(d[2], 's')}) | "
+                     f"{ratio_cell(r.ratio, r.ratio_lo, r.ratio_hi)} |")
+    worst = max(res.rates, key=lambda r: (sum(r.missed.values()), -r.hz))
+    clean = [r.hz for r in res.rates if not sum(r.missed.values())]
+    lines += ["", f"At {worst.hz:g} Hz the rows alone miss {sum(worst.missed.values())} of "
+              f"{sum(worst.contacts.values())} contacts" + (f"; from {min(clean):g} Hz on, none." if clean else "; "
+                                                              "at every rate some.")]
+    return "\n".join(lines) + "\n"
+
+
 def markdown(res: Results) -> str:
     m, inp = res.machine, res.inputs
     out = ["# What accuracy costs in time", "",
            f"{inp.get('date', '')}, `{inp.get('command', '')}` ({inp.get('mode')} mode: times are medians of "
-           f"{inp.get('repeats')} runs after a warm-up, min-max in brackets).", "",
+           f"{inp.get('repeats')} runs after a warm-up, min-max in brackets; every ratio is the median of "
+           f"{inp.get('pairs')} pairs run in turn (each turn at least 0.1 s of calls), their range beside it, and said "
+           "where that range cannot "
+           "support it: it holds 1.0x, or spans more than a factor of 1.5).", "",
            f"Machine: {m.get('cpu')}, {m.get('cores')} cores ({m.get('threads')} kernel threads), {m.get('os')}. "
            f"Versions: tankcd {m.get('tankcd')}, Python {m.get('python')}, numpy {m.get('numpy')}, "
            f"scipy {m.get('scipy')}, python-fcl {m.get('python-fcl')}, coal {m.get('coal')}.", "",
            f"Inputs: scene {inp.get('scene')} (terrain {inp.get('terrain')}, vehicle {inp.get('vehicle')}, obstacles "
-           f"{', '.join(inp.get('obstacles') or []) or 'none'}), trajectory {inp.get('trajectory')}; generated analytic "
-           "surfaces and an obstacle course.", "", headline_table(res),
-           "![error versus time](tradeoff.png)", ""]
+           f"{', '.join(inp.get('obstacles') or []) or 'none'}), trajectory {inp.get('trajectory')}; generated "
+           "analytic surfaces and an obstacle course.", "", headline_table(res),
+           "![error versus time](tradeoff.png)", "", rate_table(res)]
+    if inp.get("corpus_skipped"):
+        out += ["## Which matcher each region class gets", "",
+                "Not measured in quick mode (the corpus alone takes most of a minute): run without `--quick`, or "
+                "`python -m tankcd_cli.tradeoff.corpus` for the table alone.", ""]
     if res.corpus:
         from tankcd_cli.tradeoff.corpus import corpus_table
 
@@ -205,12 +282,14 @@ def markdown(res: Results) -> str:
         "curvature": "Error against the closed-form H (interior: more than 3 m from the border); class_changed_share "
                      "is the share of vertices whose region class differs from the class the exact H gives.",
         "matching": "Against the reference on the same poses, per region class; penetration and gap are each "
-                    "variant's own (ground above its plane under the tracks, its plane above the ground at the six key points). "
+                    "variant's own (ground above its plane under the tracks, its plane above the ground at the six "
+                    "key points). "
                     "Jitter: attitude change from one step to the next along a straight drive (no truth needed: "
                     "a large maximum is a jump). Time per pose without penetration and gap (replay adds about the "
                     "same footprint pass to every variant).",
         "collision": "Every layout finds exactly the brute-force contacts (disagreement 0); they differ in work: "
-                     "node-pair and leaf (triangle-pair) tests, and the share of triangle tests whose volumes overlapped "
+                     "node-pair and leaf (triangle-pair) tests, and the share of triangle tests whose volumes "
+                     "overlapped "
                      "but whose triangles do not touch. Peers are queried pose by pose from Python.",
         "internal": "The paper's two-plane projection against the exact cylinder test over a grid of turret "
                     "azimuths and gun elevations: the projection may raise false alarms, and must never miss.",
@@ -268,7 +347,10 @@ def plot(res: Results, path: str) -> None:
     import matplotlib.ticker
 
     stages = [s for s in STAGES if any(p.stage == s for p in res.points)]
-    fig, axes = plt.subplots(1, max(len(stages), 1), figsize=(4.6 * max(len(stages), 1), 4.4), squeeze=False)
+    panels = len(stages) + bool(res.rates)
+    fig, axes = plt.subplots(1, max(panels, 1), figsize=(4.6 * max(panels, 1), 4.4), squeeze=False)
+    if res.rates:
+        _rate_panel(axes[0][-1], res.rates)
     for ax, stage in zip(axes[0], stages):
         pts = [p for p in res.points if p.stage == stage]
         positive = [p.error for p in pts if p.error > 0]
@@ -301,3 +383,33 @@ def plot(res: Results, path: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
+
+
+def _rate_panel(ax, rates: list) -> None:
+    """Contacts found and missed against the sampling rate; the continuous check's cost on a second axis."""
+    hz = [r.hz for r in rates]
+    found = [sum(r.contacts.values()) for r in rates]
+    missed = [sum(r.missed.values()) for r in rates]
+    ax.plot(hz, found, "o-", color="C0", label="contacts (continuous)")
+    ax.plot(hz, missed, "s-", color="C3", label="missed by the rows alone")
+    ax.set_xscale("log")
+    ax.set_xticks(hz)
+    ax.set_xticklabels([f"{h:g}" for h in hz])
+    ax.minorticks_off()
+    ax.set_xlabel("sampling rate, Hz")
+    ax.set_ylabel("contacts", fontsize=8)
+    ax.set_ylim(bottom=0)
+    ax.set_title("sampling rate")
+    ax.grid(True, alpha=0.25)
+    cost = ax.twinx()
+    ratio = np.array([r.ratio for r in rates])
+    lo = np.array([r.ratio_lo for r in rates])
+    hi = np.array([r.ratio_hi for r in rates])
+    cost.errorbar(hz, ratio, yerr=[ratio - lo, hi - ratio], fmt="D", color="0.4", ms=4, capsize=2,
+                  label="time, continuous / rows only (pairs' range)")
+    cost.axhline(1.0, color="0.7", lw=0.8, ls=":")
+    cost.set_ylabel("continuous / rows-only time", fontsize=8)
+    cost.set_ylim(bottom=0)
+    handles = ax.get_legend_handles_labels()
+    more = cost.get_legend_handles_labels()
+    ax.legend(handles[0] + more[0], handles[1] + more[1], fontsize=7, loc="center right")

@@ -68,6 +68,29 @@ def test_a_killed_replay_leaves_nothing_or_everything(big, sig):
         p.unlink()
 
 
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_a_killed_parquet_replay_leaves_nothing_or_everything(big, sig):
+    pq = pytest.importorskip("pyarrow.parquet")
+    for delay in np.random.default_rng(int(sig)).uniform(0.3, 2.5, 2):
+        out, ev = big / f"poses-{int(sig)}.parquet", big / f"events-{int(sig)}.parquet"
+        for p in (out, ev):
+            if p.exists():
+                p.unlink()
+        proc = _tankcd("replay", big / "traj.csv", "--terrain", big / "g.h5", "--poses", out, "--events", ev)
+        time.sleep(delay)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=120)
+        if out.exists():  # finished first: both files whole (a Parquet file cut short has no footer to read)
+            assert proc.returncode in (0, -int(sig), 130, 143), err
+            assert pq.read_metadata(out).num_rows == ROWS and pq.read_metadata(ev).num_rows >= 0
+        else:
+            assert proc.returncode != 0 and not ev.exists()
+        if sig != signal.SIGKILL:
+            assert not list(big.glob(".tankcd-*")), list(big.glob(".tankcd-*"))
+    for p in big.glob(".tankcd-*"):
+        p.unlink()
+
+
 def test_a_killed_classify_leaves_nothing(big):
     ys, xs = np.mgrid[0:700, 0:700] * 1.0
     write_asc(big / "large.asc", np.sin(xs / 9) * np.cos(ys / 7))
@@ -97,14 +120,26 @@ def test_an_unwritable_place_is_exit_3_and_one_line(big, run):
     assert "/proc/tankcd-test.h5" in res.stderr
 
 
-@pytest.mark.parametrize("where", ["mid-stream", "at the rename"])
+@pytest.mark.parametrize("where", ["mid-stream", "at the rename", "parquet mid-stream", "parquet at the rename"])
 def test_a_full_disk_is_exit_3_and_leaves_nothing(big, run, monkeypatch, tmp_path, where):
     import tankcd_cli.io.atomic as atomic
     import tankcd_cli.io.poses_csv as poses_csv
 
     def full(*a, **k):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-    if where == "mid-stream":
+    suffix = ".parquet" if where.startswith("parquet") else ".csv"
+    if where == "parquet mid-stream":  # the disk fills under pyarrow, in the thread writing a row group
+        pq = pytest.importorskip("pyarrow.parquet")
+        real_write = pq.ParquetWriter.write_table
+        written = []
+
+        def write_then_fail(self, *a, **k):
+            written.append(1)
+            if len(written) > 1:
+                full()
+            return real_write(self, *a, **k)
+        monkeypatch.setattr(pq.ParquetWriter, "write_table", write_then_fail)
+    elif where == "mid-stream":
         real = poses_csv.format_rows
         calls = []
 
@@ -116,7 +151,7 @@ def test_a_full_disk_is_exit_3_and_leaves_nothing(big, run, monkeypatch, tmp_pat
         monkeypatch.setattr(poses_csv, "format_rows", format_then_fail)
     else:
         monkeypatch.setattr(atomic.os, "replace", full)
-    out = tmp_path / "poses.csv"
+    out = tmp_path / f"poses{suffix}"
     res = run("replay", big / "traj.csv", "--terrain", big / "g.h5", "--poses", out)
     assert res.exit_code == 3, res.stderr
     assert "No space left on device" in res.stderr and len(res.stderr.strip().splitlines()) == 1

@@ -128,12 +128,22 @@ FLEET_NEEDS = "it sets how a fleet runs, and a fleet writes one poses and one ev
     (["--no-escalate", "--tolerance", "0.1"],
      f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
     (["--jobs", "2"], f"--jobs needs --out-dir: {FLEET_NEEDS}"),
-    (["--scheduler", "tcp://localhost:8786"], f"--scheduler needs --out-dir: {FLEET_NEEDS}"),
+    (["--scheduler", "tcp://localhost:8786"], "--scheduler needs --out-dir or --window-seconds: it runs a fleet's "
+                                              "trajectories or an exercise's time windows on the cluster"),
+    (["--out-dir", "o", "--window-seconds", "60"],
+     f"--window-seconds does not apply with {FLEET}: it cuts one exercise into time windows, written into --poses "
+     "and --events"),
+    (["--window-seconds", "60", "--png", "a.png"],
+     "--png does not apply with --window-seconds: it draws a replay run in one piece"),
     (["--split-lines", "5000"], f"--split-lines needs --out-dir: {FLEET_NEEDS}"),
+    (["--out-format", "parquet"], "--out-format needs --out-dir: it sets the format of the files a fleet writes "
+                                  "there (one replay writes Parquet to --poses and --events ending in .parquet)"),
     (["--out-dir", "o", "--poses", "p.csv"],
-     f"--poses does not apply with {FLEET}: a fleet writes OUT/NAME.poses.csv for each trajectory"),
+     f"--poses does not apply with {FLEET}: a fleet writes OUT/NAME.poses.csv for each trajectory (.parquet with "
+     "--out-format parquet)"),
     (["--out-dir", "o", "--events", "e.jsonl"],
-     f"--events does not apply with {FLEET}: a fleet writes OUT/NAME.events.jsonl for each trajectory"),
+     f"--events does not apply with {FLEET}: a fleet writes OUT/NAME.events.jsonl for each trajectory (.parquet "
+     "with --out-format parquet)"),
     (["--out-dir", "o", "--cache"],
      f"--cache does not apply with {FLEET}: a fleet does not save its terrain beside it (classify it first with "
      "tankcd classify)"),
@@ -142,10 +152,6 @@ FLEET_NEEDS = "it sets how a fleet runs, and a fleet writes one poses and one ev
     (["--up", "y"], "--up does not apply to a store (--terrain {store}): a store's terrain was turned z-up when it "
                     "was classified"),
     (["--png", "-"], "--poses and --png both go to standard output (-): give one of them a file"),
-    (["--poses", "p.parquet"], "Invalid value for '--poses': p.parquet: Parquet output is not supported yet; "
-                               "write .csv"),
-    (["--events", "e.Parquet"], "Invalid value for '--events': e.Parquet: Parquet output is not supported yet; "
-                                "write .jsonl"),
 ])
 def test_options_that_cannot_apply_are_usage_errors(run, store, tmp_path, args, message):
     (tmp_path / "t.csv").write_text(trajectory(n=3))

@@ -7,7 +7,8 @@ import numpy as np
 
 from tests.conftest import write_asc
 
-HEAVY = ("scipy", "matplotlib", "trimesh", "rasterio", "meshio", "numba", "llvmlite", "dask", "distributed")
+HEAVY = ("scipy", "matplotlib", "trimesh", "rasterio", "meshio", "numba", "llvmlite", "dask", "distributed",
+         "pyarrow")
 
 RUN = """
 import sys

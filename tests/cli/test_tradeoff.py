@@ -3,6 +3,6 @@
 
 def test_quick_help_promises_no_stale_seconds(run):
     text = " ".join(run("tradeoff", "--help").stdout.split())
-    assert "Small inputs and 3 repeats, for CI: under a minute on 2 cores (the full run takes about three " \
-           "times as long)." in text
+    assert "Small inputs, 3 repeats and 7 pairs behind each ratio, without the matcher corpus, for CI: well under " \
+           "a minute on 2 cores (the full run takes several minutes)." in text
     assert "a few seconds" not in text

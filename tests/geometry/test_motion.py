@@ -8,6 +8,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from tankcd_cli.geometry.motion import (
     axis_rotation,
+    motion_at,
     quaternion_matrix,
     quaternion_slerp,
     rotation_angle,
@@ -97,3 +98,36 @@ def test_the_motion_bound_holds_for_every_point_and_fraction(seed):
 
     moved = np.linalg.norm(at(w) - at(u), axis=1).max()
     assert moved <= (w - u) * (np.linalg.norm(c1 - c0) + theta * rho) + 1e-9
+
+def _columns(t, x, y, yaw, turret=None, gun=None):
+    n = len(t)
+    return {"t": np.asarray(t, float), "x": np.asarray(x, float), "y": np.asarray(y, float),
+            "yaw_deg": np.asarray(yaw, float), "turret_deg": np.zeros(n) if turret is None else np.asarray(turret),
+            "gun_deg": np.zeros(n) if gun is None else np.asarray(gun)}
+
+
+def test_the_motion_at_the_rows_is_the_rows_and_between_them_the_intervals():
+    c = _columns([0.0, 1.0, 3.0, 4.0], [0.0, 10.0, 10.0, 4.0], [0.0, 0.0, 6.0, 6.0], [10.0, 170.0, -170.0, -90.0],
+                 [0.0, 90.0, 180.0, 181.0], [0.0, 5.0, -5.0, 0.0])
+    at = motion_at(c["t"], c["x"], c["y"], c["yaw_deg"], c["turret_deg"], c["gun_deg"], c["t"])
+    for name in ("x", "y", "gun_deg"):
+        np.testing.assert_array_equal(at[name], c[name])
+    np.testing.assert_allclose(at["yaw_deg"], [10.0, 170.0, -170.0, -90.0])
+    np.testing.assert_allclose(at["turret_deg"], [0.0, 90.0, -180.0, -179.0])
+    # between the rows: what the intervals (the checks' own motion) give at the same fraction
+    iv = row_intervals(c["t"], c["x"], c["y"], c["yaw_deg"], c["turret_deg"], c["gun_deg"])
+    k, s = np.array([0, 1, 1, 2]), np.array([0.25, 0.5, 0.75, 0.1])
+    want = iv.at(k, s)
+    got = motion_at(c["t"], c["x"], c["y"], c["yaw_deg"], c["turret_deg"], c["gun_deg"], want["t"])
+    for name in ("x", "y", "gun_deg"):
+        np.testing.assert_allclose(got[name], want[name])
+    for name in ("yaw_deg", "turret_deg"):
+        np.testing.assert_allclose(np.mod(got[name] - want[name] + 180, 360) - 180, 0.0, atol=1e-9)
+    # 170 -> -170 takes the short way, through 180: half way is a heading of +-180
+    assert abs(abs(got["yaw_deg"][1]) - 180.0) < 1e-9
+
+
+def test_the_motion_holds_still_at_its_ends_and_takes_the_last_of_rows_at_one_time():
+    c = _columns([0.0, 1.0, 1.0, 2.0], [0.0, 1.0, 5.0, 7.0], [0.0] * 4, [0.0] * 4)
+    at = motion_at(c["t"], c["x"], c["y"], c["yaw_deg"], c["turret_deg"], c["gun_deg"], [-1.0, 0.5, 1.0, 1.5, 9.0])
+    np.testing.assert_allclose(at["x"], [0.0, 0.5, 5.0, 6.0, 7.0])

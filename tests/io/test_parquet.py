@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+from tankcd_cli.errors import InputError
 from tankcd_cli.io import parquet as P
 from tankcd_cli.io.poses_csv import COLUMNS, format_rows
 from tankcd_cli.matching.match import Poses
@@ -204,10 +205,15 @@ def test_events_typed_columns_and_the_rest_as_json(tmp_path):
 def test_without_pyarrow_one_line_names_the_extra(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    target = str(tmp_path / "p.parquet")
     with pytest.raises(P.ParquetUnavailable) as info:
-        P.PosesParquetWriter(str(tmp_path / "p.parquet"))
-    assert str(info.value) == "Parquet output needs pyarrow: pip install 'tankcd[parquet]'" == P.PYARROW_MISSING
+        P.PosesParquetWriter(target)
+    assert str(info.value) == f"{target}: Parquet output needs pyarrow: pip install 'tankcd[parquet]'"
+    assert info.value.what == P.PYARROW_MISSING and isinstance(info.value, InputError)  # bad input: exit 3
     assert os.listdir(tmp_path) == []
+    with pytest.raises(P.ParquetUnavailable, match="^e.parquet: Parquet output needs pyarrow"):
+        P.check_writable("-", None, "p.csv", "e.parquet")
+    P.check_writable("-", None, "p.csv")  # nothing asks for Parquet: nothing to check
     assert P.is_parquet("out/P.PARQUET") and not P.is_parquet("p.csv") and not P.is_parquet(None)
 
 
@@ -228,6 +234,6 @@ def test_threaded_writing_gives_the_same_file_and_its_errors(tmp_path, monkeypat
 
     monkeypatch.setattr(w._writer, "write_table", fail)
     w.write({"a": np.arange(5)})
-    with pytest.raises(OSError, match="No space left"):
-        w.close()
+    with pytest.raises(InputError, match="c.parquet: cannot write output: No space left on device"):
+        w.close()  # bad output (exit 3), named, as io.atomic says it of text outputs
     assert sorted(os.listdir(tmp_path)) == ["a.parquet", "b.parquet"]

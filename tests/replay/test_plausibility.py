@@ -65,3 +65,56 @@ def test_a_good_track_and_the_sample_patrol_are_quiet(run, tmp_path, ground):
     assert _warned(run, tmp_path, ground, [(k, 10 + 4 * k, 10 + 3 * k, 36.87) for k in range(10)]) == []
     result = run("replay", SAMPLE / "patrol.csv", "--scene", SAMPLE / "scene.toml", "--poses", "p.csv")
     assert result.exit_code == 0 and "warning" not in result.stderr
+
+
+def _said(check, feed):
+    """The warnings ``feed(check)`` raises, then those of ``check.finish()``."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        feed(check)
+        check.finish()
+    return [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_many_vehicles_interleaved_and_chunked_are_each_vehicle_alone(seed):
+    """The checks of an exercise, its rows interleaved and cut into chunks anywhere, say of each vehicle
+    what they say of its rows alone, whole: the same warnings and the same counts."""
+    import numpy as np
+
+    from tankcd_cli.replay.plausibility import FITS, MotionChecks
+
+    rng = np.random.default_rng(seed)
+    n, vehicles = 400, 7
+    who = rng.integers(0, vehicles, n)
+    t = np.sort(rng.uniform(0, 100, n)).round(1)  # equal times too
+    x = rng.normal(0, 40, n).cumsum() * rng.choice([0.1, 1.0, 10.0], n)  # some steps too fast
+    y = rng.normal(0, 40, n).cumsum()
+    yaw = rng.uniform(-180, 180, n) if seed % 2 else np.degrees(np.arctan2(np.gradient(y), np.gradient(x))) + 90
+    line = np.arange(2, n + 2)
+    names = tuple(f"V{v}" for v in range(vehicles))
+
+    def chunked(check):
+        cuts = np.sort(rng.choice(np.arange(1, n), 5, replace=False))
+        for rows in np.split(np.arange(n), cuts):
+            check.observe_rows(who[rows], t[rows], x[rows], y[rows], yaw[rows], line[rows], names)
+
+    together = MotionChecks("x.csv")
+    said = _said(together, chunked)
+    alone_said = []
+    for v in range(vehicles):
+        rows = np.flatnonzero(who == v)
+        alone = MotionChecks("x.csv", name=names[v])
+        alone_said.append(_said(alone, lambda c: c.observe(t[rows], x[rows], y[rows], yaw[rows], line[rows])))
+        for field in ("moving", "off", "first_off_line", "fast_warned", "turn_warned"):
+            assert getattr(together, field)[v] == getattr(alone, field)[0], (v, field)
+        assert (together.fits[:, v] == alone.fits[:, 0]).all()
+    # each vehicle's warnings in its own order; the heading check's come last, once every row is seen
+    heading = [w for w in said if "moving rows head" in w]
+    assert sorted(w for w in said if w not in heading) == sorted(w for a in alone_said for w in a
+                                                                 if "moving rows head" not in w)
+    assert sorted(heading) == sorted(w for a in alone_said for w in a if "moving rows head" in w)
+    assert len(FITS) == together.fits.shape[0]
+    assert any(said), "the random exercise should trip at least one check"

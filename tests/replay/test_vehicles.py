@@ -264,3 +264,34 @@ def test_the_drums_are_each_vehicles_own(run, flat):
     internal = [e for e in events if e["kind"] == "internal"]
     assert {e["entity"] for e in internal} == {"T"} and len(internal) == 5
     assert summary["effects"]["internal"] is True
+
+
+def test_rows_out_of_time_order_across_vehicles_are_said_not_lost_silently(flat):
+    """An exercise whose rows come one vehicle after the other (each in its own time order, valid
+    rows) cannot have its contacts between vehicles checked once the first vehicle's windows have
+    closed: a set-up warning names the vehicle and the row. In time order the same rows give the
+    head-on contact and no warning."""
+    import warnings
+
+    from tankcd_cli import api
+    from tankcd_cli.errors import SetupWarning
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.run import replay_rows
+
+    rows = []
+    for k in range(41):
+        t = 0.25 * k
+        rows += [(t, "A", 10 + 8 * t, 30, 0), (t, "B", 150 - 7 * t, 30, 180)]
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    options = ReplayOptions(chunk_rows=10)
+    for name, ordered in (("timed.csv", rows), ("grouped.csv", sorted(rows, key=lambda r: r[1]))):
+        _write(flat / name, ordered)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            _, events = replay_rows(world, str(flat / name), options)
+        said = [str(w.message) for w in caught if issubclass(w.category, SetupWarning)]
+        late = [m for m in said if "not in time order across vehicles" in m]
+        if name == "timed.csv":
+            assert [e["kind"] for e in events].count("vehicle") == 1 and not late
+        else:
+            assert len(late) == 1 and "entity 'B'" in late[0] and "row 41" in late[0]

@@ -33,10 +33,35 @@ def test_writes_the_three_files(report):
     out, rows, output = report
     assert (out / "tradeoff.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     md = (out / "tradeoff.md").read_text()
-    for heading in ("## curvature", "## matching", "## collision", "## internal", "Headline", "Machine:"):
+    for heading in ("## curvature", "## matching", "## collision", "## internal", "Headline", "Machine:",
+                    "## Sampling rate"):
         assert heading in md
     assert "than reference" in output and ("x faster (pairs" in output or "within noise" in output)
-    assert {r["stage"] for r in rows} == {"headline", "curvature", "matching", "collision", "internal"}
+    assert {r["stage"] for r in rows} == {"headline", "curvature", "matching", "collision", "internal", "rate"}
+    assert "Not measured in quick mode" in md  # the corpus: tests/tradeoff/test_corpus.py holds it
+
+
+def test_every_ratio_carries_its_spread(report):
+    _, rows, _ = report
+    ratios = [r for r in rows if r["measure"] in ("speedup", "escalation_cost", "time_saved_share",
+                                                   "cost_vs_discrete")]
+    assert len(ratios) == 3 + 5
+    for r in ratios:
+        assert float(r["spread_lo"]) <= float(r["value"]) <= float(r["spread_hi"]), r
+
+
+def test_the_rows_alone_miss_contacts_at_1_hz_and_no_more_at_50(report):
+    out, rows, _ = report
+    cases = list(dict.fromkeys(r["case"] for r in _values(rows, stage="rate")))
+    assert [c.split(" at ")[1].split(" (")[0] for c in cases] == ["1 Hz", "2 Hz", "5 Hz", "10 Hz", "50 Hz"]
+
+    def total(case, prefix):
+        return sum(float(r["value"]) for r in _values(rows, stage="rate", case=case) if r["measure"].startswith(prefix))
+    for case in cases:
+        assert 0 <= total(case, "missed_") <= total(case, "contacts_") and total(case, "contacts_") > 0, case
+    assert total(cases[0], "missed_") > 0  # 1 Hz rows, 5 m apart on the patrol, step over the scrapes
+    assert total(cases[-1], "missed_") <= total(cases[0], "missed_")
+    assert "| 1 Hz | 115 |" in (out / "tradeoff.md").read_text()
 
 
 def test_errors_and_times_are_non_negative_and_finite(report):

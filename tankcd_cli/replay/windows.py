@@ -1,0 +1,722 @@
+"""An exercise replayed by time windows, each window a task: in this process, or on a Dask cluster
+for an exercise too big for one machine. The poses and events written are those of a local run
+(``replay.run.run_replay``) byte for byte, because every window decides what is its own by the
+local run's own rules:
+
+- **The grid.** The local run searches vehicle contacts in windows of ``replay.vehicles.WINDOW``
+  seconds from the first chunk's earliest time (``VehicleContacts``); a task's window is a whole
+  number of them, on the same grid (the same floats: each edge the one before plus the width), so
+  every contact window is checked with the same segments cut at the same instants.
+- **Rows.** A task places its own rows (``t`` in its window; rows before the grid belong to the
+  first, rows after the last edge to the last) and, per entity, the last two rows before its start
+  (the interval crossing the start edge, and the one before it, whose end says whether an obstacle
+  contact continues into the window) and the first row after its end (the interval crossing the end
+  edge). It keeps the poses of its own rows only, and the events of its own rows and of the
+  intervals that end at them (the local run checks an interval with the chunk of its later row).
+- **Vehicle contacts.** A task runs the contact windows of its span, each with the segments the
+  local run had buffered when it closed that window: those of intervals whose later row was read
+  by then (which chunk the local run had read when each window closed is found by one pass over
+  the trajectory's times that plays the local run's watermark), in the buffer's order. A contact
+  belongs to the window holding its first-contact time; one already going on at a window's start
+  continues the earlier window's (``VehicleContacts``'s own rule), so none is reported twice.
+- **Order.** Every event carries the place the local run writes it at (the chunk, then the step
+  and time, or the contact window), and the results are joined in that order; the poses by step.
+
+Memory: a task holds its window's rows and segments; the joining holds the results not yet
+written (the windows finished ahead of the next in order, and rows of a window that interleave
+with the next one's in the file).
+
+The trajectory is read once by the planning pass (times and entities: the watermark and each
+window's rows), and each task reads the parts of the file (CSV lines, ``io.trajectory``) that hold
+its rows; an input that is no CSV (GPX, a capture) is read whole by every task.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from tankcd_cli.errors import InputError
+from tankcd_cli.replay.records import KINDS, ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
+
+DEFAULT_WINDOW_SECONDS = 60.0
+
+
+@dataclass(frozen=True)
+class ContactWindow:
+    """One window of the vehicle-contact search: [w0, w1), the local run's chunk after which it
+    closes (``emit``; the number of chunks: at the end) and whether it is the last."""
+
+    index: int
+    w0: float
+    w1: float
+    emit: int
+    last: bool
+
+
+@dataclass(frozen=True)
+class WindowTask:
+    """One time window of an exercise, as a task: what to read and what is its own.
+
+    index : the window's place in time (0 first)
+    trajectory : the input's path; fmt : its format (None: by suffix)
+    parts : the CSV parts (``io.trajectory.TrajectoryPart``) holding its rows, in order (None: read
+        the whole input, stopping after ``last_step``)
+    t0, t1 : its own rows are those with t0 <= t < t1 (-inf and inf at the ends)
+    lead : (n,) steps of the rows before it that seed motion into it; trailing : (m,) steps of each
+        entity's first row after it
+    windows : the contact windows it runs (``ContactWindow``), in order
+    kept_until : the chunk after which the contact window before its first closed (-1: none)
+    names : every entity name, by code (the whole input's codes); first_step : each entity's first
+        row's step, by code; chunk_starts : each local chunk's first step
+    has_turret, has_entity : the input's (as its first chunk says)
+    chunk_rows : the local run's chunk; last_step : its last row's step (own or trailing)
+    """
+
+    index: int
+    trajectory: str
+    fmt: str | None
+    parts: tuple | None
+    t0: float
+    t1: float
+    lead: np.ndarray
+    trailing: np.ndarray
+    windows: tuple
+    kept_until: int
+    names: tuple
+    first_step: np.ndarray
+    chunk_starts: np.ndarray
+    has_turret: bool
+    has_entity: bool
+    chunk_rows: int
+    last_step: int
+
+
+@dataclass
+class WindowResult:
+    """What one window's task gives back: its own rows' steps and pose lines, its events (each with
+    its place in the local run's order: ``event_keys``), its counts, and what the summary needs
+    (intervals and sub-steps of its own intervals, seconds, effects, the resolution between rows,
+    the terrain's extent and CRS); the worker's pid and the task's seconds."""
+
+    index: int
+    steps: np.ndarray
+    pose_lines: list
+    event_keys: list
+    event_lines: list
+    counts: ReplayCounts
+    intervals: int = 0
+    substeps: int = 0
+    seconds: dict = field(default_factory=dict)
+    effects: dict = field(default_factory=dict)
+    resolution: dict = field(default_factory=dict)
+    bounds: tuple = ()
+    crs: str = ""
+    pid: int = 0
+    task_seconds: float = 0.0
+
+
+@dataclass
+class WindowPlan:
+    """An exercise cut into window tasks (``plan_windows``): the tasks in time order, per task the
+    least step of its own rows and the least local chunk its events are written with (what says
+    when the results before it are complete), and the input's rows and chunks."""
+
+    tasks: list
+    min_step: np.ndarray
+    min_chunk: np.ndarray
+    rows: int
+    chunks: int
+    has_entity: bool
+    entities: int
+    geographic: bool
+
+
+# --- planning -----------------------------------------------------------------------------------
+
+class _Grid:
+    """The contact windows' edges, as the local run makes them (each the one before plus the width),
+    grown on demand."""
+
+    def __init__(self, origin: float, width: float):
+        self.width = width
+        self.edges = [origin]
+
+    def cover(self, t: float) -> None:
+        while self.edges[-1] <= t:
+            self.edges.append(self.edges[-1] + self.width)
+
+
+def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), window_seconds: float = 60.0,
+                 fmt: str | None = None) -> WindowPlan:
+    """One pass over ``trajectory`` (times and entities, the local run's chunks) into window tasks of
+    ``window_seconds`` (rounded to a whole number of contact windows, at least one). Bad rows are
+    the local run's errors (``InputError``), raised here before any task runs."""
+    from tankcd_cli.io.trajectory import TrajectoryReader, split_trajectory, trajectory_format
+    from tankcd_cli.replay import vehicles
+    from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
+
+    width = vehicles.WINDOW
+    per_task = max(1, int(round(window_seconds / width)))
+    watch = vehicles.VehicleContacts(None, continuous=options.continuous)
+    reader = TrajectoryReader(trajectory, options.chunk_rows, fmt=fmt, convert=False)
+    is_csv = trajectory_format(trajectory, fmt) == "csv"
+    parts = split_trajectory(trajectory, options.chunk_rows) if is_csv and trajectory != "-" else None
+    part_steps = np.array([p.step_offset for p in parts], dtype=np.int64) if parts else None
+    grid = None
+    checks = None
+    emits: list = []  # the chunk after which each contact window closed
+    chunk_starts: list = []
+    first_step = np.zeros(0, np.int64)
+    last = np.full((0, 2), -1, np.int64)  # each entity's last two rows' steps (older, newer)
+    last_t = np.zeros(0)
+    crossings = []  # arrays of (lo task, hi task, the row after, the row before, the one before that)
+    own_min: dict = {}
+    own_max: dict = {}
+    own_parts: dict = {}
+    rows = 0
+    t_end = -np.inf
+    has_turret = has_entity = False
+    names: tuple = ()
+    for c, chunk in enumerate(reader):
+        if grid is None:
+            grid = _Grid(float(np.floor(chunk.t.min() / width) * width), width)
+            has_turret, has_entity = chunk.has_turret, chunk.has_entity
+            if not reader.geographic:
+                checks = ExerciseChecks(trajectory) if has_entity else MotionChecks(trajectory)
+        if checks is not None:
+            if has_entity:
+                checks.observe(chunk)
+            else:
+                checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
+        chunk_starts.append(int(chunk.step[0]))
+        before = watch.done_until if watch.done_until is not None else grid.edges[0]
+        watch.ready(chunk)
+        w = before
+        while w < watch.done_until:
+            emits.append(c)
+            w = w + width
+        rows += len(chunk)
+        t_end = max(t_end, float(chunk.t.max()))
+        grid.cover(t_end)
+        names = chunk.entity_names
+        codes = chunk.entity if chunk.entity is not None else np.zeros(len(chunk), np.int64)
+        if len(names) > len(first_step):
+            grow = len(names) - len(first_step)
+            first_step = np.r_[first_step, np.full(grow, -1, np.int64)]
+            last = np.r_[last, np.full((grow, 2), -1, np.int64)]
+            last_t = np.r_[last_t, np.full(grow, -np.inf)]
+        starts = np.asarray(grid.edges[::per_task])
+        task = np.maximum(np.searchsorted(starts, chunk.t, side="right") - 1, 0)
+        _own(task, chunk.step, part_steps, own_min, own_max, own_parts)
+        _crossings(codes, chunk.step, chunk.t, task, starts, first_step, last, last_t, crossings)
+    reader.close()
+    if checks is not None:
+        checks.finish()
+    if grid is None:
+        return WindowPlan([], np.zeros(0, np.int64), np.zeros(0, np.int64), 0, 0, False, 0, False)
+    edges = grid.edges
+    n_windows = int(np.searchsorted(edges, t_end, side="right"))  # windows starting at or before the end
+    n_chunks = len(chunk_starts)
+    emits += [n_chunks] * (n_windows - len(emits))
+    n_tasks = (n_windows - 1) // per_task + 1
+    lead, trailing = _extra_rows(crossings, n_tasks)
+    tasks = []
+    min_step = np.zeros(n_tasks, np.int64)
+    min_chunk = np.zeros(n_tasks, np.int64)
+    starts_arr = np.asarray(chunk_starts, np.int64)
+    for j in range(n_tasks):
+        ks = range(j * per_task, min((j + 1) * per_task, n_windows))
+        windows = tuple(ContactWindow(k, edges[k], edges[k + 1], emits[k], edges[k + 1] > t_end) for k in ks)
+        extra_lead = lead.get(j, np.zeros(0, np.int64))
+        extra_trailing = trailing.get(j, np.zeros(0, np.int64))
+        needed = set(own_parts.get(j, ()))
+        if part_steps is not None:
+            for s in np.r_[extra_lead, extra_trailing]:
+                needed.add(int(np.searchsorted(part_steps, s, side="right") - 1))
+        last_step = max([own_max.get(j, -1)] + [int(s) for s in extra_trailing[-1:]])
+        tasks.append(WindowTask(
+            j, trajectory, fmt, tuple(parts[p] for p in sorted(needed)) if parts is not None else None,
+            edges[j * per_task] if j > 0 else -np.inf, edges[(j + 1) * per_task] if j < n_tasks - 1 else np.inf,
+            extra_lead, extra_trailing, windows, emits[j * per_task - 1] if j > 0 else -1, names, first_step,
+            starts_arr, has_turret, has_entity, options.chunk_rows, last_step))
+        min_step[j] = own_min.get(j, np.iinfo(np.int64).max)
+        first_chunk = int(np.searchsorted(starts_arr, min_step[j], side="right") - 1) if j in own_min else n_chunks
+        min_chunk[j] = min([first_chunk] + [w.emit for w in windows])
+    return WindowPlan(tasks, min_step, min_chunk, rows, n_chunks, has_entity, len(names), bool(reader.geographic))
+
+
+def _own(task, steps, part_steps, own_min, own_max, own_parts) -> None:
+    """Each task's own rows in a chunk: their least and greatest steps and the parts holding them."""
+    order = np.argsort(task, kind="stable")
+    ts = task[order]
+    cuts = np.flatnonzero(np.diff(ts)) + 1
+    for group in np.split(order, cuts):
+        j = int(task[group[0]])
+        lo, hi = int(steps[group].min()), int(steps[group].max())
+        own_min[j] = min(own_min.get(j, lo), lo)
+        own_max[j] = max(own_max.get(j, hi), hi)
+        if part_steps is not None:
+            found = np.unique(np.searchsorted(part_steps, steps[group], side="right") - 1)
+            own_parts.setdefault(j, set()).update(int(p) for p in found)
+
+
+def _crossings(codes, steps, t, task, starts, first_step, last, last_t, out) -> None:
+    """The intervals of a chunk that cross a task's edge (the row before in another task than the row
+    after), with the row before that: what the tasks between them read besides their own rows.
+    ``first_step``, ``last`` (each entity's last two steps) and ``last_t`` carry across chunks."""
+    order = np.argsort(codes, kind="stable")
+    e, s, ts, task = codes[order], steps[order], t[order], task[order]
+    n = len(e)
+    head = np.r_[True, e[1:] != e[:-1]]
+    tail = np.r_[head[1:], True]
+    begin = np.maximum.accumulate(np.where(head, np.arange(n), 0))
+    pos = np.arange(n) - begin  # the row's place among its entity's rows in the chunk
+    new = head & (first_step[e] < 0)
+    first_step[e[new]] = s[new]
+    prev = np.where(pos == 0, last[e, 1], np.r_[-1, s[:-1]])
+    prev2 = np.where(pos == 0, last[e, 0], np.where(pos == 1, last[e, 1], np.r_[-1, -1, s[:-2]][:n]))
+    prev_t = np.where(pos == 0, last_t[e], np.r_[-np.inf, ts[:-1]])
+    prev_task = np.maximum(np.searchsorted(starts, prev_t, side="right") - 1, 0)
+    cross = (prev >= 0) & (prev_task < task)
+    if cross.any():
+        out.append(np.column_stack([prev_task[cross], task[cross], s[cross], prev[cross], prev2[cross]]))
+    last[e[tail], 0] = prev[tail]
+    last[e[tail], 1] = s[tail]
+    last_t[e[tail]] = ts[tail]
+
+
+def _extra_rows(crossings, n_tasks):
+    """Per task, the steps of the rows before its start (lead) and after its end (trailing)."""
+    if not crossings:
+        return {}, {}
+    lo, hi, after, before, before2 = np.concatenate(crossings).T
+
+    def spread(first, stop, values):  # (task, step) for every task first..stop-1 of each crossing
+        count = np.maximum(stop - first, 0)
+        tasks = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+        steps = np.repeat(values, count)
+        keep = steps >= 0
+        return tasks[keep], steps[keep]
+
+    hi_lead = np.minimum(hi, n_tasks - 1) + 1
+    j1, s1 = spread(lo + 1, hi_lead, before)
+    j2, s2 = spread(lo + 1, hi_lead, before2)
+    j3, s3 = spread(lo, np.minimum(hi, n_tasks), after)
+    return _by_task(np.r_[j1, j2], np.r_[s1, s2]), _by_task(j3, s3)
+
+
+def _by_task(tasks, steps) -> dict:
+    order = np.lexsort((steps, tasks))
+    tasks, steps = tasks[order], steps[order]
+    cuts = np.flatnonzero(np.diff(tasks)) + 1
+    return {int(g[0]): np.unique(v) for g, v in zip(np.split(tasks, cuts), np.split(steps, cuts)) if len(g)}
+
+
+# --- one window ---------------------------------------------------------------------------------
+
+class _Segments:
+    """Stands in for a run's vehicle checks while a window's rows are replayed: keeps every segment
+    (to be run window by window afterwards) and closes no window itself."""
+
+    def __init__(self):
+        self.parts = []  # (kind index, Segments)
+
+    def add(self, kind, segments) -> None:
+        if segments is not None and len(segments):
+            self.parts.append((kind.index, segments))
+
+    def add_rows(self, kind, chunk, poses) -> None:
+        pass
+
+    def ready(self, chunk) -> list:
+        return []
+
+    def finish(self) -> list:
+        return []
+
+
+def run_window(world, task: WindowTask, kernel_threads: int | None = None) -> WindowResult:
+    """One window's task on a worker: the world (a ``replay.fleet.FleetWorld``) loaded once per
+    process, then ``replay_window``."""
+    from tankcd_cli.replay.fleet import load_world_once
+
+    if kernel_threads is not None:
+        from tankcd_cli.threads import set_num_threads
+
+        set_num_threads(kernel_threads)
+    return replay_window(load_world_once(world.spec), world.options, task)
+
+
+def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
+    """Replay one window of an exercise in a loaded ``world``: its own rows' poses and events, and
+    the vehicle contacts of its contact windows, each event with its place in the local run's order."""
+    from tankcd_cli.io.events import event_line
+    from tankcd_cli.io.poses_csv import format_rows
+    from tankcd_cli.matching.match import PLACED_BY, STATUS
+    from tankcd_cli.replay.between_rows import resolution
+    from tankcd_cli.replay.pipeline import replay_chunks, start_run
+
+    start = time.perf_counter()
+    lead, own, trailing, fed = _read_window(world, task)
+    run = start_run(world, options, task.has_turret, entities=task.has_entity)
+    gathered = None
+    if run.vehicles is not None:
+        gathered = run.vehicles = _Segments()
+    for _ in replay_chunks(run, [], lead=lead):
+        pass
+    before = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
+    counts = ReplayCounts()
+    steps, lines, keys, texts = [], [], [], []
+    chunk_of = _chunk_of(task.chunk_starts)
+    next_step = _next_rows(*fed)
+    for chunk, poses, events in replay_chunks(run, own):
+        if chunk is None:
+            continue
+        entity = chunk.entity if chunk.has_entity else None
+        text = format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names)
+        lines += [line + "\n" for line in text.split("\n")[:-1]]
+        steps.append(chunk.step)
+        counts.add(chunk, poses, events)
+        for e in events:
+            row = next_step(np.array([e.step]))[0] if e.between else e.step
+            keys.append((int(chunk_of(np.array([row]))[0]), 0, int(e.step), float(e.t), task.index, len(keys)))
+            texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+    after = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
+    if trailing is not None:
+        for _ in replay_chunks(run, [trailing]):
+            pass
+    if gathered is not None and gathered.parts:
+        found = _contacts(world, options, task, gathered.parts, next_step, chunk_of)
+        counts.add(None, None, [e for _, e in found])
+        for (k, seq), e in found:
+            keys.append((task.windows[k].emit, 1, task.windows[k].index, 0.0, task.index, seq))
+            texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+    lo, hi = world.surface.bounds()
+    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), lines, keys, texts,
+                        counts, after[0] - before[0], after[1] - before[1], dict(run.seconds), run.effects.as_dict(),
+                        resolution(world.surface) if run.continuous else {},
+                        (tuple(map(float, lo)), tuple(map(float, hi))), world.crs, os.getpid(),
+                        round(time.perf_counter() - start, 3))
+
+
+def _chunk_of(chunk_starts: np.ndarray):
+    def chunk_of(steps):
+        return np.searchsorted(chunk_starts, steps, side="right") - 1
+    return chunk_of
+
+
+def _next_rows(steps: np.ndarray, codes: np.ndarray):
+    """step -> the step of the same entity's next row among those read (what ends its interval)."""
+    order = np.lexsort((steps, codes))
+    s, c = steps[order], codes[order]
+    nxt = np.r_[np.where(c[1:] == c[:-1], s[1:], -1), -1]
+    by_step = np.argsort(s)
+    sorted_steps = s[by_step]
+
+    def next_step(query):
+        return nxt[by_step[np.searchsorted(sorted_steps, query)]]
+    return next_step
+
+
+def _read_window(world, task: WindowTask):
+    """A window's rows: (lead chunk, own chunks, trailing chunk, (steps, codes) of all of them), with
+    the whole input's entity codes and each entity's first row as its only piece start."""
+    from tankcd_cli.io.trajectory import TrajectoryChunk, TrajectoryReader
+
+    index = {name: k for k, name in enumerate(task.names)}
+    extra = np.union1d(task.lead, task.trailing)
+    fields = ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "line", "piece_start", "entity")
+    got = {f: [] for f in fields}
+    own_flags = []
+    where = "line"
+    sources = [None] if task.parts is None else list(task.parts)
+    for part in sources:
+        reader = TrajectoryReader(task.trajectory, task.chunk_rows, part, world.crs, task.fmt)
+        where = reader.where
+        for chunk in reader:
+            if task.has_entity:
+                to_global = np.array([index[n] for n in chunk.entity_names], np.int64)
+                codes = to_global[chunk.entity]
+            else:
+                codes = np.zeros(len(chunk), np.int64)
+            own = (chunk.t >= task.t0) & (chunk.t < task.t1)
+            keep = own | np.isin(chunk.step, extra)
+            if keep.any():
+                for f in fields[:-1]:
+                    got[f].append(getattr(chunk, f)[keep])
+                got["entity"].append(codes[keep])
+                own_flags.append(own[keep])
+            if chunk.step[-1] >= task.last_step:
+                break
+        reader.close()
+    if not own_flags:
+        got = {f: np.zeros(0, np.int64 if f in ("step", "line", "entity") else np.float64) for f in fields}
+        own = np.zeros(0, bool)
+    else:
+        got = {f: np.concatenate(v) for f, v in got.items()}
+        own = np.concatenate(own_flags)
+
+    def chunk_of_rows(idx):
+        if not len(idx):
+            return None
+        e = got["entity"][idx]
+        # a part's reader starts every entity's motion afresh: only the entity's first row does
+        piece = got["step"][idx] == task.first_step[e] if task.parts is not None else got["piece_start"][idx]
+        return TrajectoryChunk(got["step"][idx], int(got["line"][idx[0]]), got["t"][idx], got["x"][idx], got["y"][idx],
+                               got["yaw_deg"][idx], got["turret_deg"][idx], got["gun_deg"][idx], task.has_turret,
+                               got["line"][idx], e, task.names, piece, task.has_entity, where)
+
+    own_idx = np.flatnonzero(own)
+    pieces = [chunk_of_rows(own_idx[k:k + task.chunk_rows]) for k in range(0, len(own_idx), task.chunk_rows)]
+    lead = chunk_of_rows(np.flatnonzero(~own & np.isin(got["step"], task.lead)))
+    trailing = chunk_of_rows(np.flatnonzero(~own & np.isin(got["step"], task.trailing)))
+    return lead, pieces, trailing, (got["step"], got["entity"])
+
+
+def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of) -> list:
+    """The vehicle contacts of a task's contact windows, each window run with the segments the local
+    run had buffered when it closed it, in the buffer's order: ((window, order), Event) pairs."""
+    from tankcd_cli.replay.between_rows import Segments
+    from tankcd_cli.replay.vehicles import VehicleContacts
+
+    kinds = np.concatenate([np.full(len(s), k, np.int64) for k, s in parts])
+    seg = Segments.join([s for _, s in parts])
+    arrived = chunk_of(next_step(seg.step))  # the local chunk that read the interval's later row
+    contacts = VehicleContacts(world, continuous=options.continuous)
+    contacts.names = task.names
+    first = task.windows[0]
+
+    def add(idx):
+        for k in np.unique(kinds[idx]):
+            sel = idx[kinds[idx] == k]
+            contacts.add(world.kinds[int(k)], seg.take(sel))
+
+    # the buffer the local run held at the first window: what it kept past the window before (by
+    # kind), then what it read since, chunk by chunk
+    kept = np.flatnonzero((arrived <= task.kept_until) & (seg.t1 >= first.w0))
+    add(kept[np.lexsort((np.arange(len(kept)), seg.t0[kept], seg.entity[kept], arrived[kept], kinds[kept]))])
+    found = []
+    done = task.kept_until
+    for k, w in enumerate(task.windows):
+        if w.emit > done:
+            new = np.flatnonzero((arrived > done) & (arrived <= w.emit))
+            new = new[np.lexsort((np.arange(len(new)), seg.t0[new], seg.entity[new], kinds[new], arrived[new]))]
+            for c in np.unique(arrived[new]):
+                add(new[arrived[new] == c])
+            done = w.emit
+        found += [((k, j), e) for j, e in enumerate(contacts.close_window(w.w0, w.w1, w.last))]
+    return found
+
+
+# --- the whole exercise -------------------------------------------------------------------------
+
+class _Extent:
+    """The terrain's extent as a task reported it (what the warning about rows off it needs)."""
+
+    def __init__(self, lo, hi):
+        self.lo, self.hi = np.asarray(lo), np.asarray(hi)
+
+    def bounds(self):
+        return self.lo, self.hi
+
+
+def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan: WindowPlan,
+                options: ReplayOptions = ReplayOptions(), progress: Callable[[int], None] | None = None
+                ) -> ReplaySummary:
+    """Write the poses and events of ``plan``'s tasks, joined in the local run's order, from
+    ``runner(tasks, consume)`` (which runs every task and gives each result to ``consume``, in any
+    order); returns the replay's summary."""
+    from tankcd_cli.io.atomic import committed_together, output_text
+    from tankcd_cli.io.poses_csv import header
+    from tankcd_cli.replay.run import warn_if_beside
+
+    start = time.perf_counter()
+    join = _Join(plan)
+    with committed_together(), output_text(outputs.poses, ".csv", newline="") as poses_out, \
+            output_text(outputs.events, ".jsonl") as events_out:
+        if poses_out is not None:
+            poses_out.write(header(entity=plan.has_entity))
+        join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
+        runner(plan.tasks, join.take)
+        join.flush_all()
+    if join.extent is not None:
+        warn_if_beside(join.extent, join.counts, trajectory, join.crs)
+    return join.summary(options, time.perf_counter() - start)
+
+
+class _Join:
+    """The tasks' results, written in order as soon as nothing later can come before them."""
+
+    def __init__(self, plan: WindowPlan):
+        self.plan = plan
+        n = len(plan.tasks)
+        big = np.iinfo(np.int64).max
+        # what a task not yet written may still hold: its least step, its least chunk
+        self.step_after = np.r_[np.minimum.accumulate(plan.min_step[::-1])[::-1][1:], big] if n else np.zeros(0)
+        self.chunk_after = np.r_[np.minimum.accumulate(plan.min_chunk[::-1])[::-1][1:], big] if n else np.zeros(0)
+        self.waiting: dict = {}
+        self.next = 0
+        self.rows = []  # (steps, lines) not yet written
+        self.events = []  # (key, line) not yet written
+        self.counts = ReplayCounts()
+        self.intervals = self.substeps = 0
+        self.seconds: dict = {}
+        self.effects: dict = {}
+        self.resolution: dict = {}
+        self.extent = None
+        self.crs = ""
+        self.poses_out = self.events_out = self.progress = None
+
+    def take(self, result: WindowResult) -> None:
+        self.waiting[result.index] = result
+        while self.next in self.waiting:
+            r = self.waiting.pop(self.next)
+            self._add(r)
+            self._write(self.step_after[self.next], self.chunk_after[self.next])
+            self.next += 1
+            if self.progress is not None:
+                self.progress(self.counts.rows)
+
+    def _add(self, r: WindowResult) -> None:
+        c, o = self.counts, r.counts
+        c.rows += o.rows
+        c.status += o.status
+        c.matcher += o.matcher
+        c.vehicle_contacts += o.vehicle_contacts
+        for k in c.at_rows:
+            c.at_rows[k] += o.at_rows[k]
+            c.between[k] += o.between[k]
+        c.extent = [min(c.extent[0], o.extent[0]), min(c.extent[1], o.extent[1]),
+                    max(c.extent[2], o.extent[2]), max(c.extent[3], o.extent[3])]
+        self.intervals += r.intervals
+        self.substeps += r.substeps
+        for k, v in r.seconds.items():
+            self.seconds[k] = self.seconds.get(k, 0.0) + v
+        for k, v in r.effects.items():
+            self.effects[k] = self.effects.get(k, False) or v
+        self.resolution = self.resolution or r.resolution
+        if r.bounds and self.extent is None:
+            self.extent = _Extent(*r.bounds)
+            self.crs = r.crs
+        if len(r.steps):
+            self.rows.append((r.steps, r.pose_lines))
+        self.events += list(zip(r.event_keys, r.event_lines))
+
+    def _write(self, step_limit, chunk_limit) -> None:
+        if self.rows:
+            ready_steps, ready_lines, rest = [], [], []
+            for steps, lines in self.rows:
+                cut = int(np.searchsorted(steps, step_limit, side="left"))
+                if cut:
+                    ready_steps.append(steps[:cut])
+                    ready_lines.append(lines[:cut])
+                if cut < len(steps):
+                    rest.append((steps[cut:], lines[cut:]))
+            self.rows = rest
+            if len(ready_steps) == 1:
+                text = "".join(ready_lines[0])
+            elif ready_steps:
+                order = np.argsort(np.concatenate(ready_steps), kind="stable")
+                flat = [line for lines in ready_lines for line in lines]
+                text = "".join(flat[i] for i in order)
+            else:
+                text = ""
+            if text and self.poses_out is not None:
+                self.poses_out.write(text)
+        if self.events:
+            self.events.sort(key=lambda kv: kv[0])
+            cut = 0
+            while cut < len(self.events) and self.events[cut][0][0] < chunk_limit:
+                cut += 1
+            if cut and self.events_out is not None:
+                self.events_out.write("".join(line for _, line in self.events[:cut]))
+            del self.events[:cut]
+
+    def flush_all(self) -> None:
+        big = np.iinfo(np.int64).max
+        self._write(big, big)
+        if self.waiting:
+            raise RuntimeError(f"window tasks {sorted(self.waiting)} finished but the ones before them did not")
+        if self.next != len(self.plan.tasks):
+            raise RuntimeError(f"{len(self.plan.tasks) - self.next} window tasks gave no result")
+
+    def summary(self, options: ReplayOptions, seconds: float) -> ReplaySummary:
+        from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
+
+        counts = self.counts
+        motion = {"intervals": self.intervals, "substeps": self.substeps, **self.resolution} \
+            if options.continuous else {}
+        entities = self.plan.entities if options.continuous else (1 if counts.rows else 0)
+        return ReplaySummary(rows=counts.rows, collisions={k: counts.at_rows[k] for k in KINDS},
+                             off_terrain=counts.at_rows["off_terrain"], effects=self.effects,
+                             matchers={**{name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
+                                       **({NO_MATCHER: int(counts.status[OFF])} if counts.status[OFF] else {})},
+                             seconds=round(seconds, 3),
+                             seconds_by_effect={k: round(v, 3) for k, v in self.seconds.items()},
+                             mode="continuous" if options.continuous else "discrete",
+                             between=dict(counts.between) if options.continuous else {}, motion=motion,
+                             vehicle_contacts=counts.vehicle_contacts, entities=entities)
+
+
+def in_process(world, options: ReplayOptions):
+    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``."""
+    def runner(tasks, consume):
+        for task in tasks:
+            consume(replay_window(world, options, task))
+    return runner
+
+
+def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
+    """A runner that replays the tasks on the Dask cluster at ``scheduler`` (``world`` a
+    ``replay.fleet.FleetWorld``: each worker loads it once); a window whose worker is lost runs again
+    on another (its result is all it gives: nothing is written until the results are joined). At
+    most two tasks per worker thread are out at a time, so that results wait to be joined only
+    while the one before them runs."""
+    def runner(tasks, consume):
+        try:
+            from distributed import Client, as_completed
+        except ImportError:
+            raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
+        (say or (lambda s: None))(f"connecting to the Dask scheduler at {scheduler}")
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise InputError(scheduler, f"cannot reach the Dask scheduler: {exc}") from None
+        with client:
+            ahead = max(2, 2 * sum(client.nthreads().values()))
+            stamp = time.time_ns()
+            pending = iter(tasks)
+
+            def submit():
+                task = next(pending, None)
+                if task is None:
+                    return None
+                return client.submit(run_window, world, task, 1, pure=False, retries=3,
+                                     key=f"tankcd-window-{task.index}-{stamp}")
+
+            state = {"submitted": 0, "next": 0, "done": set()}
+
+            def submit_up_to():  # results wait for the one before them: at most ``ahead`` beyond it
+                while state["submitted"] < state["next"] + ahead:
+                    fut = submit()
+                    if fut is None:
+                        return
+                    state["submitted"] += 1
+                    running.add(fut)
+
+            running = as_completed([])
+            submit_up_to()
+            for fut in running:
+                result = fut.result()
+                consume(result)
+                state["done"].add(result.index)
+                while state["next"] in state["done"]:
+                    state["done"].discard(state["next"])
+                    state["next"] += 1
+                submit_up_to()
+    return runner

@@ -1,0 +1,90 @@
+"""tankcd export: any trajectory input as the trajectory CSV replay reads, in a terrain's CRS."""
+
+import csv
+
+import numpy as np
+import pytest
+
+pyproj = pytest.importorskip("pyproj")
+rasterio = pytest.importorskip("rasterio")
+
+
+def _rows(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture
+def capture(tmp_path):
+    """The DIS tests' exercise (three tanks, asynchronous, one late, DIS 6 and 7) as a pcap, and a
+    GeoTIFF in UTM 32N under it (rolling ground, 10 m posts)."""
+    from rasterio.transform import from_origin
+
+    from tests.io.test_trajectory import _exercise_capture
+
+    path, rows = _exercise_capture(tmp_path)
+    x, y = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32632", always_xy=True).transform([9.98, 10.02],
+                                                                                           [49.98, 50.02])
+    west, north = np.floor(x[0] / 10) * 10, np.ceil(y[1] / 10) * 10
+    cols, nrows = int((x[1] - west) / 10) + 2, int((north - y[0]) / 10) + 2
+    gx, gy = np.meshgrid(np.arange(cols) * 10.0, np.arange(nrows) * 10.0)
+    z = (150 + 3 * np.sin(gx / 90) * np.cos(gy / 70)).astype("float32")
+    tif = tmp_path / "ground.tif"
+    with rasterio.open(tif, "w", driver="GTiff", height=nrows, width=cols, count=1, dtype="float32",
+                       crs="EPSG:32632", transform=from_origin(west, north, 10.0, 10.0)) as dst:
+        dst.write(z, 1)
+    return path, rows, str(tif)
+
+
+def test_a_capture_exported_replays_to_the_captures_poses(run, tmp_path, capture):
+    path, rows, tif = capture
+    assert run("-q", "classify", tif, "-o", "ground.h5").exit_code == 0
+    done = run("export", path, "--terrain", "ground.h5", "-o", "export.csv")
+    assert done.exit_code == 0, done.stderr
+    assert f"export: {len(rows)} rows of 3 entities to export.csv" in done.stderr
+    exported = _rows(tmp_path / "export.csv")
+    assert list(exported[0]) == ["t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg"]
+    assert [r["entity"] for r in exported] == [e for _, e, _, _ in rows]
+    # the positions are pyproj's conversion of the ECEF locations written into the PDUs
+    loc = np.array([r[3]["location"] for r in rows])
+    x, y, _ = pyproj.Transformer.from_crs("EPSG:4978", "EPSG:32632", always_xy=True).transform(*loc.T)
+    np.testing.assert_allclose([float(r["x"]) for r in exported], x, atol=1e-5)
+    np.testing.assert_allclose([float(r["y"]) for r in exported], y, atol=1e-5)
+    np.testing.assert_allclose([float(r["t"]) for r in exported], [0.05 + t for t, *_ in rows], atol=1e-6)
+    # replaying the export is replaying the capture: the same poses, to the poses' printed precision
+    for source, out in ((path, "from_capture.csv"), ("export.csv", "from_export.csv")):
+        got = run("-q", "replay", source, "--terrain", "ground.h5", "--poses", out)
+        assert got.exit_code == 0, got.stderr
+    a, b = _rows(tmp_path / "from_capture.csv"), _rows(tmp_path / "from_export.csv")
+    assert len(a) == len(b) == len(rows)
+    for ra, rb in zip(a, b):
+        assert ra.keys() == rb.keys() and ra["entity"] == rb["entity"] and ra["matcher"] == rb["matcher"]
+        for key in ("t", "x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"):
+            assert float(ra[key]) == pytest.approx(float(rb[key]), abs=2e-4), key
+
+
+def test_a_geographic_csv_to_a_crs_given_by_name(run, tmp_path):
+    (tmp_path / "gps.csv").write_text("t,lon,lat,heading_deg\n0,10.0,50.0,0\n1,10.0001,50.0,90\n")
+    done = run("export", "gps.csv", "--crs", "EPSG:32632", "-o", "-")
+    assert done.exit_code == 0, done.stderr
+    got = list(csv.DictReader(done.stdout.splitlines()))
+    x, y = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32632", always_xy=True).transform([10.0, 10.0001],
+                                                                                           [50.0, 50.0])
+    np.testing.assert_allclose([float(r["x"]) for r in got], x, atol=1e-5)
+    np.testing.assert_allclose([float(r["y"]) for r in got], y, atol=1e-5)
+    # a compass heading of 0 (true north) is about 90 deg of grid yaw, off by the grid's convergence
+    convergence = float(got[0]["yaw_deg"]) - 90.0
+    assert 0.5 < abs(convergence) < 1.5  # 10 deg E in zone 32 (central meridian 9 deg E), 50 deg N
+    assert got[0]["entity"] == "gps"
+
+
+def test_bad_input_and_usage(run, tmp_path):
+    (tmp_path / "gps.csv").write_text("t,lon,lat,heading_deg\n0,10.0,50.0,0\n")
+    lost = run("export", "gps.csv", "-o", "out.csv")
+    assert lost.exit_code == 3 and len(lost.stderr.strip().splitlines()) == 1 and "gps.csv" in lost.stderr
+    assert not (tmp_path / "out.csv").exists()
+    both = run("export", "gps.csv", "--crs", "EPSG:32632", "--terrain", "x.h5", "-o", "out.csv")
+    assert both.exit_code == 2 and "at most one" in both.stderr
+    same = run("export", "gps.csv", "--crs", "EPSG:32632", "-o", "gps.csv")
+    assert same.exit_code == 2 and (tmp_path / "gps.csv").read_text().startswith("t,lon,lat")
+    assert run("export", "gps.csv", "--crs", "EPSG:32632", "-o", "x.parquet").exit_code == 2

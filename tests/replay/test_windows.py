@@ -1,0 +1,349 @@
+"""An exercise replayed by time windows (here, and on a Dask cluster that loses a worker) writes the
+local run's poses and events byte for byte: contacts straddling a window's edge and a chunk's,
+one beginning exactly at an edge, entities appearing and disappearing, windows of any length."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from tests.conftest import write_asc
+
+GROUND = 100.0
+pytestmark = pytest.mark.filterwarnings("ignore:.*would drive sideways")
+T72_WIDTH = 3.46  # m: two T-72s side by side touch when their origins are this far apart
+
+
+@pytest.fixture(scope="module")
+def flat(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("windows")
+    write_asc(tmp / "flat.asc", np.full((80, 160), GROUND))
+    (tmp / "scene.toml").write_text('[terrain]\npath = "flat.asc"\n\n[vehicle]\npreset = "t72"\nfuel_drums = false\n')
+    return tmp
+
+
+def _write(path, rows):
+    path.write_text("t,entity,x,y,yaw_deg\n" + "".join(f"{t},{e},{x},{y},{yaw}\n" for t, e, x, y, yaw in sorted(rows)))
+
+
+def _edges_exercise():
+    """Contacts placed against the 2 s contact windows (edges at 0, 2, 4, ...; rows every 0.5 s):
+
+    - A stands; B slides sideways into it at 2 m/s, first touching at 3.95 s (just before the edge at
+      4 s, in the interval 3.5 to 4 s), overlapping on across it until B's last row at 6 s;
+    - C stands; D appears at exactly 8 s already overlapping it (a contact there from D's first
+      row: it begins at the edge) and leaves at 9.5 s;
+    - E drives by alone from 5 s to 12.5 s; F is there only until 6 s (its last row);
+    - G and H close on each other head-on, guns first, touching at 13.8 s inside G's interval 13.5
+      to 14.25 s (rows of G every 0.75 s), across the edge at 14 s.
+    """
+    rows = []
+    for k in range(41):
+        t = 0.5 * k
+        rows.append((t, "A", 30.0, 20.0, 0.0))
+        if t <= 6.0:
+            rows.append((t, "B", 30.0, round(T72_WIDTH + 20.0 + 2 * (3.95 - t), 4), 0.0))
+        rows.append((t, "C", 90.0, 20.0, 0.0))
+        if 8.0 <= t <= 9.5:
+            rows.append((t, "D", 90.0, 22.0, 0.0))
+        if 5.0 <= t <= 12.5:
+            rows.append((t, "E", round(20 + 4 * (t - 5), 4), 60.0, 0.0))
+        if t <= 6.0:
+            rows.append((t, "F", 130.0, round(30 + 1.5 * t, 4), 90.0))
+        rows.append((t, "H", round(132.6 - 4 * t, 4), 45.0, 180.0))
+    for k in range(28):
+        t = 0.75 * k
+        rows.append((t, "G", round(10 + 4 * t, 4), 45.0, 0.0))
+    return rows
+
+
+def _wander(rng, n, seconds, area=30.0):
+    """n vehicles wandering close together, each its own rate, start and end: rows in time order."""
+    rows = []
+    for v in range(n):
+        x, y = rng.uniform(20, 20 + area), rng.uniform(15, 15 + area / 2)
+        heading, speed, turn = rng.uniform(-180, 180), rng.uniform(2, 6), rng.uniform(-20, 20)
+        hz = rng.choice([1.0, 2.0, 3.0])
+        start = rng.uniform(0, seconds / 3)
+        end = rng.uniform(start + 1, seconds)
+        for k in range(int((end - start) * hz) + 1):
+            t = round(start + k / hz, 3)
+            rows.append((t, f"w{v}", round(x, 3), round(y, 3), round(heading, 3)))
+            x = float(np.clip(x + speed / hz * np.cos(np.radians(heading)), 12, 148))
+            y = float(np.clip(y + speed / hz * np.sin(np.radians(heading)), 10, 70))
+            heading += turn / hz
+    return rows
+
+
+@pytest.fixture(scope="module")
+def world(flat):
+    from tankcd_cli import api
+
+    return api.load_world(scene=str(flat / "scene.toml"))
+
+
+def _local(world, flat, name, chunk_rows):
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    out = flat / f"{name}.{chunk_rows}.local"
+    if not (out / "p.csv").exists():
+        out.mkdir(exist_ok=True)
+        run_replay(world, str(flat / f"{name}.csv"), ReplayOutputs(str(out / "p.csv"), str(out / "e.jsonl")),
+                   ReplayOptions(chunk_rows=chunk_rows))
+    return out
+
+
+def _windowed(world, flat, name, chunk_rows, seconds, tmp_path):
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    plan = plan_windows(str(flat / f"{name}.csv"), options, seconds)
+    summary = run_windows(str(flat / f"{name}.csv"), ReplayOutputs(str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl")),
+                          in_process(world, options), plan, options)
+    return plan, summary
+
+
+def _same_bytes(a, b):
+    for name in ("p.csv", "e.jsonl"):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("chunk_rows", [7, 65536])
+@pytest.mark.parametrize("seconds", [2.0, 4.0, 6.0, 14.0, 1000.0])
+def test_a_windowed_run_is_the_local_run_byte_for_byte(world, flat, tmp_path, chunk_rows, seconds):
+    _write(flat / "edges.csv", _edges_exercise())
+    local = _local(world, flat, "edges", chunk_rows)
+    plan, summary = _windowed(world, flat, "edges", chunk_rows, seconds, tmp_path)
+    assert len(plan.tasks) == {2.0: 11, 4.0: 6, 6.0: 4, 14.0: 2, 1000.0: 1}[seconds]
+    _same_bytes(local, tmp_path)
+    events = [json.loads(line) for line in (tmp_path / "e.jsonl").read_text().splitlines()]
+    pairs = sorted((e["a"], e["b"], e["t"]) for e in events if e["kind"] == "vehicle")
+    # each contact once: the one just before the edge at 4 s, the one exactly at 8 s, the one across 14 s
+    assert [p[:2] for p in pairs] == [("A", "B"), ("C", "D"), ("G", "H")], pairs
+    assert 3.9 < pairs[0][2] < 4.0 and pairs[1][2] == 8.0 and 13.5 < pairs[2][2] < 14.0
+    assert summary.vehicle_contacts == 3 and summary.entities == 8 and summary.rows == len(_edges_exercise())
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_windows_of_any_length_give_the_local_run(world, flat, tmp_path, seed):
+    rows = _wander(np.random.default_rng(seed), 10, 24.0)
+    _write(flat / f"wander{seed}.csv", rows)
+    local = _local(world, flat, f"wander{seed}", 11)
+    events = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
+    assert sum(e["kind"] == "vehicle" for e in events) >= 2, "the exercise should have contacts"
+    for seconds in np.random.default_rng(seed).choice([2.0, 3.0, 5.0, 8.0, 10.0, 30.0], 3, replace=False):
+        out = tmp_path / f"w{seconds}"
+        out.mkdir()
+        _windowed(world, flat, f"wander{seed}", 11, float(seconds), out)
+        _same_bytes(local, out)
+
+
+def test_a_window_without_rows_of_its_own_still_runs_the_motion_across_it(world, flat, tmp_path):
+    # two vehicles with rows 7 s apart, meeting in the middle: windows of 2 s hold none of their rows
+    rows = [(0.0, "P", 20.0, 30.0, 0.0), (7.0, "P", 90.0, 30.0, 0.0),
+            (0.0, "Q", 120.0, 30.0, 180.0), (7.0, "Q", 50.0, 30.0, 180.0)]
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.windows import plan_windows
+
+    _write(flat / "sparse.csv", rows)
+    local = _local(world, flat, "sparse", 65536)
+    plan = plan_windows(str(flat / "sparse.csv"), ReplayOptions(), 2.0)
+    assert len(plan.tasks) == 4 and [len(t.lead) for t in plan.tasks] == [0, 2, 2, 2]
+    assert [len(t.trailing) for t in plan.tasks] == [2, 2, 2, 0]
+    summary = api.replay_windows(str(flat / "sparse.csv"), str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl"),
+                                 world=world, window_seconds=2.0)  # the Python API
+    _same_bytes(local, tmp_path)
+    assert summary.rows == 4 and summary.entities == 2 and summary.vehicle_contacts == 1
+    assert any(json.loads(line)["kind"] == "vehicle" for line in (tmp_path / "e.jsonl").read_text().splitlines())
+
+
+def test_the_command_line_replays_by_windows(run, world, flat, tmp_path):
+    _write(flat / "edges.csv", _edges_exercise())
+    local = _local(world, flat, "edges", 65536)
+    result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "5",
+                 "--poses", tmp_path / "p.csv", "--events", tmp_path / "e.jsonl", "--summary")
+    assert result.exit_code == 0, result.stderr
+    _same_bytes(local, tmp_path)
+    summary = json.loads(result.stderr.strip().splitlines()[-1])
+    assert summary["vehicle_contacts"] == 3 and summary["rows"] == len(_edges_exercise())
+    for extra, message in (((flat / "edges.csv", "--out-dir", tmp_path / "o"), "fleet mode"),
+                           (("-",), "not standard input"), ((flat / "edges.csv", "--png", tmp_path / "a.png"),
+                                                             "--png does not apply with --window-seconds")):
+        result = run("replay", *extra, "--scene", flat / "scene.toml", "--window-seconds", "5")
+        assert result.exit_code == 2 and message in result.stderr, result.stderr
+
+
+def _start(args):
+    return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+
+
+def test_a_dask_run_that_loses_a_worker_is_the_local_run(world, flat, tmp_path):
+    pytest.importorskip("distributed")
+    rows = _wander(np.random.default_rng(7), 12, 40.0) + [(t, e, x, y + 25, yaw) for t, e, x, y, yaw in
+                                                          _edges_exercise()]
+    _write(flat / "big.csv", rows)
+    local = _local(world, flat, "big", 65536)
+    info = tmp_path / "scheduler.json"
+    procs = [_start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                     "--scheduler-file", str(info)])]
+    try:
+        for _ in range(200):
+            if info.exists() and info.stat().st_size:
+                break
+            time.sleep(0.05)
+        workers = [_start(["distributed.cli.dask_worker", "--scheduler-file", str(info), "--nthreads", "1",
+                           "--no-nanny", "--no-dashboard"]) for _ in range(2)]
+        procs += workers
+        address = json.loads(info.read_text())["address"]
+        job = subprocess.Popen([sys.executable, "-m", "tankcd_cli", "replay", str(flat / "big.csv"), "--scene",
+                                str(flat / "scene.toml"), "--window-seconds", "2", "--scheduler", address, "--poses",
+                                str(tmp_path / "p.csv"), "--events", str(tmp_path / "e.jsonl"), "--summary"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        from distributed import Client
+
+        with Client(address, timeout=60) as client:  # the kill comes when a worker holds a window
+            client.wait_for_workers(2, timeout=60)
+            pids = client.run(os.getpid)
+            victim = None
+            for _ in range(6000):
+                busy = [w for w, keys in client.processing().items() if keys]
+                if busy:
+                    victim = next(p for p in workers if p.pid == pids[busy[0]])
+                    break
+                assert job.poll() is None, job.communicate()
+                time.sleep(0.01)
+            assert victim is not None and job.poll() is None, "no window ever ran on a worker"
+            time.sleep(0.2)  # into the window's work
+            os.kill(victim.pid, signal.SIGKILL)
+            assert job.poll() is None, "the run ended before the kill"
+        _, stderr = job.communicate(timeout=600)
+        assert job.returncode == 0, stderr
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
+    _same_bytes(local, tmp_path)
+    summary = json.loads(stderr.strip().splitlines()[-1])
+    assert summary["rows"] == len(rows) and summary["vehicle_contacts"] >= 3
+
+
+@pytest.mark.parametrize("entities", [False, True])
+def test_obstacles_drums_and_terrain_across_windows_as_the_local_run(tmp_path, entities):
+    # the sample scene (a depot, a wall, the rear drums; the gun turning; a ditch): its patrol alone, and
+    # as an exercise of three vehicles on it at other times and places, one leaving early; rows cut
+    # into chunks of 97 and windows of 4 s
+    from pathlib import Path
+
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    sample = Path(__file__).resolve().parents[2] / "sample_data"
+    lines = (sample / "patrol.csv").read_text().splitlines()
+    lines = lines[:1] + lines[1::3]  # every third row: 3.3 Hz
+    path = tmp_path / "patrol.csv"
+    if entities:
+        rows = []
+        for line in lines[1:]:
+            t, x, y, yaw, turret, gun = map(float, line.split(","))
+            for v, (dt, dx, dy) in enumerate([(0, 0, 0), (3.3, 1.5, -2.0), (7.1, -2.5, 1.0)]):
+                if not (v == 2 and t > 60):
+                    rows.append((round(t + dt, 3), f"T{v}", round(x + dx, 3), round(y + dy, 3), yaw, turret, gun))
+        path.write_text("t,entity,x,y,yaw_deg,turret_deg,gun_deg\n" + "".join(",".join(map(str, r)) + "\n"
+                                                                             for r in sorted(rows)))
+    else:
+        path.write_text("\n".join(lines) + "\n")
+    world = api.load_world(scene=str(sample / "scene.toml"))
+    options = ReplayOptions(chunk_rows=97)
+    (tmp_path / "local").mkdir()
+    (tmp_path / "windows").mkdir()
+    run_replay(world, str(path), ReplayOutputs(str(tmp_path / "local" / "p.csv"), str(tmp_path / "local" / "e.jsonl")),
+               options)
+    plan = plan_windows(str(path), options, 4.0)
+    run_windows(str(path), ReplayOutputs(str(tmp_path / "windows" / "p.csv"), str(tmp_path / "windows" / "e.jsonl")),
+                in_process(world, options), plan, options)
+    _same_bytes(tmp_path / "local", tmp_path / "windows")
+    kinds = {json.loads(line)["kind"] for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()}
+    assert {"obstacle", "internal", "terrain"} <= kinds, kinds
+
+
+@pytest.mark.parametrize("chunk_rows", [10, 65536])
+def test_a_vehicle_silent_past_the_horizon_gives_what_the_local_run_gives(world, flat, tmp_path, chunk_rows):
+    # A sends a row at 0 s and the next at 60 s, driving through B's path at 30 s: silent longer than
+    # the 30 s after which it no longer holds the contact windows back. In chunks of 10 rows the local
+    # run has closed the windows of 30 s by the time A's second row comes, and checks A's gap only
+    # against what it still holds; in one chunk it holds everything. The windows give the same.
+    rows = [(0.0, "A", 80.0, 65.0, -90.0), (60.0, "A", 80.0, 5.0, -90.0)]
+    rows += [(float(t), "B", 20.0 + 2 * t, 30.0, 0.0) for t in range(61)]
+    rows += [(float(t), "C", 140.0, 70.0, 0.0) for t in range(61)]
+    _write(flat / "silent.csv", rows)
+    local = _local(world, flat, "silent", chunk_rows)
+    for seconds in (2.0, 10.0):
+        out = tmp_path / f"w{seconds}"
+        out.mkdir()
+        _windowed(world, flat, "silent", chunk_rows, seconds, out)
+        _same_bytes(local, out)
+    found = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
+    pairs = [(e["a"], e["b"]) for e in found if e["kind"] == "vehicle"]
+    assert pairs == ([] if chunk_rows == 10 else [("A", "B")])  # the local run's own limit, kept as it is
+
+
+@pytest.mark.parametrize("chunk_rows", [9, 65536])
+def test_gpx_tracks_by_windows_as_the_local_run(tmp_path, chunk_rows):
+    # an input that is no CSV is read whole by every window: two GPX tracks (each an entity), one in two
+    # segments (two pieces of motion), crossing each other on a flat UTM ground. The file holds A's
+    # points, then B's: in chunks of 9 rows the local run has closed the windows of A's time before it
+    # reads B, and their contact is not found; by windows neither (the same bytes either way)
+    rasterio = pytest.importorskip("rasterio")
+    pyproj = pytest.importorskip("pyproj")
+    from rasterio.transform import from_origin
+
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    x0, yn = 400000.0, 5001000.0
+    with rasterio.open(tmp_path / "flat.tif", "w", driver="GTiff", height=200, width=300, count=1, dtype="float32",
+                       crs="EPSG:32633", transform=from_origin(x0 - 0.5, yn + 0.5, 1.0, 1.0)) as dst:
+        dst.write(np.full((200, 300), GROUND, np.float32), 1)
+    to_geo = pyproj.Transformer.from_crs("EPSG:32633", "EPSG:4326", always_xy=True)
+
+    def track(name, points):
+        segs = []
+        for seg in points:
+            out = []
+            for t, x, y in seg:
+                lon, lat = to_geo.transform(x, y)
+                out.append(f'<trkpt lat="{lat!r}" lon="{lon!r}"><time>2026-05-04T10:00:{t:02d}Z</time></trkpt>\n')
+            segs.append("<trkseg>\n" + "".join(out) + "</trkseg>\n")
+        return f"<trk>\n<name>{name}</name>\n" + "".join(segs) + "</trk>\n"
+
+    a = [[(t, x0 + 90 + 4 * t, yn - 100) for t in range(0, 7)], [(t, x0 + 90 + 4 * t, yn - 100) for t in range(8, 30)]]
+    b = [[(t, x0 + 150, yn - 40 - 4 * t) for t in range(2, 30)]]
+    head = '<?xml version="1.0"?>\n<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">\n'
+    (tmp_path / "t.gpx").write_text(head + track("A", a) + track("B", b) + "</gpx>\n")
+    world = api.load_world(terrain=str(tmp_path / "flat.tif"))
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    for name in ("local", "windows"):
+        (tmp_path / name).mkdir()
+    outputs = {name: ReplayOutputs(str(tmp_path / name / "p.csv"), str(tmp_path / name / "e.jsonl"))
+               for name in ("local", "windows")}
+    run_replay(world, str(tmp_path / "t.gpx"), outputs["local"], options)
+    plan = plan_windows(str(tmp_path / "t.gpx"), options, 4.0)
+    assert len(plan.tasks) > 3 and all(task.parts is None for task in plan.tasks)
+    run_windows(str(tmp_path / "t.gpx"), outputs["windows"], in_process(world, options), plan, options)
+    _same_bytes(tmp_path / "local", tmp_path / "windows")
+    events = [json.loads(line) for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()]
+    if chunk_rows == 65536:
+        assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
