@@ -55,7 +55,8 @@ def write_terrain(path: str) -> None:
     n = int(SIZE / POST) + 1
     x = np.arange(n) * POST
     y = x[::-1]  # row 0 north
-    z = 200 + 25 * np.sin(x[None, :] / 310.0) * np.cos(y[:, None] / 270.0) + 4 * np.sin(x[None, :] / 37.0 + y[:, None] / 53.0)
+    z = (200 + 25 * np.sin(x[None, :] / 310.0) * np.cos(y[:, None] / 270.0)
+         + 4 * np.sin(x[None, :] / 37.0 + y[:, None] / 53.0))
     with open(path, "w") as fh:
         fh.write(f"ncols {n}\nnrows {n}\nxllcenter {X0}\nyllcenter {Y0}\ncellsize {POST}\n")
         np.savetxt(fh, z, fmt="%.3f")
@@ -204,7 +205,8 @@ def main() -> None:
             "| command | rows | wall s | rows/s | peak MB | contacts between vehicles |",
             "| --- | --- | --- | --- | --- | --- |",
             f"| exercise: `replay exercise.csv` | {summary['rows']:,} | {ex_best[0]:.1f} | "
-            f"{summary['rows'] / ex_best[0]:,.0f} | {max(r[1] for r in ex_runs):.0f} | {summary['vehicle_contacts']:,} |",
+            f"{summary['rows'] / ex_best[0]:,.0f} | {max(r[1] for r in ex_runs):.0f} | "
+            f"{summary['vehicle_contacts']:,} |",
             f"| separate: `replay runs/*.csv --out-dir D --jobs 1` | {fleet['rows']:,} | {sep_best[0]:.1f} | "
             f"{fleet['rows'] / sep_best[0]:,.0f} | {max(r[1] for r in sep_runs):.0f} | (not checked) |",
             "",
