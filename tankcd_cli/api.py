@@ -156,7 +156,7 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
         line's inputs), a list of paths replayed as one exercise (``--together``: each file an
         entity named after its stem, or its own entities), or a dict of arrays with ``t``, ``x``,
         ``y``, ``yaw_deg`` and optionally ``turret_deg``, ``gun_deg`` (metres, seconds, degrees;
-        ``t`` never decreasing)
+        ``t`` never decreasing) and ``entity`` (each row's vehicle: an exercise, rows in time order)
     scene or terrain (with ``vehicle``) : the world, or ``world`` from ``load_world``
     discrete : check the rows only (default: every effect along the motion between rows too)
     Returns poses, a dict of arrays keyed by the poses CSV's columns, and events, a list of dicts
