@@ -312,7 +312,8 @@ def dem_main(a):
                       f"| embree: the rays alone (no reading, no writing, no plane through the hits) | "
                       f"{np.median(rays):.2f} |",
                       f"| embree: building its scene of the DEM | {np.median(build):.2f} |", "",
-                      f"tankcd's whole replay over embree's rays alone: {np.median(r):.2f}x ({r.min():.2f}-{r.max():.2f}; "
+                      f"tankcd's whole replay over embree's rays alone: {np.median(r):.2f}x "
+                      f"({r.min():.2f}-{r.max():.2f}; "
                       f"target at most 1.5x: {'met' if np.median(r) <= 1.5 else '**not met**'}); over its build and "
                       f"rays: {np.median(rb):.2f}x ({rb.min():.2f}-{rb.max():.2f})."]
     save_report("\n".join(lines + [""]), a.out or os.path.join(HERE, "results", "replay_dem.md"))
