@@ -1,4 +1,4 @@
-"""A plain summary of a terrain store, a tree or a scene, for ``tankcd info``.
+"""A plain summary of a terrain store, a tree, a scene or a trajectory, for ``tankcd info``.
 
 Facts are ordered dicts of plain values (numbers, strings, lists, nested dicts)
 with snake_case keys: ``info --json`` prints them as they are, the text output

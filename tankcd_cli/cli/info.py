@@ -1,4 +1,4 @@
-"""tankcd info FILE: describe a terrain store, a tree or a scene."""
+"""tankcd info FILE: describe a terrain store, a tree, a scene or a trajectory."""
 
 from __future__ import annotations
 
