@@ -3,7 +3,7 @@
 Longitude and latitude are degrees (as every GIS and pyproj give them); rotations are radians.
 Heights are metres above the WGS 84 ellipsoid.
 
-Conventions (docs: interface.md "Frames, units, signs"):
+Conventions (docs/formats.md, "Conventions: frames, units, signs"):
 
 - local ENU at (lon, lat): x east, y north, z up along the ellipsoid normal;
 - a compass ``heading`` (true heading) turns clockwise from true north; an ENU ``yaw``
