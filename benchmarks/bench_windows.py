@@ -24,11 +24,11 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
 
 from _report import save_report
+from bench_fleet import start_cluster  # the same local cluster: a scheduler and workers of one thread
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLE = os.path.join(os.path.dirname(HERE), "sample_data")
@@ -69,26 +69,6 @@ def replay(args, out):
     with open(os.path.join(out, "s.json")) as fh:
         summary = json.load(fh)
     return float(wall), int(rss) / 1024, summary
-
-
-def start_cluster(tmp, workers):
-    info = os.path.join(tmp, "scheduler.json")
-    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-                               "--port", "0", "--no-dashboard", "--scheduler-file", info],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)]
-    while not (os.path.exists(info) and os.path.getsize(info)):
-        time.sleep(0.1)
-    for _ in range(workers):
-        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", info,
-                                       "--nthreads", "1", "--no-dashboard"], stdout=subprocess.DEVNULL,
-                                      stderr=subprocess.DEVNULL, start_new_session=True))
-    with open(info) as fh:
-        address = json.load(fh)["address"]
-    from distributed import Client
-
-    with Client(address) as client:
-        client.wait_for_workers(workers, timeout=60)
-    return address, procs
 
 
 def same(a, b):
