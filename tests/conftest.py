@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -39,3 +41,43 @@ def write_obj(path, vertices, faces):
         for f in faces:
             fh.write("f %d %d %d\n" % tuple(int(i) + 1 for i in f))
     return path
+
+
+def start_dask_cluster(folder, workers=2):
+    """A local Dask cluster as a user starts one: a scheduler and ``workers`` single-threaded workers
+    without nannies (a killed worker stays dead), each a process in its own session. Returns
+    (address, worker processes, every process); stop them with ``stop_processes``."""
+    import json
+    import subprocess
+    import sys
+    import time
+
+    def start(args):
+        return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                start_new_session=True)
+
+    info = Path(folder) / "scheduler.json"
+    procs = [start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                    "--scheduler-file", str(info)])]
+    try:
+        for _ in range(200):
+            if info.exists() and info.stat().st_size:
+                break
+            time.sleep(0.05)
+        pool = [start(["distributed.cli.dask_worker", "--scheduler-file", str(info), "--nthreads", "1", "--no-nanny",
+                       "--no-dashboard"]) for _ in range(workers)]
+        procs += pool
+        return json.loads(info.read_text())["address"], pool, procs
+    except BaseException:
+        stop_processes(procs)
+        raise
+
+
+def stop_processes(procs):
+    """Kill every process (and its session) still running."""
+    import os
+    import signal
+
+    for p in procs:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)

@@ -187,28 +187,15 @@ def test_replay_memory_does_not_grow_with_the_terrain(run, tmp_path):
     assert peaks[2400] < peaks[300] + 20, peaks  # not the 70 MB more that reading the store would cost
 
 
-def _start(args):
-    return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
-
-
 def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
     pytest.importorskip("distributed")
     z = ground(260, 300, seed=3)
     src = write_tif(tmp_path / "d.tif", z, tiled=True, blockxsize=64, blockysize=64)
     assert run("classify", src, "-o", tmp_path / "local.h5", "--tile", "24", "--method", "jet").exit_code == 0
-    info = tmp_path / "scheduler.json"
-    procs = [_start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                     "--scheduler-file", str(info)])]
+    from tests.conftest import start_dask_cluster, stop_processes
+
+    address, workers, procs = start_dask_cluster(tmp_path)
     try:
-        for _ in range(200):
-            if info.exists() and info.stat().st_size:
-                break
-            time.sleep(0.05)
-        workers = [_start(["distributed.cli.dask_worker", "--scheduler-file", str(info), "--nthreads", "1",
-                           "--no-nanny", "--no-dashboard"]) for _ in range(2)]
-        procs += workers
-        address = json.loads(info.read_text())["address"]
         job = subprocess.Popen([sys.executable, "-m", "tankcd_cli", "classify", str(src), "-o",
                                 str(tmp_path / "cluster.h5"), "--tile", "24", "--method", "jet", "--scheduler",
                                 address], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -230,9 +217,7 @@ def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
         _, stderr = job.communicate(timeout=300)
         assert job.returncode == 0, stderr
     finally:
-        for p in procs:
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGKILL)
+        stop_processes(procs)
     a, b = store_contents(tmp_path / "local.h5"), store_contents(tmp_path / "cluster.h5")
     for key in a:
         np.testing.assert_array_equal(a[key], b[key], err_msg=key)

@@ -163,25 +163,12 @@ def test_a_split_trajectory_joins_into_the_single_run_and_names_errors_by_file_l
 dask = pytest.importorskip("distributed")
 
 
-def _start(args, **kw):
-    return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True, **kw)
-
-
 def test_dask_cluster_with_a_worker_killed_midway(fleet, tmp_path):
     tmp, paths, ref = fleet
-    info = tmp_path / "scheduler.json"
-    procs = [_start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                     "--scheduler-file", str(info)])]
+    from tests.conftest import start_dask_cluster, stop_processes
+
+    address, workers, procs = start_dask_cluster(tmp_path)
     try:
-        for _ in range(100):
-            if info.exists() and info.stat().st_size:
-                break
-            time.sleep(0.1)
-        workers = [_start(["distributed.cli.dask_worker", "--scheduler-file", str(info), "--nthreads", "1",
-                           "--no-nanny", "--no-dashboard"]) for _ in range(2)]
-        procs += workers
-        address = json.loads(info.read_text())["address"]
         out = tmp_path / "out"
         run = subprocess.Popen([sys.executable, "-m", "tankcd_cli", "replay", str(tmp / "runs" / "*.csv"),
                                 "--scene", tmp / "scene.toml", "--out-dir", out, "--scheduler", address],
@@ -200,9 +187,7 @@ def test_dask_cluster_with_a_worker_killed_midway(fleet, tmp_path):
         assert summary["ok"] == len(paths) and summary["rows"] == 6000 * len(paths)
         assert sorted(r["trajectory"] for r in summary["results"]) == sorted(str(p) for p in paths)  # none twice
     finally:
-        for p in procs:
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGKILL)
+        stop_processes(procs)
 
 
 def test_outputs_are_never_inputs_a_second_fleet_run_skips_them(run, tmp_path):

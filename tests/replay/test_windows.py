@@ -181,29 +181,16 @@ def test_the_command_line_replays_by_windows(run, world, flat, tmp_path):
         assert result.exit_code == 2 and message in result.stderr, result.stderr
 
 
-def _start(args):
-    return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
-
-
 def test_a_dask_run_that_loses_a_worker_is_the_local_run(world, flat, tmp_path):
     pytest.importorskip("distributed")
     rows = _wander(np.random.default_rng(7), 12, 40.0) + [(t, e, x, y + 25, yaw) for t, e, x, y, yaw in
                                                           _edges_exercise()]
     _write(flat / "big.csv", rows)
     local = _local(world, flat, "big", 65536)
-    info = tmp_path / "scheduler.json"
-    procs = [_start(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                     "--scheduler-file", str(info)])]
+    from tests.conftest import start_dask_cluster, stop_processes
+
+    address, workers, procs = start_dask_cluster(tmp_path)
     try:
-        for _ in range(200):
-            if info.exists() and info.stat().st_size:
-                break
-            time.sleep(0.05)
-        workers = [_start(["distributed.cli.dask_worker", "--scheduler-file", str(info), "--nthreads", "1",
-                           "--no-nanny", "--no-dashboard"]) for _ in range(2)]
-        procs += workers
-        address = json.loads(info.read_text())["address"]
         job = subprocess.Popen([sys.executable, "-m", "tankcd_cli", "replay", str(flat / "big.csv"), "--scene",
                                 str(flat / "scene.toml"), "--window-seconds", "2", "--scheduler", address, "--poses",
                                 str(tmp_path / "p.csv"), "--events", str(tmp_path / "e.jsonl"), "--summary"],
@@ -228,9 +215,7 @@ def test_a_dask_run_that_loses_a_worker_is_the_local_run(world, flat, tmp_path):
         _, stderr = job.communicate(timeout=600)
         assert job.returncode == 0, stderr
     finally:
-        for p in procs:
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGKILL)
+        stop_processes(procs)
     _same_bytes(local, tmp_path)
     summary = json.loads(stderr.strip().splitlines()[-1])
     assert summary["rows"] == len(rows) and summary["vehicle_contacts"] >= 3
