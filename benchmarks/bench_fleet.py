@@ -61,6 +61,21 @@ def fleet(args, out):
     return wall, summary
 
 
+def sample_world(tmp):
+    """The sample scene in ``tmp``, its terrain classified beforehand (the store, not the .asc, in the
+    scene: no run classifies it again). Returns the scene's path."""
+    for name in ("battlefield.asc", "depot.obj", "wall.obj", "scene.toml"):
+        shutil.copy(os.path.join(SAMPLE, name), os.path.join(tmp, name))
+    subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", os.path.join(tmp, "battlefield.asc"),
+                    "-o", os.path.join(tmp, "battlefield.h5")], check=True)
+    scene = os.path.join(tmp, "scene.toml")
+    with open(scene) as fh:
+        text = fh.read().replace("battlefield.asc", "battlefield.h5")
+    with open(scene, "w") as fh:
+        fh.write(text)
+    return scene
+
+
 def start_cluster(tmp, workers):
     info = os.path.join(tmp, "scheduler.json")
     procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
@@ -88,15 +103,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(HERE, "results", "fleet.md"))
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        for name in ("battlefield.asc", "depot.obj", "wall.obj", "scene.toml"):
-            shutil.copy(os.path.join(SAMPLE, name), os.path.join(tmp, name))
-        subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", os.path.join(tmp, "battlefield.asc"),
-                        "-o", os.path.join(tmp, "battlefield.h5")], check=True)
-        scene = os.path.join(tmp, "scene.toml")
-        with open(scene) as fh:
-            text = fh.read().replace("battlefield.asc", "battlefield.h5")
-        with open(scene, "w") as fh:
-            fh.write(text)
+        scene = sample_world(tmp)
         runs = os.path.join(tmp, "runs")
         os.mkdir(runs)
         trajectories(runs, a.trajectories, a.rows)

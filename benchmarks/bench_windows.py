@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -28,10 +27,9 @@ import tempfile
 import numpy as np
 
 from _report import save_report
-from bench_fleet import start_cluster  # the same local cluster: a scheduler and workers of one thread
+from bench_fleet import sample_world, start_cluster  # the sample world and the local cluster the fleets use
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SAMPLE = os.path.join(os.path.dirname(HERE), "sample_data")
 
 
 def exercise(path, vehicles, seconds, hz=2.0):
@@ -84,15 +82,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(HERE, "results", "windows.md"))
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        for name in ("battlefield.asc", "depot.obj", "wall.obj", "scene.toml"):
-            shutil.copy(os.path.join(SAMPLE, name), os.path.join(tmp, name))
-        subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", os.path.join(tmp, "battlefield.asc"),
-                        "-o", os.path.join(tmp, "battlefield.h5")], check=True)
-        scene = os.path.join(tmp, "scene.toml")
-        with open(scene) as fh:
-            text = fh.read().replace("battlefield.asc", "battlefield.h5")
-        with open(scene, "w") as fh:
-            fh.write(text)
+        scene = sample_world(tmp)
         path = os.path.join(tmp, "exercise.csv")
         rows = exercise(path, a.vehicles, a.seconds)
         common = [path, "--scene", scene]
