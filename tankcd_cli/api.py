@@ -376,12 +376,19 @@ def _entity_codes(values, n: int) -> tuple[tuple, np.ndarray]:
     ids = np.asarray(values, dtype=object).ravel()
     if ids.shape != (n,):
         raise InputError("trajectory", f"column entity has {ids.size} values, t has {n}")
-    text = np.array([str(v).strip() for v in ids], dtype=object)
-    bad = [i for i, v in enumerate(text) if not v or any(c in v for c in ',"\n\r')]
-    if bad:
-        raise InputError("trajectory", f"entity {text[bad[0]]!r} is empty or holds a comma, quote or line break",
-                         where=f"row {bad[0]}")
-    names, first, inverse = np.unique(text.astype(str), return_index=True, return_inverse=True)
+    # the distinct ids first (few), then each checked once: no Python loop over the rows
+    raw, first_raw, raw_inverse = np.unique(ids.astype(str), return_index=True, return_inverse=True)
+    stripped = np.char.strip(raw)
+    held = np.zeros(len(raw), dtype=bool)
+    for c in (",", '"', "\n", "\r"):
+        held |= np.char.find(stripped, c) >= 0
+    wrong = np.flatnonzero(held | (np.char.str_len(stripped) == 0))
+    if len(wrong):
+        row = int(first_raw[wrong].min())
+        raise InputError("trajectory", f"entity {str(ids[row]).strip()!r} is empty or holds a comma, quote or line "
+                                       "break", where=f"row {row}")
+    text = stripped[raw_inverse.ravel()]
+    names, first, inverse = np.unique(text, return_index=True, return_inverse=True)
     rank = np.empty(len(names), dtype=np.int64)
     rank[np.argsort(first, kind="stable")] = np.arange(len(names))
     return tuple(str(v) for v in names[np.argsort(first, kind="stable")]), rank[inverse.ravel()]
