@@ -97,14 +97,15 @@ def classify(terrain: str, output: str | None = None, method: str = "auto", up: 
 
 
 def place(terrain, x, y, yaw_deg, matcher: str = "auto", vehicle="t72", escalate: bool | None = None,
-          tolerance: float | None = None) -> dict:
+          tolerance: float | None = None, attitude_tolerance: float | None = None) -> dict:
     """Place the vehicle on ``terrain`` (``open_terrain``'s, or a path) with its footprint centre at
     (x, y) m heading ``yaw_deg``: a dict of arrays keyed by the poses CSV's columns (``step`` counts
     from 0, ``t`` is NaN; region, matcher and status as names; NaN where a row has no pose).
 
     matcher : ``auto`` (by the region class under the footprint, escalated by the reference's
         certificate), ``two_point``, ``four_point``, ``six_point``, ``wheel_stations``, ``reference``
-    escalate, tolerance : as ``replay``'s (None: escalate ``auto`` only, tolerance from the vehicle)
+    escalate, tolerance, attitude_tolerance : as ``replay``'s (None: escalate ``auto`` only, the
+        tolerances the defaults: the height from the vehicle, the attitude 0.5 deg)
     """
     from tankcd_cli.io.poses_csv import pose_columns
     from tankcd_cli.matching.match import match
@@ -116,7 +117,7 @@ def place(terrain, x, y, yaw_deg, matcher: str = "auto", vehicle="t72", escalate
         terrain = open_terrain(terrain, vehicle=vehicle)
     x, y, yaw = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (x, y, yaw_deg)))
     poses = match(terrain.surface, _as_vehicle(vehicle), x, y, np.radians(yaw), matcher=matcher,
-                  escalate=escalate, tolerance=tolerance)
+                  escalate=escalate, tolerance=tolerance, attitude_tolerance=attitude_tolerance)
     return pose_columns(np.arange(len(x)), np.full(len(x), np.nan), poses)
 
 
@@ -138,18 +139,24 @@ def _world(world, scene, terrain, vehicle, up, cache, progress):
     return load_world(scene, terrain, vehicle, up, cache, progress)
 
 
-def _options(matcher, escalate, tolerance, discrete):
+def _options(matcher, escalate, tolerance, discrete, attitude_tolerance=None):
     from tankcd_cli.names import MATCHER_CHOICES
     from tankcd_cli.replay.records import ReplayOptions
 
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
-    return ReplayOptions(matcher=matcher, escalate=escalate, tolerance=tolerance, continuous=not discrete)
+    if attitude_tolerance is not None and not attitude_tolerance > 0:
+        raise ValueError(f"attitude_tolerance must be positive (deg), not {attitude_tolerance!r}")
+    if tolerance is not None and not tolerance > 0:
+        raise ValueError(f"tolerance must be positive (m), not {tolerance!r}")
+    return ReplayOptions(matcher=matcher, escalate=escalate, tolerance=tolerance,
+                         attitude_tolerance=attitude_tolerance, continuous=not discrete)
 
 
 def replay(trajectory, scene: str | None = None, terrain: str | None = None, vehicle: str = "t72",
            matcher: str = "auto", discrete: bool = False, escalate: bool | None = None,
-           tolerance: float | None = None, world=None, up: str | None = None, cache: bool = False):
+           tolerance: float | None = None, world=None, up: str | None = None, cache: bool = False,
+           attitude_tolerance: float | None = None):
     """Replay a trajectory and keep the results in memory: (poses, events).
 
     trajectory : a path (a trajectory CSV, a geographic CSV, GPX or a DIS capture: the command
@@ -159,13 +166,20 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
         ``t`` never decreasing) and ``entity`` (each row's vehicle: an exercise, rows in time order)
     scene or terrain (with ``vehicle``) : the world, or ``world`` from ``load_world``
     discrete : check the rows only (default: every effect along the motion between rows too)
+    escalate : check key-point poses against the reference's certificate and solve those that
+        fail it by the reference (None: for ``auto`` only)
+    tolerance, attitude_tolerance : the certificate's height tolerance at the footprint's corners
+        (m; None: half the footprint's shorter side times tan 1 deg) and its attitude tolerance
+        (deg; None: 0.5): a key-point pose farther than either from a plane the certificate
+        finds is escalated
     Returns poses, a dict of arrays keyed by the poses CSV's columns, and events, a list of dicts
     as the events JSON Lines' lines (``between``: a contact that began between rows).
     """
     from tankcd_cli.replay.run import replay_rows
 
     w = _world(world, scene, terrain, vehicle, up, cache, None)
-    return replay_rows(w, _chunks(trajectory, w), _options(matcher, escalate, tolerance, discrete))
+    return replay_rows(w, _chunks(trajectory, w),
+                       _options(matcher, escalate, tolerance, discrete, attitude_tolerance))
 
 
 def _chunks(trajectory, world):
@@ -184,7 +198,8 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
                     terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto",
                     discrete: bool = False, escalate: bool | None = None, tolerance: float | None = None,
                     world=None, up: str | None = None, cache: bool = False,
-                    progress: Callable[[int], None] | None = None, observe: Callable | None = None):
+                    progress: Callable[[int], None] | None = None, observe: Callable | None = None,
+                    attitude_tolerance: float | None = None):
     """Replay a trajectory streamed to files, as ``tankcd replay`` does: the poses CSV (``-``
     standard output, None: none) and the events JSON Lines (None: only counted), or Parquet for a
     name ending in ``.parquet`` (typed columns, the CRS, conventions and sources' SHA-256 in the
@@ -200,7 +215,8 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
     w = _world(world, scene, terrain, vehicle, up, cache, None)
     sources = [str(p) for p in trajectory] if isinstance(trajectory, (list, tuple)) else None
     return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
-                      _options(matcher, escalate, tolerance, discrete), progress=progress, observe=observe,
+                      _options(matcher, escalate, tolerance, discrete, attitude_tolerance), progress=progress,
+                      observe=observe,
                       sources=sources)
 
 
@@ -228,7 +244,7 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
                    terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto", discrete: bool = False,
                    escalate: bool | None = None, tolerance: float | None = None, window_seconds: float = 60.0,
                    scheduler: str | None = None, world=None, up: str | None = None,
-                   progress: Callable[[int], None] | None = None):
+                   progress: Callable[[int], None] | None = None, attitude_tolerance: float | None = None):
     """Replay an exercise (one trajectory file, usually with an ``entity`` column) by time windows of
     ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
     ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
@@ -252,7 +268,7 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         if is_parquet(out):
             raise ValueError(f"{out}: a replay by time windows writes the poses CSV and the events JSON Lines "
                              "(Parquet: replay in one piece, or convert the outputs)")
-    options = _options(matcher, escalate, tolerance, discrete)
+    options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
     if scheduler:
         from tankcd_cli.replay.fleet import FleetWorld
         from tankcd_cli.replay.world import WorldSpec
@@ -278,7 +294,7 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
                  escalate: bool | None = None, tolerance: float | None = None, jobs: int | None = None,
                  scheduler: str | None = None, split_lines: int | None = 1_000_000,
                  progress: Callable[[str], None] | None = None, on_result: Callable | None = None,
-                 out_format: str = "csv"):
+                 out_format: str = "csv", attitude_tolerance: float | None = None):
     """Replay many trajectories (paths, globs, ``@lists``) as ``tankcd replay ... --out-dir`` does: each
     into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl`` (``out_format="parquet"``:
     ``NAME.poses.parquet`` and ``NAME.events.parquet``), in ``jobs`` processes (default: the
@@ -300,8 +316,8 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     jobs = jobs or os.cpu_count() or 1
     if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
         spec = classify_once(spec, out_dir, progress)
-    fleet = run_fleet(FleetWorld(spec, _options(matcher, escalate, tolerance, discrete)), tasks, jobs, scheduler,
-                      progress=progress, on_result=on_result)
+    options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
+    fleet = run_fleet(FleetWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     return fleet
 

@@ -56,3 +56,7 @@ below it, survey noise on a flat bottom would report contacts nobody can act on)
 ESCALATION_ATTITUDE_DEG = 1.0
 """deg. The attitude error a key-point pose may have and pass the reference's certificate
 (``matching.match.escalation_tolerance`` turns it into a height at the footprint's corners)."""
+
+ATTITUDE_TOLERANCE_DEG = 0.5
+"""deg. The attitude a key-point pose may differ by from each of the certificate's planes and
+pass it (``matching.match.certify``), beside the height tolerance at the footprint's corners."""

@@ -115,6 +115,29 @@ def test_an_exercise_of_arrays_is_the_exercise_of_the_file(tmp_path):
                                     "entity": ["a", "x,y"]}))
 
 
+def test_the_certificates_tolerances_reach_the_replay(store, tmp_path, run):
+    """A tighter attitude tolerance escalates more poses, and never fewer, in the API and on the
+    command line alike; the looser default escalates a subset of the tighter's poses."""
+    columns = _patrol(600)
+    world = api.load_world(terrain=store)
+    default = api.replay(columns, world=world, discrete=True)[0]
+    tight = api.replay(columns, world=world, discrete=True, attitude_tolerance=0.1)[0]
+    up_default = np.char.endswith(default["matcher"].astype(str), "+reference")
+    up_tight = np.char.endswith(tight["matcher"].astype(str), "+reference")
+    assert up_tight.sum() > up_default.sum() and not (up_default & ~up_tight).any()
+    with pytest.raises(ValueError, match="attitude_tolerance must be positive"):
+        api.replay(columns, world=world, attitude_tolerance=0.0)
+    path = tmp_path / "patrol.csv"
+    with open(path, "w") as fh:
+        fh.write("t,x,y,yaw_deg\n")
+        for k in range(len(columns["t"])):
+            fh.write(",".join(repr(float(columns[c][k])) for c in ("t", "x", "y", "yaw_deg")) + "\n")
+    result = run("replay", path, "--terrain", store, "--discrete", "--attitude-tolerance", "0.1")
+    assert result.exit_code == 0, result.stderr
+    printed = [r["matcher"] for r in csv.DictReader(io.StringIO(result.stdout))]
+    assert printed == tight["matcher"].tolist()
+
+
 def test_replay_to_files_streams_and_summarizes(store, tmp_path):
     summary = api.replay_to_files(str(SAMPLE / "patrol.csv"), poses=str(tmp_path / "p.csv"),
                                   events=str(tmp_path / "e.jsonl"), terrain=store, discrete=True)

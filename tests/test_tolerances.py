@@ -19,3 +19,4 @@ def test_users_take_the_one_value():
     assert match.EPS_XY is T.EPS_XY
     assert pipeline.HULL_CONTACT_TOLERANCE is T.HULL_CONTACT
     assert match.ESCALATION_ATTITUDE_DEG is T.ESCALATION_ATTITUDE_DEG
+    assert match.ATTITUDE_TOLERANCE_DEG is T.ATTITUDE_TOLERANCE_DEG

@@ -219,7 +219,8 @@ SCHEDULED = "--out-dir or --window-seconds"
 REPLAY_RULES = (
     Needs("png_colour", "png", "it colours the path --png draws"),
     Needs("allow_off_terrain", "fail_on_collision", "it keeps rows off the terrain from failing the run"),
-    Needs("tolerance", ESCALATION, "it is the certificate's tolerance, which only escalation checks"),
+    *(Needs(name, ESCALATION, "it is the certificate's tolerance, which only escalation checks")
+      for name in ("tolerance", "attitude_tolerance")),
     *(Needs(name, "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
                              "trajectory there") for name in ("jobs", "split_lines")),
     Needs("out_format", "out_dir", "it sets the format of the files a fleet writes there (one replay writes Parquet "

@@ -46,6 +46,10 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--tolerance", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="M",
               help="With escalation: the certificate's height tolerance at the footprint's corners, m (default: "
                    "half the footprint's shorter side times tan 1 degree; 0.029 m for a T-72).")
+@click.option("--attitude-tolerance", "attitude_tolerance", type=click.FloatRange(min=0.0, min_open=True),
+              default=None, metavar="DEG",
+              help="With escalation: the certificate's attitude tolerance, degrees: a key-point pose tilted more "
+                   "than this from a plane the certificate finds is escalated (default: 0.5).")
 @click.option("--together", is_flag=True,
               help="Several trajectories as one exercise: their rows merged in time into one world (each file an "
                    "entity named after its stem, or its own entities), one poses and one events output, every "
@@ -86,7 +90,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
 @verbosity_options
 @click.pass_obj
-def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance, together,
+def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance,
+           attitude_tolerance, together,
            discrete, vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
            split_lines, window_seconds):
@@ -129,7 +134,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         if png:
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
         return _fleet(report, trajectories, scene, terrain, dict(matcher=matcher, escalate=escalate,
-                                                                 tolerance=tolerance, discrete=discrete),
+                                                                 tolerance=tolerance, discrete=discrete,
+                                                                 attitude_tolerance=attitude_tolerance),
                       vehicle_name, up, out_dir, out_format, jobs, scheduler, fail_on_collision, allow_off_terrain,
                       summary_path, split_lines)
     from tankcd_cli import api
@@ -163,8 +169,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
             raise click.UsageError("--window-seconds writes the poses CSV and the events JSON Lines: give --poses and "
                                    "--events names ending in .csv and .jsonl (Parquet: replay in one piece)")
         return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
-                        discrete, escalate, tolerance, window_seconds, scheduler, summary_path, fail_on_collision,
-                        allow_off_terrain, step)
+                        discrete, escalate, (tolerance, attitude_tolerance), window_seconds, scheduler, summary_path,
+                        fail_on_collision, allow_off_terrain, step)
     world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
     drawing = None
     if png:
@@ -173,7 +179,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         drawing = ReplayDrawing(colour_by=png_colour)
     result = api.replay_to_files(trajectory, poses_path, events_path, world=world, matcher=matcher,
                                  discrete=discrete, escalate=escalate, tolerance=tolerance,
-                                 progress=lambda n: report.bar(f"replay: {n:,} rows"),
+                                 attitude_tolerance=attitude_tolerance, progress=lambda n: report.bar(f"replay: {n:,} rows"),
                                  observe=drawing.observe if drawing else None)
     report.bar(None)
     result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
@@ -189,8 +195,9 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
 
 def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher, discrete,
-             escalate, tolerance, window_seconds, scheduler, summary_path, fail_on_collision, allow_off_terrain, step):
-    """--window-seconds: one exercise by time windows, here or on the cluster (replay.windows)."""
+             escalate, tolerances, window_seconds, scheduler, summary_path, fail_on_collision, allow_off_terrain, step):
+    """--window-seconds: one exercise by time windows, here or on the cluster (replay.windows);
+    ``tolerances`` the certificate's (height m, attitude deg)."""
     from tankcd_cli import api
 
     if trajectory == "-":
@@ -200,7 +207,8 @@ def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_
                                                   cache=cache, progress=step)
     result = api.replay_windows(trajectory, poses_path, events_path, scene=scene, terrain=terrain,
                                 vehicle=vehicle_name, up=up, world=world, matcher=matcher, discrete=discrete,
-                                escalate=escalate, tolerance=tolerance, window_seconds=window_seconds,
+                                escalate=escalate, tolerance=tolerances[0], attitude_tolerance=tolerances[1],
+                                window_seconds=window_seconds,
                                 scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
     report.bar(None)
     result.seconds = round(report.elapsed(), 3)

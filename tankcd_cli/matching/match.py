@@ -83,7 +83,7 @@ from tankcd_cli.names import (  # noqa: F401 (shared names)
     REFERENCE,
     STATUS,
 )
-from tankcd_cli.tolerances import EPS_XY, ESCALATION_ATTITUDE_DEG
+from tankcd_cli.tolerances import ATTITUDE_TOLERANCE_DEG, EPS_XY, ESCALATION_ATTITUDE_DEG
 from tankcd_cli.vehicle import Vehicle, key_points, wheel_stations
 
 
@@ -134,7 +134,7 @@ def escalation_tolerance(vehicle: Vehicle, attitude_deg: float = ESCALATION_ATTI
 
 def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
           tilt_iterations: int = 30, regions: bool = True, escalate: bool | None = None,
-          tolerance: float | None = None) -> Poses:
+          tolerance: float | None = None, attitude_tolerance: float | None = None) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
     surface : a :class:`~tankcd_cli.terrain.surface.Surface` (either layout's)
@@ -144,6 +144,8 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     escalate : check the key-point poses against the reference's certificate and solve those
         that fail it by the reference (None, the default: for ``auto`` only, whose error it bounds)
     tolerance : the certificate's height tolerance, m (default ``escalation_tolerance``)
+    attitude_tolerance : the certificate's attitude tolerance, deg (default
+        ``tolerances.ATTITUDE_TOLERANCE_DEG``)
     """
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
@@ -177,7 +179,8 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
         # another fixed point where the ground offers several: not the reference's pose)
         kp = np.flatnonzero(choice < REFERENCE)
         tol = escalation_tolerance(vehicle) if tolerance is None else float(tolerance)
-        cert = certify(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol)
+        cert = certify(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol,
+                       ATTITUDE_TOLERANCE_DEG if attitude_tolerance is None else float(attitude_tolerance))
         choice[kp[~cert.passed]] += ESCALATED
         if measure:
             passed = kp[cert.passed]
@@ -213,8 +216,10 @@ class Certificate(NamedTuple):
     covered: np.ndarray  # the share of the contact patches over terrain (NaN: not checked)
 
 
-def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> Certificate:
-    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m.
+def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float,
+            attitude_tolerance: float = ATTITUDE_TOLERANCE_DEG) -> Certificate:
+    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m and
+    ``attitude_tolerance`` deg.
 
     The reference pose is the lowest plane that no ground under the tracks' contact patches
     rises above, with the patches projected for that plane's own tilt, found by starting from
@@ -223,11 +228,17 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
 
     - it is the lowest plane under the patches projected for its own tilt: then no ground
       rises more than that above it (it does not cut the ground), and it rests on ground that
-      surrounds the centre (it does not float or tip): a pose the rigid hull can rest in;
+      surrounds the centre (it does not float or tip): a pose the rigid hull can rest in.
+      This plane is also within ``attitude_tolerance`` of it in tilt (the angle between their
+      normals): the height alone lets a plane roll by up to ``tolerance`` over half the
+      footprint's width, 1 degree at the default;
     - it is the lowest plane under the untilted patches too (the reference's first round), so
       the reference's iteration starts where it is and stays: where the ground offers the hull
       two poses (balanced across a crest, it rests tipped either way), the plane is the one
-      the reference takes, not the other.
+      the reference takes, not the other. Only the height is held here: this round tells two
+      resting poses apart, degrees apart; its plane, for patches the pose does not have, is
+      not the reference's answer (on a berm the reference's own plane is more than 0.5 degrees
+      from it).
 
     Each is one exact footprint pass, both searching from the given plane's slopes. The
     untilted pass comes first; the pass at the plane's own tilt is made only for the planes
@@ -236,6 +247,7 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     passes needs no third. A plane the passes cannot check (not finite, no support found) fails.
     """
     n = len(x)
+    attitude = np.radians(attitude_tolerance)
     ok = np.zeros(n, dtype=bool)
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
@@ -250,7 +262,7 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
         x[near], y[near], yaw[near], patch_quads(vehicle, roll, pitch), p)
     penetration[near] = np.maximum(high, 0.0)
     with np.errstate(invalid="ignore"):
-        ok[near] = (status == 0) & (corner_gap(vehicle, p, lowest) <= tolerance)
+        ok[near] = (status == 0) & (corner_gap(vehicle, p, lowest) <= tolerance) & (plane_angle(p, lowest) <= attitude)
     return Certificate(ok, penetration, covered)
 
 
@@ -261,10 +273,19 @@ def corner_gap(vehicle: Vehicle, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.abs(d[:, 0]) + vehicle.track_length / 2 * np.abs(d[:, 1]) + vehicle.footprint_width / 2 * np.abs(d[:, 2])
 
 
-def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float) -> np.ndarray:
-    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m (N,) bool
-    (``certify``'s verdict alone)."""
-    return certify(surface, vehicle, x, y, yaw, planes, tolerance).passed
+def plane_angle(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(N,) the angle (rad) between two planes' (N, 3) normals, (-b, -c, 1) for z = a + b u + c v
+    (NaN where either is not finite); atan2 of the cross and dot products, exact near 0."""
+    n = np.stack([-p[:, 1], -p[:, 2], np.ones(len(p))], axis=1)
+    m = np.stack([-q[:, 1], -q[:, 2], np.ones(len(q))], axis=1)
+    return np.arctan2(np.linalg.norm(np.cross(n, m), axis=1), np.einsum("ij,ij->i", n, m))
+
+
+def certified(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float,
+              attitude_tolerance: float = ATTITUDE_TOLERANCE_DEG) -> np.ndarray:
+    """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m and
+    ``attitude_tolerance`` deg (N,) bool (``certify``'s verdict alone)."""
+    return certify(surface, vehicle, x, y, yaw, planes, tolerance, attitude_tolerance).passed
 
 
 # --- key points -----------------------------------------------------------------

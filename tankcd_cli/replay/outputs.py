@@ -161,6 +161,7 @@ def replay_metadata(world, trajectories, options, hash_trajectories: bool = True
                                 "sha256": sha256_of(kind.mesh)})
     sources.append(_terrain_source(world))
     how = {"matcher": options.matcher, "escalate": options.escalate, "tolerance": options.tolerance,
+           "attitude_tolerance": options.attitude_tolerance,
            "mode": "continuous" if options.continuous else "discrete"}
     return output_metadata(world.crs, sources, replay=how)
 

@@ -63,6 +63,7 @@ class ReplayRun:
     matcher = property(lambda self: self.options.matcher)
     escalate = property(lambda self: self.options.escalate)
     tolerance = property(lambda self: self.options.tolerance)
+    attitude_tolerance = property(lambda self: self.options.attitude_tolerance)
     continuous = property(lambda self: self.options.continuous)
 
     @property
@@ -198,7 +199,7 @@ def _rows(run: ReplayRun, kind, chunk):
     (terrain (N,), obstacle (N, k), internal (N,) bool)."""
     t0 = time.perf_counter()
     poses = match(run.surface, kind.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=run.matcher,
-                  escalate=run.escalate, tolerance=run.tolerance)
+                  escalate=run.escalate, tolerance=run.tolerance, attitude_tolerance=run.attitude_tolerance)
     run.seconds["matching"] += time.perf_counter() - t0
     codes = _codes(chunk)
     events = []

@@ -19,6 +19,8 @@ class ReplayOptions:
         it by the reference (None: for ``auto`` only)
     tolerance : the certificate's height tolerance at the footprint's corners, m (None: derived
         from the vehicle, ``matching.match.escalation_tolerance``)
+    attitude_tolerance : the certificate's attitude tolerance, deg (None:
+        ``tolerances.ATTITUDE_TOLERANCE_DEG``)
     continuous : check every effect along the motion between rows too (False: the rows only)
     chunk_rows : rows read, matched and written at a time (memory follows it)
     """
@@ -26,6 +28,7 @@ class ReplayOptions:
     matcher: str = "auto"
     escalate: bool | None = None
     tolerance: float | None = None
+    attitude_tolerance: float | None = None
     continuous: bool = True
     chunk_rows: int = 65536
 

@@ -127,6 +127,8 @@ FLEET_NEEDS = "it sets how a fleet runs, and a fleet writes one poses and one ev
      f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
     (["--no-escalate", "--tolerance", "0.1"],
      f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
+    (["--no-escalate", "--attitude-tolerance", "0.3"],
+     f"--attitude-tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
     (["--jobs", "2"], f"--jobs needs --out-dir: {FLEET_NEEDS}"),
     (["--scheduler", "tcp://localhost:8786"], "--scheduler needs --out-dir or --window-seconds: it runs a fleet's "
                                               "trajectories or an exercise's time windows on the cluster"),
