@@ -51,13 +51,48 @@ class ReplayDrawing:
 
 def footprint_outline(triangles: np.ndarray) -> np.ndarray:
     """The convex outline (k, 2) of triangles (m, 3, 3) seen from above, counter-clockwise
-    (fewer than 3 distinct points, or all in a line: those points)."""
-    from scipy.spatial import ConvexHull, QhullError
+    (fewer than 3 distinct points: those; all in a line: the two ends).
 
-    pts = np.unique(triangles.reshape(-1, 3)[:, :2], axis=0)
+    Andrew's monotone chain over the points left once those strictly inside the octagon of
+    the extreme points (in x, y, x + y and x - y) are dropped, none of which can be a corner of
+    the hull; no scipy (its import alone costs a small replay's ``--png`` a third of a second).
+    """
+    pts = np.unique(triangles.reshape(-1, 3)[:, :2], axis=0)  # sorted by x, then y
     if len(pts) < 3:
         return pts
-    try:
-        return pts[ConvexHull(pts).vertices]
-    except QhullError:
-        return pts[[0, -1]]
+    pts = pts[~_inside_extremes(pts)]
+    extent = float(np.ptp(pts, axis=0).max())
+    tol = 1e-12 * extent * extent  # a turn this slight is round-off: the point is on the edge
+    lower = _half_hull(pts, tol)
+    upper = _half_hull(pts[::-1], tol)
+    hull = np.array(lower[:-1] + upper[:-1])
+    return hull if len(hull) >= 3 else pts[[0, -1]]
+
+
+def _inside_extremes(pts: np.ndarray) -> np.ndarray:
+    """(n,) bool: strictly inside the convex polygon through the points extreme in eight
+    directions (counter-clockwise, repeated extremes merged)."""
+    x, y = pts[:, 0], pts[:, 1]
+    order = [np.argmax(x), np.argmax(x + y), np.argmax(y), np.argmax(y - x),
+             np.argmin(x), np.argmin(x + y), np.argmin(y), np.argmin(y - x)]
+    ring = pts[list(dict.fromkeys(int(i) for i in order))]
+    if len(ring) < 3:
+        return np.zeros(len(pts), dtype=bool)
+    edge = np.roll(ring, -1, axis=0) - ring
+    rel = pts[:, None, :] - ring[None]
+    cross = edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]
+    return (cross > 0).all(axis=1)
+
+
+def _half_hull(pts: np.ndarray, tol: float) -> list:
+    """One chain of the monotone-chain hull over points sorted along it (points within ``tol``
+    of collinear, a cross product in m², dropped)."""
+    chain: list = []
+    for p in pts:
+        while len(chain) >= 2:
+            (ax, ay), (bx, by) = chain[-2], chain[-1]
+            if (bx - ax) * (p[1] - ay) - (by - ay) * (p[0] - ax) > tol:
+                break
+            chain.pop()
+        chain.append((float(p[0]), float(p[1])))
+    return chain

@@ -5,6 +5,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from tankcd_cli.replay import drawing
@@ -136,3 +138,27 @@ def test_outlines_with_too_few_points_or_all_in_a_line():
     assert footprint_outline(one).tolist() == [[0.0, 0.0]]
     line = np.array([[[0, 0, 0], [1, 1, 5], [3, 3, 0]], [[2, 2, 1], [1, 1, 0], [0, 0, 2]]], float)  # a wall seen edge on
     assert footprint_outline(line).tolist() == [[0.0, 0.0], [3.0, 3.0]]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 80), st.integers(0, 2**32 - 1), st.sampled_from([None, 0, 1]))
+def test_the_outline_is_qhulls_on_random_clouds(n, seed, decimals):
+    """Against scipy's Qhull: the same corners, on clouds of points in general position and on
+    coarse integer grids (many duplicates and collinear points), at UTM-sized coordinates too."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    rng = np.random.default_rng(seed)
+    tris = rng.normal(0, 6, (n, 3, 3))
+    if decimals is not None:
+        tris = np.round(tris, decimals)
+    if seed % 2:
+        tris = tris + [500_000.0, 4_500_000.0, 0.0]
+    pts = np.unique(tris.reshape(-1, 3)[:, :2], axis=0)
+    outline = footprint_outline(tris)
+    try:
+        corners = pts[ConvexHull(pts).vertices]
+    except (QhullError, ValueError):  # fewer than 3 points or all in a line
+        assert len(outline) <= 2
+        return
+    assert sorted(map(tuple, outline.tolist())) == sorted(map(tuple, corners.tolist()))
+    assert _area(outline - outline.mean(axis=0)) > 0

@@ -99,15 +99,27 @@ def _sq3(u) -> np.ndarray:
     return u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
 
 
+SMALL_MESH_VERTICES = 250_000
+"""Up to this many vertices, the compiled k-d tree first asks whether any vertex has a near
+duplicate at all, and scipy (a quarter of a second to import, most of a toy mesh's classify) is
+loaded only when one has; above it scipy's pair search is the faster of the two."""
+
+
 def _merge_representatives(vertices: np.ndarray, distance: float) -> np.ndarray:
     """Index of the representative (lowest index) of each vertex's cluster of near-duplicates."""
+    n = len(vertices)
+    # centre first: the k-d tree then works on small numbers even at UTM offsets
+    pts = vertices - vertices.mean(axis=0)
+    if n <= SMALL_MESH_VERTICES and np.isfinite(pts).all():
+        from tankcd_cli.terrain.curvature.jet_fit import neighbours
+
+        nearest = neighbours(pts, np.arange(n), 1, 2)[:, 0]  # each vertex's nearest other (cKDTree's distances)
+        if not (np.linalg.norm(pts[nearest] - pts, axis=1) <= distance).any():
+            return np.arange(n)
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    n = len(vertices)
-    # centre first: the k-d tree then works on small numbers even at UTM offsets
-    pts = vertices - vertices.mean(axis=0)
     pairs = cKDTree(pts).query_pairs(distance, output_type="ndarray")
     if len(pairs) == 0:
         return np.arange(n)

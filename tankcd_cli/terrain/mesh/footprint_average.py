@@ -49,15 +49,27 @@ def _disk(radius_cells: float) -> np.ndarray:
     return (xx * xx + yy * yy <= radius_cells * radius_cells + 1e-9).astype(np.float64)
 
 
+def _direct_disk_sum(grid: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """``scipy.ndimage.convolve(grid, kernel, mode="constant")`` for a symmetric 0/1 kernel, bit
+    for bit: the shifted grids added in the order it adds them (row-major over the kernel),
+    one whole-grid addition per kernel cell. Without scipy, whose import is most of a small
+    mesh's classify."""
+    r = kernel.shape[0] // 2
+    padded = np.pad(grid, r)
+    rows, cols = grid.shape
+    out = np.zeros_like(grid, dtype=np.float64)
+    for dy, dx in zip(*np.nonzero(kernel)):
+        out += padded[dy:dy + rows, dx:dx + cols]
+    return out
+
+
 def _disk_sum(grid: np.ndarray, radius_cells: float) -> np.ndarray:
     """Sum of ``grid`` over a disk around every cell (zero outside the grid)."""
     if radius_cells < 1:
         return grid
     kernel = _disk(radius_cells)
     if kernel.size <= 81:
-        from scipy.ndimage import convolve
-
-        return convolve(grid, kernel, mode="constant")
+        return _direct_disk_sum(grid, kernel)
     from scipy.signal import fftconvolve
 
     return fftconvolve(grid, kernel, mode="same")

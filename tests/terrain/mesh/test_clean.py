@@ -1,6 +1,7 @@
 """Mesh clean-up: duplicates merged, degenerate and repeated faces dropped, counts reported."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -53,3 +54,22 @@ def test_property_clean_mesh_is_a_valid_mesh(n, seed):
     # every kept input vertex maps onto an identical output vertex
     kept = out.old_to_new >= 0
     np.testing.assert_array_equal(out.vertices[out.old_to_new[kept]], V[kept])
+
+
+@pytest.mark.parametrize("planted", [0, 1, 7])
+def test_the_quick_look_for_duplicates_agrees_with_the_pair_search(monkeypatch, planted):
+    """Small meshes first ask the compiled k-d tree whether any vertex has a near duplicate;
+    the representatives are the pair search's all the same: with none planted, with one, with
+    several (pairs inside the merge distance and pairs just outside it), at UTM offsets."""
+    from tankcd_cli.terrain.mesh import clean
+
+    rng = np.random.default_rng(planted)
+    v = rng.uniform(0, 500, (3000, 3)) + [500_000.0, 4_500_000.0, 0.0]
+    for k in range(planted):
+        v[10 * k + 1] = v[10 * k] + rng.normal(0, 1, 3) / np.sqrt(3) * 0.4e-6  # inside 1e-6 m
+        v[10 * k + 5] = v[10 * k + 4] + [3e-6, 0.0, 0.0]  # outside
+    quick = clean._merge_representatives(v, 1e-6)
+    monkeypatch.setattr(clean, "SMALL_MESH_VERTICES", 0)
+    searched = clean._merge_representatives(v, 1e-6)
+    np.testing.assert_array_equal(quick, searched)
+    assert int((quick != np.arange(len(v))).sum()) == planted

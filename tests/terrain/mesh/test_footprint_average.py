@@ -2,6 +2,8 @@
 crater whose signed curvature would cancel, and the class raster against the vertices."""
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import pytest
 
 from tankcd_cli.io.terrain_readers import RawTerrain
@@ -63,3 +65,19 @@ def test_raster_agrees_with_vertices():
     r = Raster(store.raster_origin, store.raster_cell, store.class_raster)
     row, col = r.cell_of(V[:, :2])
     assert np.mean(store.class_raster[row, col] == store.vertex_class) > 0.97
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.floats(1.0, 4.99), st.integers(0, 2**32 - 1))
+def test_the_direct_disk_sum_is_ndimages_bit_for_bit(rows, cols, radius, seed):
+    """The disks of up to 81 cells are summed without scipy, in its order: the same bits as
+    ``scipy.ndimage.convolve`` (the oracle), grids smaller than the disk included."""
+    from scipy.ndimage import convolve
+
+    from tankcd_cli.terrain.mesh.footprint_average import _direct_disk_sum, _disk
+
+    rng = np.random.default_rng(seed)
+    grid = rng.normal(size=(rows, cols)) * rng.uniform(0, 1e3, (rows, cols)) * (rng.random((rows, cols)) < 0.7)
+    kernel = _disk(radius)
+    assert kernel.size <= 81
+    np.testing.assert_array_equal(_direct_disk_sum(grid, kernel), convolve(grid, kernel, mode="constant"))
