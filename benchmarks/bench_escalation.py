@@ -45,6 +45,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=7)
     a = ap.parse_args()
     from tankcd_cli.matching.match import ESCALATED, OK, escalation_tolerance, match
+    from tankcd_cli.tolerances import ATTITUDE_TOLERANCE_DEG
     from tankcd_cli.terrain import synthetic as S
     from tankcd_cli.terrain.mesh.classify import read_mesh
     from tankcd_cli.vehicle import vehicle_preset
@@ -53,7 +54,7 @@ def main():
     surface = S.surface_of(read_mesh(os.path.join(SAMPLE, "battlefield.asc")), vehicle=vehicle)
     lines = ["# Benchmark: auto's escalation by certificate", "",
              f"T-72 on the sample battlefield; certificate tolerance {escalation_tolerance(vehicle) * 1000:.0f} mm "
-             "at the footprint's corners. Errors against `reference` on the same poses (attitude: the angle "
+             f"at the footprint's corners and {ATTITUDE_TOLERANCE_DEG:g} deg of attitude. Errors against `reference` on the same poses (attitude: the angle "
              "between the hull's up axes). Times: the matching stage in one process (penetration and gap "
              f"measured), plain and escalated alternated, medians of {a.repeats}.", "",
              "| trajectory | poses | plain: attitude p95 / max, deg; height p95 / max, mm; penetration max, mm | escalated | "

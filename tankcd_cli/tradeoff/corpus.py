@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tankcd_cli.names import CLASS_NAMES
+from tankcd_cli.tolerances import ATTITUDE_TOLERANCE_DEG
 
 EXTENT = 60.0  # m, each terrain's side
 POSES_PER_TERRAIN = 240
@@ -256,7 +257,8 @@ def corpus_table(result: dict) -> str:
              f"{' and '.join(f'{s:g}' for s in SPACINGS)} m posts, two amplitudes), {result['poses']:,} poses; "
              "errors against the rigid-hull reference "
              f"({result['reference_us_per_pose']:.1f} us a pose). \"failing\": the share that fails the "
-             f"reference's certificate ({result['tolerance_m'] * 1000:.0f} mm at the footprint's corners) and "
+             f"reference's certificate ({result['tolerance_m'] * 1000:.0f} mm at the footprint's corners, "
+             f"{ATTITUDE_TOLERANCE_DEG:g} deg of attitude) and "
              "goes to the reference when escalated; \"escalated\": the matcher's time plus that share of the "
              "reference's.", "",
              "| class | matcher | poses | attitude median / p95, deg | height median / p95, mm | failing | "
