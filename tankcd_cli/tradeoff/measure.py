@@ -583,6 +583,7 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
         escalation_tolerance,
         match,
     )
+    from tankcd_cli.tolerances import ATTITUDE_TOLERANCE_DEG
 
     say(f"headline: auto vs reference on {name}")
     n = len(x)
@@ -632,7 +633,7 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
          "escalated_height_error_median_m": float(np.median(dz_e)) if len(dz_e) else float("nan"),
          "escalated_height_error_p95_m": _pct(dz_e, 95), "escalated_height_error_max_m": _pct(dz_e, 100),
          "escalated_penetration_p95_m": _pct(e.penetration[ok_e], 95),
-         "escalation_tolerance_m": escalation_tolerance(vehicle)}
+         "escalation_tolerance_m": escalation_tolerance(vehicle), "attitude_tolerance_deg": ATTITUDE_TOLERANCE_DEG}
     res.headline = h
     for key in ("auto_seconds", "reference_seconds", "speedup", "escalation_cost", "time_saved_share",
                 "attitude_error_median_deg",

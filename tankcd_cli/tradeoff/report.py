@@ -192,7 +192,8 @@ def headline_table(res: Results) -> str:
              "",
              f"Escalation re-solved {100 * h['escalated_share']:.1f} % of the poses by the reference (those whose "
              "key-point plane differs from the lowest supporting plane at its tilt, or under the untilted "
-             f"patches, by more than {h['escalation_tolerance_m'] * 1000:.1f} mm at a footprint corner): escalated "
+             f"patches, by more than {h['escalation_tolerance_m'] * 1000:.1f} mm at a footprint corner, or from the "
+             f"first by more than {h['attitude_tolerance_deg']:g} deg of attitude): escalated "
              f"auto takes {cost_text(h['escalation_cost'], *h['escalation_cost_spread'], 'plain auto')}"
              " (it does plain auto's work and more; timed in turn with it, pair by pair).", "",
              f"**plain auto is {ratio_text(h['speedup'], *h['speedup_spread'], 'faster', 'slower', 'reference')} than "
