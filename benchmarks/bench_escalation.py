@@ -54,7 +54,8 @@ def main():
     surface = S.surface_of(read_mesh(os.path.join(SAMPLE, "battlefield.asc")), vehicle=vehicle)
     lines = ["# Benchmark: auto's escalation by certificate", "",
              f"T-72 on the sample battlefield; certificate tolerance {escalation_tolerance(vehicle) * 1000:.0f} mm "
-             f"at the footprint's corners and {ATTITUDE_TOLERANCE_DEG:g} deg of attitude. Errors against `reference` on the same poses (attitude: the angle "
+             f"at the footprint's corners and {ATTITUDE_TOLERANCE_DEG:g} deg of attitude. Errors against "
+             "`reference` on the same poses (attitude: the angle "
              "between the hull's up axes). Times: the matching stage in one process (penetration and gap "
              f"measured), plain and escalated alternated, medians of {a.repeats}.", "",
              "| trajectory | poses | plain: attitude p95 / max, deg; height p95 / max, mm; penetration max, mm | escalated | "

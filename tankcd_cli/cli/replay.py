@@ -179,7 +179,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         drawing = ReplayDrawing(colour_by=png_colour)
     result = api.replay_to_files(trajectory, poses_path, events_path, world=world, matcher=matcher,
                                  discrete=discrete, escalate=escalate, tolerance=tolerance,
-                                 attitude_tolerance=attitude_tolerance, progress=lambda n: report.bar(f"replay: {n:,} rows"),
+                                 attitude_tolerance=attitude_tolerance,
+                                 progress=lambda n: report.bar(f"replay: {n:,} rows"),
                                  observe=drawing.observe if drawing else None)
     report.bar(None)
     result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
