@@ -2,8 +2,13 @@
 
 import numpy as np
 
+from cython.parallel cimport prange
 from libc.math cimport isfinite, rint
 from libc.stdlib cimport free, malloc
+from libc.string cimport memmove
+
+# rows a thread formats at a time; tables of fewer than two blocks are formatted serially
+DEF _ROW_BLOCK = 8192
 
 
 # two-digit pairs "00".."99": half the divisions of one digit at a time
@@ -143,13 +148,17 @@ cdef Py_ssize_t _format(const double* numbers, Py_ssize_t n, Py_ssize_t m, const
     return pos
 
 
-def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out):
+def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out, Py_ssize_t row_bound=0):
     """Write rows of CSV text into ``out`` (uint8); returns the number of bytes written.
 
     numbers : (N, M) float64; decimals : (M,) int64 digits after the point (0: an integer)
     codes : (N, L) int64 label codes into labels (K, W) uint8 / label_len (K,)
     kinds, index : (C,) the output columns: kind 0 is numbers[:, index], kind 1 is codes[:, index]
     ``out`` must hold the text (unchecked, see ``table_text`` for a bound).
+    row_bound : when > 0, the most bytes any row's text takes (``out`` then holds N x row_bound):
+        blocks of rows are formatted in parallel, each at its own N x row_bound place, and then
+        moved together in order; the same bytes as the serial pass (each row's text depends on
+        that row alone).
     """
     cdef const double[:, ::1] num = np.ascontiguousarray(numbers, dtype=np.float64)
     cdef const long long[::1] dec = np.ascontiguousarray(decimals, dtype=np.int64)
@@ -172,9 +181,33 @@ def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out)
     cdef const long long* p_kin = &kin[0] if kin.shape[0] > 0 else NULL
     cdef const long long* p_idx = &idx[0] if idx.shape[0] > 0 else NULL
     cdef unsigned char* p_out = &buf[0] if buf.shape[0] > 0 else NULL
-    with nogil:
-        used = _format(p_num, num.shape[0], num.shape[1], p_dec, dec.shape[0], p_cod, cod.shape[1], p_lab, lab.shape[0],
-                       lab.shape[1], p_llen, llen.shape[0], p_kin, p_idx, ncols, p_out)
+    cdef Py_ssize_t n = num.shape[0], nblock = (n + _ROW_BLOCK - 1) // _ROW_BLOCK, b, r0, r1
+    cdef Py_ssize_t* block_used
+    if row_bound > 0 and nblock >= 2 and p_num != NULL and (cod.shape[1] == 0 or p_cod != NULL):
+        block_used = <Py_ssize_t*>malloc(nblock * sizeof(Py_ssize_t))
+        if block_used == NULL:
+            raise MemoryError()
+        with nogil:
+            for b in prange(nblock, schedule="static"):
+                r0 = b * _ROW_BLOCK
+                r1 = r0 + _ROW_BLOCK if r0 + _ROW_BLOCK < n else n
+                block_used[b] = _format(p_num + r0 * num.shape[1], r1 - r0, num.shape[1], p_dec, dec.shape[0],
+                                        p_cod + r0 * cod.shape[1] if p_cod != NULL else NULL, cod.shape[1], p_lab,
+                                        lab.shape[0], lab.shape[1], p_llen, llen.shape[0], p_kin, p_idx, ncols,
+                                        p_out + r0 * row_bound)
+            used = 0
+            for b in range(nblock):
+                if block_used[b] < 0:
+                    used = block_used[b]
+                    break
+                # blocks move down (each starts at or after where it goes): memmove, in order
+                memmove(p_out + used, p_out + b * _ROW_BLOCK * row_bound, block_used[b])
+                used += block_used[b]
+        free(block_used)
+    else:
+        with nogil:
+            used = _format(p_num, num.shape[0], num.shape[1], p_dec, dec.shape[0], p_cod, cod.shape[1], p_lab,
+                           lab.shape[0], lab.shape[1], p_llen, llen.shape[0], p_kin, p_idx, ncols, p_out)
     if used == -2:
         raise MemoryError()
     if used < 0:

@@ -35,6 +35,7 @@ def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, lab
     # per cell at most sign + 16 integer digits + point + decimals, plus the separator
     per_row = int(np.sum(np.where(kinds == 0, 19 + decimals[np.minimum(index, len(decimals) - 1)], width + 1))) + 1
     out = np.empty(max(n * per_row, 1), np.uint8)
+    # row blocks formatted in parallel, each at its row's bound (the same bytes as one pass)
     used = format_table(numbers, decimals, np.ascontiguousarray(codes, dtype=np.int64), table, lengths,
-                        np.asarray(kinds, np.int64), np.asarray(index, np.int64), out)
+                        np.asarray(kinds, np.int64), np.asarray(index, np.int64), out, per_row)
     return str(memoryview(out)[:used], "ascii")  # decoded straight from the buffer (no bytes copy)

@@ -80,3 +80,41 @@ def test_values_whose_scaled_form_overflows_are_too_large_without_a_warning(big)
         warnings.simplefilter("error")
         assert table_text(np.array([[1.0, big]]), np.array([4, 4]), np.zeros((1, 1), np.int64), ["a"],
                           np.array([0, 0]), np.array([0, 1])) is None
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_row_blocks_in_parallel_give_the_one_pass_bytes(threads):
+    """Tables of several row blocks are formatted block by block in parallel, each block at its
+    rows' bound, then moved together: the bytes of the serial pass and of the rule, whatever the
+    threads, with a last block shorter than the others; an error in one block is raised."""
+    from tankcd_cli.threads import get_num_threads, set_num_threads
+
+    rng = np.random.default_rng(11)
+    n = 3 * 8192 + 17
+    numbers = rng.normal(0, 10 ** rng.uniform(-3, 7, 5), (n, 5))
+    numbers[rng.random((n, 5)) < 0.05] = np.nan
+    numbers[:, 0] = 5e5 + rng.uniform(0, 1000, n)
+    decimals = np.array([3, 0, 6, 2, 9])
+    labels = ["flat", "general", "", "uneven"]
+    codes = rng.integers(0, len(labels), (n, 1))
+    kinds, index = np.array([0, 1, 0, 0, 0, 0]), np.array([0, 0, 1, 2, 3, 4])
+    table = np.zeros((len(labels), 7), np.uint8)
+    for k, s in enumerate(labels):
+        table[k, :len(s)] = np.frombuffer(s.encode(), np.uint8)
+    lengths = np.array([len(s) for s in labels], np.int64)
+    bound = int(np.sum(19 + decimals)) + 8 + 1
+    before = get_num_threads()
+    set_num_threads(threads)
+    try:
+        blocks = np.zeros(n * bound, np.uint8)
+        used = format_table(numbers, decimals, codes, table, lengths, kinds, index, blocks, bound)
+        one = np.zeros(n * bound, np.uint8)
+        assert format_table(numbers, decimals, codes, table, lengths, kinds, index, one) == used
+        assert blocks[:used].tobytes() == one[:used].tobytes()
+        assert blocks[:used].tobytes().decode() == _twin(numbers, decimals, codes, labels, kinds, index)
+        bad = decimals.copy()
+        bad[4] = -1  # 10 ** -1 is no int64 scale: the kernel's error, from whichever block meets it
+        with pytest.raises(ZeroDivisionError):
+            format_table(numbers, bad, codes, table, lengths, kinds, index, np.zeros(n * bound, np.uint8), bound)
+    finally:
+        set_num_threads(before)
