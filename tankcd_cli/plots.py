@@ -41,7 +41,6 @@ def class_map_png(store, path: str) -> None:
 def envelope_png(vehicle, env, path: str) -> None:
     """Polar plot: turret azimuth around (forward up, counter-clockwise as the turret turns),
     radius the lowest safe elevation; the gun's own limit dashed, the drums' bite shaded."""
-
     az = np.radians(env["azimuth"])
     lim = env["min_elevation"]
     lo, hi = vehicle.gun_min_deg, vehicle.gun_max_deg

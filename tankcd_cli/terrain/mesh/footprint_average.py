@@ -49,6 +49,11 @@ def _disk(radius_cells: float) -> np.ndarray:
     return (xx * xx + yy * yy <= radius_cells * radius_cells + 1e-9).astype(np.float64)
 
 
+DIRECT_SUM_CELLS = 250_000
+"""Rasters up to this many cells are disk-summed in numpy (the same bits as scipy's); larger ones
+by ``scipy.ndimage``, four times faster at 4M cells, where its import no longer matters."""
+
+
 def _direct_disk_sum(grid: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """``scipy.ndimage.convolve(grid, kernel, mode="constant")`` for a symmetric 0/1 kernel, bit
     for bit: the shifted grids added in the order it adds them (row-major over the kernel),
@@ -69,7 +74,11 @@ def _disk_sum(grid: np.ndarray, radius_cells: float) -> np.ndarray:
         return grid
     kernel = _disk(radius_cells)
     if kernel.size <= 81:
-        return _direct_disk_sum(grid, kernel)
+        if grid.size <= DIRECT_SUM_CELLS:
+            return _direct_disk_sum(grid, kernel)
+        from scipy.ndimage import convolve
+
+        return convolve(grid, kernel, mode="constant")
     from scipy.signal import fftconvolve
 
     return fftconvolve(grid, kernel, mode="same")
