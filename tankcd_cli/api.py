@@ -113,6 +113,7 @@ def place(terrain, x, y, yaw_deg, matcher: str = "auto", vehicle="t72", escalate
 
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
+    _check_tolerances(tolerance, attitude_tolerance)
     if isinstance(terrain, str):
         terrain = open_terrain(terrain, vehicle=vehicle)
     x, y, yaw = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in (x, y, yaw_deg)))
@@ -139,16 +140,21 @@ def _world(world, scene, terrain, vehicle, up, cache, progress):
     return load_world(scene, terrain, vehicle, up, cache, progress)
 
 
+def _check_tolerances(tolerance, attitude_tolerance) -> None:
+    """The certificate's tolerances, when given, are positive numbers (NaN is not)."""
+    if attitude_tolerance is not None and not attitude_tolerance > 0:
+        raise ValueError(f"attitude_tolerance must be positive (deg), not {attitude_tolerance!r}")
+    if tolerance is not None and not tolerance > 0:
+        raise ValueError(f"tolerance must be positive (m), not {tolerance!r}")
+
+
 def _options(matcher, escalate, tolerance, discrete, attitude_tolerance=None):
     from tankcd_cli.names import MATCHER_CHOICES
     from tankcd_cli.replay.records import ReplayOptions
 
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
-    if attitude_tolerance is not None and not attitude_tolerance > 0:
-        raise ValueError(f"attitude_tolerance must be positive (deg), not {attitude_tolerance!r}")
-    if tolerance is not None and not tolerance > 0:
-        raise ValueError(f"tolerance must be positive (m), not {tolerance!r}")
+    _check_tolerances(tolerance, attitude_tolerance)
     return ReplayOptions(matcher=matcher, escalate=escalate, tolerance=tolerance,
                          attitude_tolerance=attitude_tolerance, continuous=not discrete)
 

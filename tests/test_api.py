@@ -127,6 +127,8 @@ def test_the_certificates_tolerances_reach_the_replay(store, tmp_path, run):
     assert up_tight.sum() > up_default.sum() and not (up_default & ~up_tight).any()
     with pytest.raises(ValueError, match="attitude_tolerance must be positive"):
         api.replay(columns, world=world, attitude_tolerance=0.0)
+    with pytest.raises(ValueError, match="tolerance must be positive"):
+        api.place(store, 500050.0, 4500050.0, 0.0, tolerance=float("nan"))
     path = tmp_path / "patrol.csv"
     with open(path, "w") as fh:
         fh.write("t,x,y,yaw_deg\n")
