@@ -57,10 +57,12 @@ def footprint_outline(triangles: np.ndarray) -> np.ndarray:
     the extreme points (in x, y, x + y and x - y) are dropped, none of which can be a corner of
     the hull; no scipy (its import alone costs a small replay's ``--png`` a third of a second).
     """
-    pts = np.unique(triangles.reshape(-1, 3)[:, :2], axis=0)  # sorted by x, then y
+    pts = triangles.reshape(-1, 3)[:, :2]
+    if len(pts) >= 3:
+        pts = pts[~_inside_extremes(pts)]  # before the sort: most points of a big mesh go here
+    pts = np.unique(pts, axis=0)  # sorted by x, then y
     if len(pts) < 3:
         return pts
-    pts = pts[~_inside_extremes(pts)]
     extent = float(np.ptp(pts, axis=0).max())
     tol = 1e-12 * extent * extent  # a turn this slight is round-off: the point is on the edge
     lower = _half_hull(pts, tol)
@@ -71,17 +73,20 @@ def footprint_outline(triangles: np.ndarray) -> np.ndarray:
 
 def _inside_extremes(pts: np.ndarray) -> np.ndarray:
     """(n,) bool: strictly inside the convex polygon through the points extreme in eight
-    directions (counter-clockwise, repeated extremes merged)."""
+    directions (counter-clockwise; a point extreme in neighbouring directions once), none of
+    which can be a corner of the hull."""
     x, y = pts[:, 0], pts[:, 1]
     order = [np.argmax(x), np.argmax(x + y), np.argmax(y), np.argmax(y - x),
              np.argmin(x), np.argmin(x + y), np.argmin(y), np.argmin(y - x)]
-    ring = pts[list(dict.fromkeys(int(i) for i in order))]
+    ring = pts[np.array([int(i) for i in order])]
+    # the same point extreme in neighbouring directions (maybe as two equal points): once
+    ring = ring[np.any(ring != np.roll(ring, 1, axis=0), axis=1)]
     if len(ring) < 3:
         return np.zeros(len(pts), dtype=bool)
-    edge = np.roll(ring, -1, axis=0) - ring
-    rel = pts[:, None, :] - ring[None]
-    cross = edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]
-    return (cross > 0).all(axis=1)
+    inside = np.ones(len(pts), dtype=bool)
+    for (ax, ay), (bx, by) in zip(ring, np.roll(ring, -1, axis=0)):  # at most 8 edges: O(n) memory
+        inside &= (bx - ax) * (y - ay) - (by - ay) * (x - ax) > 0
+    return inside
 
 
 def _half_hull(pts: np.ndarray, tol: float) -> list:
