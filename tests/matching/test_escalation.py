@@ -260,8 +260,8 @@ def _smooth_tin(kind, seed, spacing):
     elif kind == "saddle":
         z = rng.uniform(0.002, 0.008) * (along ** 2 - rng.uniform(0.5, 1.5) * across ** 2)
     else:
-        a, b = rng.uniform(6, 12, 2)
-        z = rng.uniform(1.0, 3.0) * np.exp(-(along ** 2 / a ** 2 + across ** 2 / b ** 2))
+        long_axis, short_axis = rng.uniform(6, 12, 2)
+        z = rng.uniform(1.0, 3.0) * np.exp(-(along ** 2 / long_axis ** 2 + across ** 2 / short_axis ** 2))
     faces = Delaunay(xy).simplices.astype(np.int64)
     a, b, c = xy[faces[:, 0]], xy[faces[:, 1]], xy[faces[:, 2]]
     cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0

@@ -3,6 +3,7 @@
 import numpy as np
 
 from tankcd_cli.matching.match import AUTO_RULE
+from tankcd_cli.tolerances import ATTITUDE_TOLERANCE_DEG
 from tankcd_cli.tradeoff.corpus import build_surface, corpus_poses, corpus_table, corpus_terrains, measure_corpus
 from tankcd_cli.vehicle import vehicle_preset
 
@@ -17,6 +18,14 @@ def test_the_shipped_rule_is_the_corpus_winners():
         assert row["poses"] > 1000, row
     table = corpus_table(result)
     assert "**(rule)**" in table and "Rule: flat -> " in table
+    # escalated auto holds the certificate's bound over the whole corpus (grids and TINs, every
+    # family): the attitude error's 95th percentile within the attitude tolerance, each class's
+    # height error's within the height tolerance (29 mm)
+    assert result["escalated_attitude_p95_deg"] <= ATTITUDE_TOLERANCE_DEG, result["escalated_attitude_p95_deg"]
+    for row in result["auto"]:
+        if row["matcher"] == "auto, escalated":
+            assert row["attitude_p95_deg"] <= ATTITUDE_TOLERANCE_DEG, row
+            assert row["height_p95_mm"] <= result["tolerance_m"] * 1000, row
 
 
 def test_the_corpus_is_deterministic():
