@@ -73,6 +73,26 @@ def start_dask_cluster(folder, workers=2):
         raise
 
 
+def busy_worker(client, workers, job, what, tries=3000):
+    """The worker process (of ``workers``) that first holds a task of ``job``'s run, polled every
+    10 ms up to ``tries`` times; fails if ``job`` ends first or no task ever reaches a worker
+    (``what`` names the tasks in that message)."""
+    import os
+    import time
+
+    client.wait_for_workers(len(workers), timeout=60)
+    pids = client.run(os.getpid)  # {worker address: pid}
+    for _ in range(tries):
+        busy = [w for w, keys in client.processing().items() if keys]
+        if busy:
+            victim = next(p for p in workers if p.pid == pids[busy[0]])
+            assert job.poll() is None, "the run ended before the kill"
+            return victim
+        assert job.poll() is None, job.communicate()
+        time.sleep(0.01)
+    raise AssertionError(f"no {what} ever ran on a worker")
+
+
 def stop_processes(procs):
     """Kill every process (and its session) still running."""
     import os

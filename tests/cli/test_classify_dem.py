@@ -6,7 +6,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import h5py
 import numpy as np
@@ -192,7 +191,7 @@ def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
     z = ground(260, 300, seed=3)
     src = write_tif(tmp_path / "d.tif", z, tiled=True, blockxsize=64, blockysize=64)
     assert run("classify", src, "-o", tmp_path / "local.h5", "--tile", "24", "--method", "jet").exit_code == 0
-    from tests.conftest import start_dask_cluster, stop_processes
+    from tests.conftest import busy_worker, start_dask_cluster, stop_processes
 
     address, workers, procs = start_dask_cluster(tmp_path)
     try:
@@ -202,17 +201,7 @@ def test_classify_on_a_dask_cluster_that_loses_a_worker(run, tmp_path):
         from distributed import Client
 
         with Client(address, timeout=60) as client:  # the kill comes when a worker holds tiles
-            client.wait_for_workers(2, timeout=60)
-            pids = client.run(os.getpid)  # {worker address: pid}
-            victim = None
-            for _ in range(3000):
-                busy = [w for w, keys in client.processing().items() if keys]
-                if busy:
-                    victim = next(p for p in workers if p.pid == pids[busy[0]])
-                    break
-                assert job.poll() is None, job.communicate()
-                time.sleep(0.01)
-            assert victim is not None and job.poll() is None, "no tile ever ran on a worker"
+            victim = busy_worker(client, workers, job, "tile")
             os.kill(victim.pid, signal.SIGKILL)
         _, stderr = job.communicate(timeout=300)
         assert job.returncode == 0, stderr

@@ -187,7 +187,7 @@ def test_a_dask_run_that_loses_a_worker_is_the_local_run(world, flat, tmp_path):
                                                           _edges_exercise()]
     _write(flat / "big.csv", rows)
     local = _local(world, flat, "big", 65536)
-    from tests.conftest import start_dask_cluster, stop_processes
+    from tests.conftest import busy_worker, start_dask_cluster, stop_processes
 
     address, workers, procs = start_dask_cluster(tmp_path)
     try:
@@ -198,17 +198,7 @@ def test_a_dask_run_that_loses_a_worker_is_the_local_run(world, flat, tmp_path):
         from distributed import Client
 
         with Client(address, timeout=60) as client:  # the kill comes when a worker holds a window
-            client.wait_for_workers(2, timeout=60)
-            pids = client.run(os.getpid)
-            victim = None
-            for _ in range(6000):
-                busy = [w for w, keys in client.processing().items() if keys]
-                if busy:
-                    victim = next(p for p in workers if p.pid == pids[busy[0]])
-                    break
-                assert job.poll() is None, job.communicate()
-                time.sleep(0.01)
-            assert victim is not None and job.poll() is None, "no window ever ran on a worker"
+            victim = busy_worker(client, workers, job, "window", tries=6000)
             time.sleep(0.2)  # into the window's work
             os.kill(victim.pid, signal.SIGKILL)
             assert job.poll() is None, "the run ended before the kill"
