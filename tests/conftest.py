@@ -43,6 +43,15 @@ def write_obj(path, vertices, faces):
     return path
 
 
+def trajectory_columns(t, x, y, yaw, turret=None, gun=None) -> dict:
+    """A trajectory's columns as arrays (``t``, ``x``, ``y``, ``yaw_deg``, ``turret_deg``,
+    ``gun_deg``; turret and gun 0 when not given)."""
+    n = len(t)
+    return {"t": np.asarray(t, float), "x": np.asarray(x, float), "y": np.asarray(y, float),
+            "yaw_deg": np.asarray(yaw, float), "turret_deg": np.zeros(n) if turret is None else np.asarray(turret),
+            "gun_deg": np.zeros(n) if gun is None else np.asarray(gun)}
+
+
 def start_dask_cluster(folder, workers=2):
     """A local Dask cluster as a user starts one: a scheduler and ``workers`` single-threaded workers
     without nannies (a killed worker stays dead), each a process in its own session. Returns

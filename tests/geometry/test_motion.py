@@ -18,6 +18,7 @@ from tankcd_cli.geometry.motion import (
     substeps,
 )
 from tankcd_cli.geometry.pose import quaternion_from_euler, rotation_matrix
+from tests.conftest import trajectory_columns
 
 
 def test_shorter_arcs_wrap_and_a_half_turn_goes_counter_clockwise():
@@ -99,15 +100,8 @@ def test_the_motion_bound_holds_for_every_point_and_fraction(seed):
     moved = np.linalg.norm(at(w) - at(u), axis=1).max()
     assert moved <= (w - u) * (np.linalg.norm(c1 - c0) + theta * rho) + 1e-9
 
-def _columns(t, x, y, yaw, turret=None, gun=None):
-    n = len(t)
-    return {"t": np.asarray(t, float), "x": np.asarray(x, float), "y": np.asarray(y, float),
-            "yaw_deg": np.asarray(yaw, float), "turret_deg": np.zeros(n) if turret is None else np.asarray(turret),
-            "gun_deg": np.zeros(n) if gun is None else np.asarray(gun)}
-
-
 def test_the_motion_at_the_rows_is_the_rows_and_between_them_the_intervals():
-    c = _columns([0.0, 1.0, 3.0, 4.0], [0.0, 10.0, 10.0, 4.0], [0.0, 0.0, 6.0, 6.0], [10.0, 170.0, -170.0, -90.0],
+    c = trajectory_columns([0.0, 1.0, 3.0, 4.0], [0.0, 10.0, 10.0, 4.0], [0.0, 0.0, 6.0, 6.0], [10.0, 170.0, -170.0, -90.0],
                  [0.0, 90.0, 180.0, 181.0], [0.0, 5.0, -5.0, 0.0])
     at = motion_at(c["t"], c["x"], c["y"], c["yaw_deg"], c["turret_deg"], c["gun_deg"], c["t"])
     for name in ("x", "y", "gun_deg"):
@@ -128,6 +122,6 @@ def test_the_motion_at_the_rows_is_the_rows_and_between_them_the_intervals():
 
 
 def test_the_motion_holds_still_at_its_ends_and_takes_the_last_of_rows_at_one_time():
-    c = _columns([0.0, 1.0, 1.0, 2.0], [0.0, 1.0, 5.0, 7.0], [0.0] * 4, [0.0] * 4)
+    c = trajectory_columns([0.0, 1.0, 1.0, 2.0], [0.0, 1.0, 5.0, 7.0], [0.0] * 4, [0.0] * 4)
     at = motion_at(c["t"], c["x"], c["y"], c["yaw_deg"], c["turret_deg"], c["gun_deg"], [-1.0, 0.5, 1.0, 1.5, 9.0])
     np.testing.assert_allclose(at["x"], [0.0, 0.5, 5.0, 6.0, 7.0])

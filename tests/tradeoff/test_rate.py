@@ -15,21 +15,14 @@ from tankcd_cli.tradeoff.measure import (
     spread_caveat,
     spread_flag,
 )
-from tests.conftest import write_asc, write_obj
+from tests.conftest import trajectory_columns, write_asc, write_obj
 
 HALF_LENGTH = 3.43  # the box hull's half length, m
 
 
-def _columns(t, x, y, yaw, turret=None, gun=None):
-    n = len(t)
-    return {"t": np.asarray(t, float), "x": np.asarray(x, float), "y": np.asarray(y, float),
-            "yaw_deg": np.asarray(yaw, float), "turret_deg": np.zeros(n) if turret is None else np.asarray(turret),
-            "gun_deg": np.zeros(n) if gun is None else np.asarray(gun)}
-
-
 def test_resampling_a_10_hz_drive_at_lower_rates_keeps_its_rows():
     t = np.arange(101) * 0.1
-    c = _columns(t, 3 * t, np.sin(t), 20 * t, 30 * t, -t)
+    c = trajectory_columns(t, 3 * t, np.sin(t), 20 * t, 30 * t, -t)
     for hz, every in ((1.0, 10), (2.0, 5), (5.0, 2), (10.0, 1)):
         r = resample(c, hz)
         np.testing.assert_allclose(r["t"], t[::every], atol=1e-12)
@@ -88,7 +81,7 @@ def test_a_wall_crossed_between_1_hz_rows_is_missed_by_the_rows_alone_and_only_t
     # 15 m/s through the wall: the box touches it while its front is past x = 50 and its rear short
     # of 50.2, x in [50 - 3.43, 50.2 + 3.43], t in [t_in, t_out]
     x0, speed = 40.0, 15.0
-    drive = _columns([0.0, 4.0], [x0, x0 + 4 * speed], [30.0, 30.0], [0.0, 0.0])
+    drive = trajectory_columns([0.0, 4.0], [x0, x0 + 4 * speed], [30.0, 30.0], [0.0, 0.0])
     t_in, t_out = (50.0 - HALF_LENGTH - x0) / speed, (50.2 + HALF_LENGTH - x0) / speed
     assert 0 < t_in < t_out < 1  # between the 1 Hz rows at 0 and 1 s; the 2 Hz row at 0.5 s inside
     for hz in RATES_HZ:
