@@ -665,6 +665,14 @@ _NO_MESH = (np.zeros((1, 3)), np.zeros((1, 3), np.int64), np.zeros((1, 3)), np.z
 _NO_POSTS = (np.empty((0, 0)), np.zeros(2), np.ones(2), 0, 0)
 
 
+cdef void _raise_for(int err) except *:
+    """The Python error for a pass's error code (none for 0)."""
+    if err == _ERR_MEMORY:
+        raise MemoryError()
+    if err == _ERR_ZERO_DIVISION:
+        raise ZeroDivisionError("division by zero")
+
+
 def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arithmetic=True, warm=False):
     """For every pose: mode 0, the lowest supporting plane (a, b, c) over the footprint
     centre; mode 1, the highest ground above ``planes_in`` (signed, m); mode 2, both from the
@@ -772,10 +780,7 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
                     _block(&job, sc, 0, npose)
                 err = sc.err
             _scratch_free(sc)
-        if err == _ERR_MEMORY:
-            raise MemoryError()
-        if err == _ERR_ZERO_DIVISION:
-            raise ZeroDivisionError("division by zero")
+        _raise_for(err)
         return out_arr, covered_arr, status_arr
     with nogil, parallel():
         sc = _scratch_new()
@@ -787,8 +792,5 @@ def footprint_batch(mode, cx, cy, yaw, quads, planes_in, eps, mesh, posts, arith
                 if sc.err:
                     err_ptr[0] = sc.err
         _scratch_free(sc)
-    if err == _ERR_MEMORY:
-        raise MemoryError()
-    if err == _ERR_ZERO_DIVISION:
-        raise ZeroDivisionError("division by zero")
+    _raise_for(err)
     return out_arr, covered_arr, status_arr
