@@ -64,7 +64,10 @@ def footprint_outline(triangles: np.ndarray) -> np.ndarray:
     if len(pts) < 3:
         return pts
     extent = float(np.ptp(pts, axis=0).max())
-    tol = 1e-12 * extent * extent  # a turn this slight is round-off: the point is on the edge
+    # a turn this slight is round-off, the point on the edge: the coordinates' own rounding (a few
+    # ulp of the largest, at UTM offsets 1e-9 m) times the extent bounds the cross product's error
+    size = float(np.abs(pts).max())
+    tol = 16 * np.finfo(float).eps * size * extent + 1e-12 * extent * extent
     lower = _half_hull(pts, tol)
     upper = _half_hull(pts[::-1], tol)
     hull = np.array(lower[:-1] + upper[:-1])
