@@ -81,10 +81,10 @@ cdef Py_ssize_t _format(const double* numbers, Py_ssize_t n, Py_ssize_t m, const
                         const long long* codes, Py_ssize_t ncodes, const unsigned char* labels, Py_ssize_t nlabels,
                         Py_ssize_t lwidth, const long long* label_len, Py_ssize_t nlen, const long long* kinds,
                         const long long* index, Py_ssize_t ncols,
-                        unsigned char* out) noexcept nogil:
+                        unsigned char* out, long long* row_ends) noexcept nogil:
     """The rows' text into ``out``; returns the bytes written, -1 for a column whose
     10 ** decimals is 0 in int64 (decimals < 0 or >= 64: the caller raises ZeroDivisionError), -2 when
-    out of memory."""
+    out of memory. ``row_ends`` (NULL: none) gets each row's end in ``out``."""
     cdef Py_ssize_t pos = 0, i, c, k, length
     cdef long long j, code, d, scale, r, t
     cdef unsigned long long p
@@ -144,11 +144,14 @@ cdef Py_ssize_t _format(const double* numbers, Py_ssize_t n, Py_ssize_t m, const
                     pos = _put_int_floor(out, pos, _fmod(r, scale), d)
         out[pos] = 10  # '\n'
         pos += 1
+        if row_ends != NULL:
+            row_ends[i] = pos
     free(scales)
     return pos
 
 
-def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out, Py_ssize_t row_bound=0):
+def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out, Py_ssize_t row_bound=0,
+                 row_ends=None):
     """Write rows of CSV text into ``out`` (uint8); returns the number of bytes written.
 
     numbers : (N, M) float64; decimals : (M,) int64 digits after the point (0: an integer)
@@ -159,6 +162,8 @@ def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out,
         blocks of rows are formatted in parallel, each at its own N x row_bound place, and then
         moved together in order; the same bytes as the serial pass (each row's text depends on
         that row alone).
+    row_ends : None, or an (N,) int64 array that gets each row's end in ``out`` (the bytes before
+        the next row's first).
     """
     cdef const double[:, ::1] num = np.ascontiguousarray(numbers, dtype=np.float64)
     cdef const long long[::1] dec = np.ascontiguousarray(decimals, dtype=np.int64)
@@ -181,7 +186,15 @@ def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out,
     cdef const long long* p_kin = &kin[0] if kin.shape[0] > 0 else NULL
     cdef const long long* p_idx = &idx[0] if idx.shape[0] > 0 else NULL
     cdef unsigned char* p_out = &buf[0] if buf.shape[0] > 0 else NULL
-    cdef Py_ssize_t n = num.shape[0], nblock = (n + _ROW_BLOCK - 1) // _ROW_BLOCK, b, r0, r1
+    cdef long long[::1] ends_view
+    cdef long long* p_ends = NULL
+    if row_ends is not None:
+        ends_view = row_ends
+        if ends_view.shape[0] < num.shape[0]:
+            raise ValueError("row_ends must hold one end a row")
+        if ends_view.shape[0] > 0:
+            p_ends = &ends_view[0]
+    cdef Py_ssize_t n = num.shape[0], nblock = (n + _ROW_BLOCK - 1) // _ROW_BLOCK, b, r0, r1, k
     cdef Py_ssize_t* block_used
     if row_bound > 0 and nblock >= 2 and p_num != NULL and (cod.shape[1] == 0 or p_cod != NULL):
         block_used = <Py_ssize_t*>malloc(nblock * sizeof(Py_ssize_t))
@@ -194,7 +207,7 @@ def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out,
                 block_used[b] = _format(p_num + r0 * num.shape[1], r1 - r0, num.shape[1], p_dec, dec.shape[0],
                                         p_cod + r0 * cod.shape[1] if p_cod != NULL else NULL, cod.shape[1], p_lab,
                                         lab.shape[0], lab.shape[1], p_llen, llen.shape[0], p_kin, p_idx, ncols,
-                                        p_out + r0 * row_bound)
+                                        p_out + r0 * row_bound, p_ends + r0 if p_ends != NULL else NULL)
             used = 0
             for b in range(nblock):
                 if block_used[b] < 0:
@@ -202,12 +215,17 @@ def format_table(numbers, decimals, codes, labels, label_len, kinds, index, out,
                     break
                 # blocks move down (each starts at or after where it goes): memmove, in order
                 memmove(p_out + used, p_out + b * _ROW_BLOCK * row_bound, block_used[b])
+                if p_ends != NULL:
+                    r0 = b * _ROW_BLOCK
+                    r1 = r0 + _ROW_BLOCK if r0 + _ROW_BLOCK < n else n
+                    for k in range(r0, r1):
+                        p_ends[k] += used
                 used += block_used[b]
         free(block_used)
     else:
         with nogil:
             used = _format(p_num, num.shape[0], num.shape[1], p_dec, dec.shape[0], p_cod, cod.shape[1], p_lab,
-                           lab.shape[0], lab.shape[1], p_llen, llen.shape[0], p_kin, p_idx, ncols, p_out)
+                           lab.shape[0], lab.shape[1], p_llen, llen.shape[0], p_kin, p_idx, ncols, p_out, p_ends)
     if used == -2:
         raise MemoryError()
     if used < 0:

@@ -16,8 +16,9 @@ from tankcd_cli.io._fixed_text import format_table  # noqa: F401
 
 
 def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, labels: list, kinds: np.ndarray,
-               index: np.ndarray) -> str | None:
-    """CSV text of the rows (see ``format_table``), or None when a value is too large for fixed point."""
+               index: np.ndarray, row_ends: np.ndarray | None = None) -> str | None:
+    """CSV text of the rows (see ``format_table``), or None when a value is too large for fixed point.
+    ``row_ends``: an (N,) int64 array that gets each row's end in the text (its newline's index + 1)."""
     numbers = np.ascontiguousarray(numbers, dtype=np.float64)
     decimals = np.asarray(decimals, dtype=np.int64)
     with np.errstate(invalid="ignore", over="ignore"):
@@ -37,5 +38,5 @@ def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, lab
     out = np.empty(max(n * per_row, 1), np.uint8)
     # row blocks formatted in parallel, each at its row's bound (the same bytes as one pass)
     used = format_table(numbers, decimals, np.ascontiguousarray(codes, dtype=np.int64), table, lengths,
-                        np.asarray(kinds, np.int64), np.asarray(index, np.int64), out, per_row)
+                        np.asarray(kinds, np.int64), np.asarray(index, np.int64), out, per_row, row_ends)
     return str(memoryview(out)[:used], "ascii")  # decoded straight from the buffer (no bytes copy)

@@ -27,9 +27,12 @@ REGION_LABELS = CLASS_NAMES + (NO_CLASS_NAME,)
 _LAYOUT = np.array([(0, j) for j in range(12)] + [(1, 0), (1, 1), (0, 12), (0, 13), (1, 2)])
 
 
-def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity_names=()) -> str:
+def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity_names=(),
+                row_ends: np.ndarray | None = None) -> str:
     """CSV text of a chunk of poses. Numbers a pose does not have (status ``off``) are left empty.
-    ``entity`` (N,) codes into ``entity_names``: the ``entity`` column after ``step``."""
+    ``entity`` (N,) codes into ``entity_names``: the ``entity`` column after ``step``.
+    ``row_ends``: an (N,) int64 array that gets each row's end in the text (ASCII: characters are
+    bytes)."""
     from tankcd_cli.io.fixed_text import table_text
 
     deg = np.degrees
@@ -50,9 +53,11 @@ def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity
         columns.append(len(labels) + np.asarray(entity, dtype=np.int64))
         labels += list(entity_names)
         layout = np.concatenate([_LAYOUT[:1], [(1, 3)], _LAYOUT[1:]])
-    text = table_text(numbers, _DECIMALS, np.column_stack(columns), labels, layout[:, 0], layout[:, 1])
+    text = table_text(numbers, _DECIMALS, np.column_stack(columns), labels, layout[:, 0], layout[:, 1], row_ends)
     if text is None:  # a number too large for fixed point (far beyond any terrain): printf does it
-        return format_rows_printf(step, t, poses, matcher_names, status_names, entity, entity_names)
+        text = format_rows_printf(step, t, poses, matcher_names, status_names, entity, entity_names)
+        if row_ends is not None:
+            row_ends[:] = np.flatnonzero(np.frombuffer(text.encode("ascii"), np.uint8) == 10) + 1
     return text
 
 

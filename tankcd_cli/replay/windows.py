@@ -97,15 +97,56 @@ class WindowTask:
 
 
 @dataclass
+class RowText:
+    """Pose rows as CSV text in one string: ``text`` (ASCII, each row ending in a newline) and each
+    row's end in it, ``ends`` (N,) int64. Rows are cut and reordered by slices of the string,
+    never one Python string a row (an exercise's windows carry millions)."""
+
+    text: str
+    ends: np.ndarray
+
+    @staticmethod
+    def of(texts: list, ends: list) -> "RowText":
+        """The rows of the chunks' texts and row ends (``io.poses_csv.format_rows``'), in order."""
+        offsets = np.cumsum([0] + [len(t) for t in texts[:-1]])
+        joined = np.concatenate([e + o for e, o in zip(ends, offsets)]) if ends else np.zeros(0, np.int64)
+        return RowText("".join(texts), joined)
+
+    def __len__(self) -> int:
+        return len(self.ends)
+
+    def take(self, lo: int, hi: int) -> "RowText":
+        """Rows lo .. hi - 1."""
+        start = int(self.ends[lo - 1]) if lo > 0 else 0
+        end = int(self.ends[hi - 1]) if hi > lo else start
+        return RowText(self.text[start:end], self.ends[lo:hi] - start)
+
+
+def merged_rows(parts: list, order: np.ndarray) -> str:
+    """The rows of ``parts`` (RowText, taken as one table in turn) in ``order``: one slice of the
+    joined buffer for each run of rows that follow one another there (tasks own stretches of
+    rows, so the runs are few)."""
+    if len(order) == 0:
+        return ""
+    buf = "".join(p.text for p in parts)
+    offsets = np.cumsum([0] + [len(p.text) for p in parts[:-1]])
+    ends = np.concatenate([p.ends + o for p, o in zip(parts, offsets)])
+    starts = np.r_[0, ends[:-1]]
+    breaks = np.flatnonzero(np.diff(order) != 1) + 1
+    firsts, lasts = np.r_[0, breaks], np.r_[breaks, len(order)] - 1
+    return "".join(buf[starts[order[a]]:ends[order[b]]] for a, b in zip(firsts.tolist(), lasts.tolist()))
+
+
+@dataclass
 class WindowResult:
-    """What one window's task gives back: its own rows' steps and pose lines, its events (each with
+    """What one window's task gives back: its own rows' steps and pose rows (``RowText``), its events (each with
     its place in the local run's order: ``event_keys``), its counts, and what the summary needs
     (intervals and sub-steps of its own intervals, seconds, effects, the resolution between rows,
     the terrain's extent and CRS); the worker's pid and the task's seconds."""
 
     index: int
     steps: np.ndarray
-    pose_lines: list
+    pose_rows: RowText
     event_keys: list
     event_lines: list
     counts: ReplayCounts
@@ -371,15 +412,16 @@ def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResu
         pass
     before = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     counts = ReplayCounts()
-    steps, lines, keys, texts = [], [], [], []
+    steps, lines, row_ends, keys, texts = [], [], [], [], []
     chunk_of = _chunk_of(task.chunk_starts)
     next_step = _next_rows(*fed)
     for chunk, poses, events in replay_chunks(run, own):
         if chunk is None:
             continue
         entity = chunk.entity if chunk.has_entity else None
-        text = format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names)
-        lines += [line + "\n" for line in text.split("\n")[:-1]]
+        ends = np.zeros(len(chunk), np.int64)
+        lines.append(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names, ends))
+        row_ends.append(ends)
         steps.append(chunk.step)
         counts.add(chunk, poses, events)
         for e in events:
@@ -397,7 +439,8 @@ def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResu
             keys.append((task.windows[k].emit, 1, task.windows[k].index, 0.0, task.index, seq))
             texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
     lo, hi = world.surface.bounds()
-    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), lines, keys, texts,
+    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), RowText.of(lines, row_ends),
+                        keys, texts,
                         counts, after[0] - before[0], after[1] - before[1], dict(run.seconds), run.effects.as_dict(),
                         resolution(world.surface) if run.continuous else {},
                         (tuple(map(float, lo)), tuple(map(float, hi))), world.crs, os.getpid(),
@@ -561,7 +604,7 @@ class _Join:
         self.chunk_after = np.r_[np.minimum.accumulate(plan.min_chunk[::-1])[::-1][1:], big] if n else np.zeros(0)
         self.waiting: dict = {}
         self.next = 0
-        self.rows = []  # (steps, lines) not yet written
+        self.rows = []  # (steps, RowText) not yet written
         self.events = []  # (key, line) not yet written
         self.counts = ReplayCounts()
         self.intervals = self.substeps = 0
@@ -604,26 +647,25 @@ class _Join:
             self.extent = _Extent(*r.bounds)
             self.crs = r.crs
         if len(r.steps):
-            self.rows.append((r.steps, r.pose_lines))
+            self.rows.append((r.steps, r.pose_rows))
         self.events += list(zip(r.event_keys, r.event_lines))
 
     def _write(self, step_limit, chunk_limit) -> None:
         if self.rows:
-            ready_steps, ready_lines, rest = [], [], []
-            for steps, lines in self.rows:
+            ready_steps, ready_rows, rest = [], [], []
+            for steps, rows in self.rows:
                 cut = int(np.searchsorted(steps, step_limit, side="left"))
                 if cut:
                     ready_steps.append(steps[:cut])
-                    ready_lines.append(lines[:cut])
+                    ready_rows.append(rows.take(0, cut))
                 if cut < len(steps):
-                    rest.append((steps[cut:], lines[cut:]))
+                    rest.append((steps[cut:], rows.take(cut, len(steps))))
             self.rows = rest
             if len(ready_steps) == 1:
-                text = "".join(ready_lines[0])
+                text = ready_rows[0].text
             elif ready_steps:
                 order = np.argsort(np.concatenate(ready_steps), kind="stable")
-                flat = [line for lines in ready_lines for line in lines]
-                text = "".join(flat[i] for i in order)
+                text = merged_rows(ready_rows, order)
             else:
                 text = ""
             if text and self.poses_out is not None:

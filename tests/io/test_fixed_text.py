@@ -106,11 +106,14 @@ def test_row_blocks_in_parallel_give_the_one_pass_bytes(threads):
     before = get_num_threads()
     set_num_threads(threads)
     try:
-        blocks = np.zeros(n * bound, np.uint8)
-        used = format_table(numbers, decimals, codes, table, lengths, kinds, index, blocks, bound)
-        one = np.zeros(n * bound, np.uint8)
-        assert format_table(numbers, decimals, codes, table, lengths, kinds, index, one) == used
+        blocks, block_ends = np.zeros(n * bound, np.uint8), np.zeros(n, np.int64)
+        used = format_table(numbers, decimals, codes, table, lengths, kinds, index, blocks, bound, block_ends)
+        one, one_ends = np.zeros(n * bound, np.uint8), np.zeros(n, np.int64)
+        assert format_table(numbers, decimals, codes, table, lengths, kinds, index, one, 0, one_ends) == used
         assert blocks[:used].tobytes() == one[:used].tobytes()
+        newlines = np.flatnonzero(one[:used] == 10) + 1  # each row's end: after its newline
+        np.testing.assert_array_equal(block_ends, newlines)
+        np.testing.assert_array_equal(one_ends, newlines)
         assert blocks[:used].tobytes().decode() == _twin(numbers, decimals, codes, labels, kinds, index)
         bad = decimals.copy()
         bad[4] = -1  # 10 ** -1 is no int64 scale: the kernel's error, from whichever block meets it

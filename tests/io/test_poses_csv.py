@@ -57,6 +57,9 @@ def test_values_too_large_for_fixed_point_use_printf():
     p.position[3, 2] = 1e15
     text = format_rows(np.arange(10), np.arange(10.0), p, PLACED_BY, STATUS)
     assert text == format_rows_printf(np.arange(10), np.arange(10.0), p, PLACED_BY, STATUS)
+    ends = np.zeros(10, np.int64)  # each row's end, by printf's text as by the compiled writer's
+    assert format_rows(np.arange(10), np.arange(10.0), p, PLACED_BY, STATUS, row_ends=ends) == text
+    np.testing.assert_array_equal(ends, np.cumsum([len(line) + 1 for line in text.split("\n")[:-1]]))
 
 
 def _matched(n=300, seed=0):
