@@ -56,3 +56,34 @@ def warn(source: str | None, what: str) -> None:
     import warnings
 
     warnings.warn(SetupWarning(source, what), stacklevel=2)
+
+
+class CollectedWarnings(list):
+    """The one-line texts of the set-up warnings raised while a ``collected_warnings`` block ran, in
+    order (a list of str)."""
+
+
+def collected_warnings():
+    """A context manager that records every set-up warning shown inside it (``CollectedWarnings``),
+    each also shown as before (the command line prints it, ``-q`` does not). The filters in force
+    decide as ever: under an ``error`` filter (``--strict``) a warning is raised, not recorded; one
+    a filter ignores is neither shown nor recorded. Entering the block resets Python's
+    once-per-place memory, so each replay records its own warnings."""
+    import contextlib
+    import warnings
+
+    @contextlib.contextmanager
+    def block():
+        seen = CollectedWarnings()
+        with warnings.catch_warnings():
+            shown = warnings.showwarning
+
+            def show(message, category, filename, lineno, file=None, line=None):
+                if isinstance(message, SetupWarning):
+                    seen.append(message.one_line())
+                shown(message, category, filename, lineno, file, line)
+
+            warnings.showwarning = show
+            yield seen
+
+    return block()

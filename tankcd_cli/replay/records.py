@@ -133,6 +133,9 @@ class ReplaySummary:
         the sub-steps' largest travel and turn, obstacles' pass and time bounds, the gun's step)
     vehicle_contacts : contacts between two vehicles (a trajectory of many entities)
     entities : the trajectory's vehicles (1 without an entity column)
+    warnings : every set-up warning the replay raised, one line each (said with ``-q`` too)
+    time_origin : the UTC instant of t = 0 (ISO 8601, ``...Z``) when the inputs carry an absolute
+        clock, else None
     """
 
     rows: int
@@ -147,6 +150,8 @@ class ReplaySummary:
     motion: dict = field(default_factory=dict)
     vehicle_contacts: int = 0
     entities: int = 1
+    warnings: list = field(default_factory=list)
+    time_origin: str | None = None
 
     @property
     def collided(self) -> bool:

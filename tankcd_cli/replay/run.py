@@ -39,12 +39,21 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
     latitude given as x and y).
     """
     from tankcd_cli.io.parquet import check_writable
+    from tankcd_cli.errors import collected_warnings
+
+    check_writable(outputs.poses, outputs.events)  # before the trajectory is read
+    start = time.perf_counter()
+    with collected_warnings() as said:
+        summary = _run(world, trajectory, outputs, options, part, progress, observe, sources, start)
+    summary.warnings = list(said)
+    return summary
+
+
+def _run(world, trajectory, outputs, options, part, progress, observe, sources, start) -> ReplaySummary:
     from tankcd_cli.io.trajectory import lead_row, read_trajectory
     from tankcd_cli.replay.outputs import replay_metadata, replay_outputs
     from tankcd_cli.replay.pipeline import start_run
 
-    check_writable(outputs.poses, outputs.events)  # before the trajectory is read
-    start = time.perf_counter()
     if isinstance(trajectory, str):
         source = trajectory
         chunks = read_trajectory(trajectory, chunk_rows=options.chunk_rows, part=part, crs=world.crs)
