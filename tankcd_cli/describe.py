@@ -119,6 +119,7 @@ def _describe_grid(path: str, a: dict) -> dict:
         **_provenance(a),
         "crs": crs_name or ("local grid (no CRS)" if not crs else "unnamed CRS"),
         "reprojected_from": a.get("source_crs_name") if a.get("reprojected") else None,
+        "source_point_scale": _point_scale(a),
         "grid_posts": _shape((rows, cols)),
         "posts": rows * cols,
         "posts_with_data": a.get("valid_posts"),
@@ -138,6 +139,17 @@ def _describe_grid(path: str, a: dict) -> dict:
         **_classes(a),
     }
     return {k: v for k, v in facts.items() if v is not None}
+
+
+def _point_scale(a: dict) -> dict | None:
+    """A projected source CRS's point scale (its metres over ground metres) at the centre and its
+    range over the extent, or None when the source was not in a projected CRS."""
+    scale = float(a.get("source_point_scale", 0.0) or 0.0)
+    if scale <= 0:
+        return None
+    low, high = (float(v) for v in a.get("source_point_scale_range", (scale, scale)))
+    return {"centre": round(scale, 6), "range": [round(low, 6), round(high, 6)],
+            "ground_metres_per_crs_metre": round(1 / scale, 6)}
 
 
 def _heightmap_reading(text) -> dict | None:

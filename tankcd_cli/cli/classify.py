@@ -34,7 +34,8 @@ METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet 
               help="Also draw the class map and curvature map to this PNG (- for stdout, with -o FILE).")
 @click.option("--crs", default=None, metavar="CRS",
               help="DEMs: the metric CRS to reproject to (EPSG:32633, a WKT or PROJ string); default: a "
-                   "geographic DEM goes to the UTM zone of its centre, a projected one stays as it is. "
+                   "geographic DEM (or one whose projected metres stray over 1 % from ground metres, such as "
+                   "EPSG:3857) goes to the UTM zone of its centre, another projected one stays as it is. "
                    "Heightmaps: the projected CRS --origin is in (default: none, a local grid).")
 @click.option("--band", type=click.IntRange(min=1), default=None, help="DEMs: the raster band of the heights "
               "(needed when a raster has several); a colour PNG heightmap's channel.")

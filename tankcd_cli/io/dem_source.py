@@ -25,6 +25,10 @@ class DemSourceInfo:
     heightmap : how a heightmap's values became posts (JSON text: format, bits, spacing, z_scale,
         z_offset, origin, crs, ...), "" for other sources
     notes : what was read in a way worth saying under -v (an alpha channel ignored, ...)
+    source_crs_wkt : the source's own CRS as WKT ("" without one)
+    source_point_scale : a projected source CRS's point scale at the centre (projected over ground
+        length, ``io.rasters.PointScale.centre``); 0 when the source is not in a projected CRS
+    source_point_scale_range : its least and greatest meridional or parallel scale over the extent
     """
 
     source: str
@@ -40,3 +44,6 @@ class DemSourceInfo:
     block: tuple[int, int] = (0, 0)
     heightmap: str = ""
     notes: tuple[str, ...] = ()
+    source_crs_wkt: str = ""
+    source_point_scale: float = 0.0
+    source_point_scale_range: tuple[float, float] = (0.0, 0.0)

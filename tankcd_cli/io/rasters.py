@@ -10,8 +10,12 @@ Posts: a post is a pixel centre, so post [0, 0] (the north-west one) is at
 reports DTED and SRTM HGT with a transform whose pixel centres are the posts, so they follow
 the same rule unchanged.
 
-Grids are metric:
-- a projected CRS in metres is kept as it is;
+Grids are metric, in ground metres:
+- a projected CRS in metres is kept as it is where its point scale (pyproj's meridional and
+  parallel scales at the centre, the corners and the edges' midpoints: ``point_scale``) is
+  within ``SCALE_TOLERANCE`` (1 %) of 1; otherwise (Web Mercator: 1 / cos(latitude)) it is
+  warped to the UTM zone of its centre, as a geographic CRS is, with a SetupWarning naming the
+  scale; its post spacing is then the source's in ground metres (over the meridional scale);
 - a geographic CRS (degrees) is warped to the UTM zone of the raster's centre (WGS 84,
   EPSG:326xx north / 327xx south, plain 6-degree zones without the Norway/Svalbard
   exceptions), or to ``crs`` when given. UTM needs the centre between 80 S and 84 N and at
@@ -42,6 +46,7 @@ import os
 import re
 import warnings
 import zipfile
+from dataclasses import dataclass
 from xml.etree import ElementTree
 
 import numpy as np
@@ -571,11 +576,21 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
         unit, factor = src_crs.linear_units_factor
         if abs(factor - 1.0) > 1e-12:
             raise InputError(name, f"CRS {crs_name(src_crs)} is in {unit}; give --crs to reproject")
+    scale = point_scale(src_crs, _post_bounds(ds)) if src_crs is not None and src_crs.is_projected else None
+    if dst is None and crs is None and scale is not None and scale.off_by > SCALE_TOLERANCE:
+        from tankcd_cli.errors import warn
+
+        dst = _utm_zone(scale.lon, scale.lat, scale.lon_span, name)
+        warn(name, f"{crs_label(src_crs)} metres are {1 / scale.centre:.2f} ground metres here (point scale "
+                   f"{scale.centre:.2f} at the centre{scale.range_text()}): reprojected to {crs_label(dst)}; "
+                   "give --crs to choose another")
 
     common = dict(source=name, format=ds.driver, nodata=ds.nodatavals[band - 1], dtype=ds.dtypes[band - 1],
                   band=band, bands=ds.count, sha256=digest,
                   height_dtype="float32" if ds.dtypes[band - 1] in _EXACT_IN_FLOAT32 else "float64",
-                  source_crs_name=source_crs_name)
+                  source_crs_name=source_crs_name, source_crs_wkt=src_crs.to_wkt() if src_crs is not None else "",
+                  source_point_scale=scale.centre if scale is not None else 0.0,
+                  source_point_scale_range=(scale.low, scale.high) if scale is not None else (0.0, 0.0))
     if dst is None:
         block = tuple(int(v) for v in ds.block_shapes[band - 1])
         if georeferenced:
@@ -588,7 +603,7 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
         grid = PostGrid(ds.height, ds.width, float(origin[0]), float(origin[1]), float(spacing[0]), float(spacing[1]),
                         crs_wkt, grid_crs)
         return RasterSource(grid, DemSourceInfo(reprojected=False, block=(block[0], block[1]), **common), ds, ds, keep)
-    return _warped(ds, name, src_crs, dst, common, keep)
+    return _warped(ds, name, src_crs, dst, common, keep, scale)
 
 
 def _probe(ds, name: str, band: int) -> None:
@@ -622,21 +637,97 @@ def _post_bounds(ds) -> tuple[float, float, float, float]:
 
 
 def _utm_for(ds, name: str):
+    west, south, east, north = _post_bounds(ds)
+    return _utm_zone((west + east) / 2, (south + north) / 2, east - west, name)
+
+
+def _utm_zone(lon: float, lat: float, lon_span: float, name: str):
+    """The WGS 84 UTM zone of a centre (lon, lat) deg, for an extent ``lon_span`` degrees wide."""
     from rasterio.crs import CRS
 
-    west, south, east, north = _post_bounds(ds)
-    lon, lat = (west + east) / 2, (south + north) / 2
     if not -80 <= lat <= 84:
         pole = "EPSG:32661 (UPS North)" if lat > 0 else "EPSG:32761 (UPS South)"
         raise InputError(name, f"centre latitude {lat:.2f} is outside UTM (80S to 84N): give --crs, e.g. {pole}")
-    if east - west > 18:
-        raise InputError(name, f"spans {east - west:.1f} degrees of longitude, too wide for one UTM zone: "
+    if lon_span > 18:
+        raise InputError(name, f"spans {lon_span:.1f} degrees of longitude, too wide for one UTM zone: "
                                "give --crs with a projected CRS in metres")
     zone = int(((lon + 180) % 360) // 6) + 1
     return CRS.from_epsg((32600 if lat >= 0 else 32700) + min(zone, 60))
 
 
-def _warped(ds, name: str, src_crs, dst, common: dict, keep: list) -> RasterSource:
+SCALE_TOLERANCE = 0.01  # a projected CRS whose scale strays further from 1 than this is reprojected
+
+
+@dataclass(frozen=True)
+class PointScale:
+    """How long a projected CRS's metre is on the ground over a raster: its point scale (projected
+    length over ellipsoid length, pyproj's ``Factors``) at the centre and the outermost posts.
+
+    centre : sqrt(areal scale) at the centre (the meridional and parallel scales' geometric mean;
+        either of them for a conformal projection): one CRS metre is 1 / centre ground metres
+    meridional, parallel : the scales along the meridian and the parallel at the centre
+    low, high : the least and greatest meridional or parallel scale at the centre, the four
+        corners and the four edge midpoints
+    lon, lat, lon_span : the centre and the longitudes spanned, degrees in the CRS's own datum
+    """
+
+    centre: float
+    meridional: float
+    parallel: float
+    low: float
+    high: float
+    lon: float
+    lat: float
+    lon_span: float
+
+    @property
+    def off_by(self) -> float:
+        """The largest |scale - 1| anywhere it was measured."""
+        return max(abs(self.low - 1.0), abs(self.high - 1.0))
+
+    def range_text(self) -> str:
+        if self.high - self.low < 0.005:
+            return ""
+        return f", {self.low:.3g} to {self.high:.3g} over the extent"
+
+
+def point_scale(src_crs, bounds: tuple[float, float, float, float]) -> PointScale | None:
+    """The :class:`PointScale` of the projected CRS ``src_crs`` (rasterio's) over the posts'
+    ``bounds`` (west, south, east, north in the CRS), or None where pyproj cannot say (a point off
+    the projection's domain, a CRS without an inverse)."""
+    from pyproj import CRS, Proj, Transformer
+
+    try:
+        crs = CRS.from_wkt(src_crs.to_wkt())
+        west, south, east, north = bounds
+        mx, my = (west + east) / 2, (south + north) / 2
+        xs = np.array([mx, west, east, east, west, mx, east, mx, west])
+        ys = np.array([my, south, south, north, north, south, my, north, my])
+        lon, lat = Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True).transform(xs, ys)
+        lon, lat = np.asarray(lon, dtype=float), np.asarray(lat, dtype=float)
+        if not (np.isfinite(lon).all() and np.isfinite(lat).all()):
+            return None
+        f = Proj(crs).get_factors(lon, lat)
+        meridional = np.asarray(f.meridional_scale, dtype=float)
+        parallel = np.asarray(f.parallel_scale, dtype=float)
+        areal = np.asarray(f.areal_scale, dtype=float)
+    except Exception:  # pyproj's errors vary by version; no scale known: the grid is kept as it is
+        return None
+    both = np.concatenate([meridional, parallel])
+    if not (np.isfinite(both).all() and np.isfinite(areal[0]) and (both > 0).all() and areal[0] > 0):
+        return None
+    span = float(np.ptp(np.mod(lon - lon[0] + 180.0, 360.0)))  # across the antimeridian too
+    return PointScale(float(np.sqrt(areal[0])), float(meridional[0]), float(parallel[0]), float(both.min()),
+                      float(both.max()), float(lon[0]), float(lat[0]), span)
+
+
+def crs_label(crs) -> str:
+    """A CRS as short as it goes: ``EPSG:3857``, else its name."""
+    code = crs.to_epsg() if crs is not None else None
+    return f"EPSG:{code}" if code else crs_name(crs)
+
+
+def _warped(ds, name: str, src_crs, dst, common: dict, keep: list, scale: PointScale | None = None) -> RasterSource:
     from affine import Affine
     from rasterio.enums import Resampling
     from rasterio.vrt import WarpedVRT
@@ -648,6 +739,8 @@ def _warped(ds, name: str, src_crs, dst, common: dict, keep: list) -> RasterSour
         metres = abs(t.e) * _metres_per_degree_lat((south + north) / 2)
     else:
         metres = abs(t.e) * src_crs.linear_units_factor[1]
+        if scale is not None and scale.off_by > SCALE_TOLERANCE:
+            metres /= scale.meridional  # the CRS's metres along the meridian are 1 / scale ground metres
     step = float(f"{metres:.3g}")
     with gdal_env():
         try:

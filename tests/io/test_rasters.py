@@ -588,3 +588,124 @@ def test_is_raster(tmp_path, same_ground):
 def test_rasterio_is_imported_lazily():
     code = "import tankcd_cli.io.rasters, sys; assert 'rasterio' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# --- projected CRSs whose metres are not ground metres ----------------------------
+
+RAMP_SLOPE = 0.2                         # 11.3 deg, rising east
+UTM_CENTRE = (500000.0, 6653000.0)       # EPSG:32633, about 15 E 60 N
+
+
+def _ramp_height(e, n):
+    """The ground, in UTM zone 33N metres: a plane rising east."""
+    return 100.0 + RAMP_SLOPE * (e - UTM_CENTRE[0]) + 0.0 * n
+
+
+def _write_ramps(tmp_path):
+    """(the ramp in EPSG:3857, the same ground in EPSG:32633): about 160 m square, ~1 m posts."""
+    from pyproj import Transformer
+
+    e0, n0 = UTM_CENTRE
+    utm = write(tmp_path / "ramp_utm.tif", np.zeros((1, 161, 161)), crs="EPSG:32633", dtype="float64",
+                transform=from_origin(e0 - 80.5, n0 + 80.5, 1.0, 1.0))
+    rows, cols = np.mgrid[0:161, 0:161]
+    with rasterio.open(utm, "r+") as ds:
+        ds.write(_ramp_height(e0 - 80 + cols * 1.0, n0 + 80 - rows * 1.0)[None])
+    to_merc = Transformer.from_crs("EPSG:32633", "EPSG:3857", always_xy=True)
+    mx, my = to_merc.transform(e0, n0)
+    step = 2.0                                  # ~1 ground metre at 60 N
+    half = 90                                   # posts either side of the centre: ~90 m of ground
+    x = mx + step * np.arange(-half, half + 1)
+    y = my + step * np.arange(half, -half - 1, -1)
+    xx, yy = np.meshgrid(x, y)
+    ee, nn = Transformer.from_crs("EPSG:3857", "EPSG:32633", always_xy=True).transform(xx, yy)
+    merc = write(tmp_path / "ramp_3857.tif", _ramp_height(ee, nn)[None], crs="EPSG:3857", dtype="float64",
+                 transform=from_origin(x[0] - step / 2, y[0] + step / 2, step, step))
+    return merc, utm
+
+
+def test_web_mercator_is_reprojected_to_utm_with_a_warning(tmp_path):
+    from tankcd_cli.errors import SetupWarning
+
+    merc, _ = _write_ramps(tmp_path)
+    with pytest.warns(SetupWarning, match=r"EPSG:3857 metres are 0\.50 ground metres here \(point scale 2\.00 "
+                                          r"at the centre\): reprojected to EPSG:32633") as caught:
+        src = open_raster(merc)
+    assert len([w for w in caught if issubclass(w.category, SetupWarning)]) == 1
+    with src:
+        assert src.info.reprojected and src.grid.crs_name == "WGS 84 / UTM zone 33N"
+        assert src.grid.dx == src.grid.dy == 1.0      # 2 m of EPSG:3857 at 60 N: 1 ground metre
+        assert src.info.source_point_scale == pytest.approx(2.0, rel=2e-3)
+        low, high = src.info.source_point_scale_range
+        assert 1.99 < low < src.info.source_point_scale < high < 2.01
+        # heights on the UTM lattice are the ramp's (bilinear between exact posts of a plane)
+        z = src.read(20, src.grid.rows - 20, 20, src.grid.cols - 20)
+        cols = np.arange(20, src.grid.cols - 20)
+        e = src.grid.origin_x + cols * src.grid.dx
+        np.testing.assert_allclose(z, np.broadcast_to(_ramp_height(e, 0.0), z.shape), atol=2e-3)
+
+
+def test_crs_option_picks_the_target_of_a_scaled_crs(tmp_path):
+    merc, _ = _write_ramps(tmp_path)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the user chose: no warning
+        with open_raster(merc, crs="EPSG:32632") as src:
+            assert src.grid.crs_name == "WGS 84 / UTM zone 32N" and src.info.reprojected
+            assert src.grid.dx == pytest.approx(1.0, abs=0.01)  # ground metres, not EPSG:3857's
+
+
+def test_a_crs_within_one_percent_is_kept(tmp_path):
+    import warnings
+
+    _, utm = _write_ramps(tmp_path)
+    # and the edge of a UTM zone (scale 1.0004 at 3 deg off the central meridian): kept
+    edge = write(tmp_path / "edge.tif", np.zeros((1, 20, 20), dtype=np.float32), crs="EPSG:32633",
+                 transform=from_origin(670000.0, 6653000.0, 5.0, 5.0))
+    for path in (utm, edge):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with open_raster(path) as src:
+                assert not src.info.reprojected and src.grid.crs_name == "WGS 84 / UTM zone 33N"
+                assert abs(src.info.source_point_scale - 1) < 0.01
+
+
+def test_a_tank_on_a_web_mercator_ramp_pitches_as_on_utm(tmp_path):
+    """The issue's case: an 11.3 deg ramp in EPSG:3857 at 60 N; before, a tank pitched 5.7 deg on it,
+    and two tanks whose hulls overlap by 0.46 m on the ground did not touch."""
+    import warnings
+
+    from pyproj import Transformer
+
+    from tankcd_cli import api
+    from tankcd_cli.errors import SetupWarning
+    from tankcd_cli.describe import describe_store as describe
+
+    merc, utm = _write_ramps(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SetupWarning)
+        api.classify(merc, str(tmp_path / "merc.h5"))
+        api.classify(utm, str(tmp_path / "utm.h5"))
+    e0, n0 = UTM_CENTRE
+    pitch = {}
+    for name in ("merc", "utm"):
+        pose = api.place(str(tmp_path / f"{name}.h5"), [e0], [n0], [0.0], matcher="reference")
+        pitch[name] = float(pose["pitch_deg"][0])
+    assert abs(pitch["utm"]) == pytest.approx(math.degrees(math.atan(RAMP_SLOPE)), abs=0.05)
+    assert pitch["merc"] == pytest.approx(pitch["utm"], abs=0.05)
+    facts = describe(str(tmp_path / "merc.h5"))
+    assert facts["reprojected_from"] == "WGS 84 / Pseudo-Mercator"
+    assert facts["source_point_scale"]["centre"] == pytest.approx(2.0, rel=2e-3)
+    assert describe(str(tmp_path / "utm.h5"))["source_point_scale"]["centre"] == pytest.approx(0.9996, abs=1e-6)
+
+    # two tanks heading north, hulls (3.46 m wide) overlapping by 0.46 m on the ground
+    to_geo = Transformer.from_crs("EPSG:32633", "EPSG:4326", always_xy=True)
+    lon, lat = to_geo.transform([e0 - 1.5, e0 + 1.5], [n0, n0])
+    rows = ["t,entity,lon,lat,heading_deg"] + [f"{t},{who},{lon[i]!r},{lat[i]!r},0"
+                                               for t in (0, 1) for i, who in enumerate("AB")]
+    track = tmp_path / "pair.csv"
+    track.write_text("\n".join(rows) + "\n")
+    for name in ("merc", "utm"):
+        _, events = api.replay(str(track), terrain=str(tmp_path / f"{name}.h5"))
+        assert [e for e in events if e["kind"] == "vehicle"], name

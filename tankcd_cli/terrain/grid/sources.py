@@ -71,7 +71,11 @@ class StoreDem:
         with _h5(path) as f:
             dtype = f["grid/height"].dtype.name
         self.info = DemSourceInfo(a.get("source", path), a.get("source_format", "h5"), a.get("source_sha256", ""),
-                                  a.get("source_crs_name", ""), bool(a.get("reprojected", False)), dtype)
+                                  a.get("source_crs_name", ""), bool(a.get("reprojected", False)), dtype,
+                                  source_crs_wkt=str(a.get("source_crs", "")),
+                                  source_point_scale=float(a.get("source_point_scale", 0.0)),
+                                  source_point_scale_range=tuple(float(v) for v in
+                                                                 a.get("source_point_scale_range", (0.0, 0.0))))
 
     def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         return self.surface.tiles.window("grid/height", r0, r1, c0, c1, np.nan, np.float64)
