@@ -285,7 +285,10 @@ def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: fl
         count = ok.sum(axis=1)
         order = np.argsort(dist, axis=1, kind="stable")
         nearest = np.take_along_axis(dist, order[:, :extra], axis=1)
-        scale = np.maximum(nearest[np.arange(len(rr)), np.minimum(count, extra) - 1], 1e-300)
+        # a post without a valid neighbour (a lone post in NODATA) has no scale and no fit: 1 keeps
+        # its keys finite (inf / inf would be NaN and numpy's RuntimeWarning)
+        far = nearest[np.arange(len(rr)), np.maximum(np.minimum(count, extra) - 1, 0)]
+        scale = np.where(count > 0, np.maximum(far, 1e-300), 1.0)
         key = np.round(dist / scale[:, None] * 1e9)
         order = np.lexsort((np.broadcast_to(tie_rank, dist.shape), key), axis=-1)
         use = np.minimum(count, k)
