@@ -1,5 +1,5 @@
 """glTF, GLB (and Collada, through the same trimesh scene): the scene's meshes with their node
-transforms applied, one part per named node.
+transforms applied, one part per named node (a node without a name takes its mesh's).
 
 A .gltf's external buffers must be found beside it (and cannot be from standard input): a
 missing one is named before trimesh is asked. Line and point primitives are left out and
@@ -116,18 +116,34 @@ def read_scene(path: str, data: bytes, fmt: str, name: str) -> FileMesh:
 def _gltf_parts(header: dict | None):
     """part_of(frame, parents) -> (part name or None, sort key) for a trimesh scene read from a
     glTF: the glTF node carrying the mesh (trimesh puts a mesh's extra primitives on child
-    frames of its node) named as in the file, in the file's node order. None when no node in
-    the file has a name."""
+    frames of its node) named as in the file, in the file's node order; a node without a name
+    takes its mesh's (exporters that name meshes, not nodes), else it is "node <i>". None when
+    neither a node nor a mesh a node carries has a name."""
     from trimesh.util import unique_name
 
     nodes = header.get("nodes") if header else None
     nodes = nodes if isinstance(nodes, list) else []
+    meshes = header.get("meshes") if header else None
+    meshes = meshes if isinstance(meshes, list) else []
     frames: dict[str, int] = {}
     counts: dict = {}
     for i, n in enumerate(nodes):  # trimesh's own naming of the node frames
         n = n if isinstance(n, dict) else {}
         frames[unique_name(n.get("name", str(i)), frames, counts=counts)] = i
-    named = any(isinstance(n, dict) and n.get("name") for n in nodes)
+
+    def own_name(n) -> str:
+        """The node's name, else its mesh's, else ''."""
+        n = n if isinstance(n, dict) else {}
+        if isinstance(n.get("name"), str) and n["name"]:
+            return n["name"]
+        mesh = n.get("mesh")
+        if isinstance(mesh, int) and not isinstance(mesh, bool) and 0 <= mesh < len(meshes) \
+                and isinstance(meshes[mesh], dict) and isinstance(meshes[mesh].get("name"), str):
+            return meshes[mesh]["name"]
+        return ""
+
+    names = [own_name(n) for n in nodes]
+    named = any(names)
 
     def part_of(frame, parents):
         node, seen = frame, 0
@@ -138,8 +154,7 @@ def _gltf_parts(header: dict | None):
         i = frames[node]
         if not named:
             return (None, i)
-        n = nodes[i] if isinstance(nodes[i], dict) else {}
-        return (str(n.get("name") or f"node {i}"), i)
+        return (names[i] or f"node {i}", i)
 
     return part_of
 

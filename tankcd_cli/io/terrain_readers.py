@@ -60,13 +60,14 @@ class RawTerrain:
         "point elements": 1}; counts are elements as the file has them (OBJ lines, glTF
         primitive instances, meshio cells). Empty when nothing was left out.
     face_part : (m,) int32 or None -- per triangle, its index into ``part_names``; None when
-        the file names no parts (an OBJ without ``o``/``g`` lines, a glTF whose nodes have
-        no names, PLY, STL, OFF, meshio formats, DEMs)
+        the file names no parts (an OBJ without ``o``/``g`` lines, a glTF whose nodes and
+        meshes have no names, PLY, STL, OFF, meshio formats, DEMs)
     part_names : tuple of str -- the parts in order of their first triangle, each named
         once (repeated names are one part). OBJ: the ``o`` object names, or the ``g``
         group names when the file has no objects; triangles outside any are "default".
-        glTF/GLB: the names of the nodes carrying the meshes (a node without a name is
-        "node <i>", its index in the file); Collada: the scene's node names. Empty when
+        glTF/GLB: the names of the nodes carrying the meshes (a node without a name takes its
+        mesh's, and without either is "node <i>", its index in the file); Collada: the scene's
+        node names. Empty when
         ``face_part`` is None.
     """
 

@@ -99,9 +99,10 @@ def test_gltf_from_stdin_with_external_buffers_says_so_and_glb_from_stdin_reads(
     assert raw.source == "<stdin>" and raw.part_names == ("hull", "turret") and raw.up == "z"
 
 
-def gltf_by_hand(meshes, nodes):
+def gltf_by_hand(meshes, nodes, mesh_names=None):
     """A .gltf (bytes) with one embedded (data: URI) buffer. meshes: [[(vertices, faces or
-    None, mode)]] (mode 4 triangles, 1 lines, 0 points); nodes: glTF node dicts."""
+    None, mode)]] (mode 4 triangles, 1 lines, 0 points); nodes: glTF node dicts; mesh_names:
+    each mesh's name (None: unnamed)."""
     blob, views, accessors, out_meshes = b"", [], [], []
     for prims in meshes:
         out = []
@@ -121,6 +122,8 @@ def gltf_by_hand(meshes, nodes):
                 prim["indices"] = len(accessors) - 1
             out.append(prim)
         out_meshes.append({"primitives": out})
+        if mesh_names and mesh_names[len(out_meshes) - 1] is not None:
+            out_meshes[-1]["name"] = mesh_names[len(out_meshes) - 1]
     doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": list(range(len(nodes)))}],
            "nodes": nodes, "meshes": out_meshes, "bufferViews": views, "accessors": accessors,
            "buffers": [{"byteLength": len(blob),
@@ -209,3 +212,35 @@ def test_mm_scale_asset_just_reads(tmp_path):
     obj.write_text("".join(f"v {float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in box.vertices)
                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in box.faces))
     np.testing.assert_allclose(read_terrain(str(obj)).vertices, box.vertices)
+
+
+def test_gltf_nodes_without_names_take_their_meshes_names(tmp_path):
+    """Exporters that name meshes, not nodes: the parts are the meshes' names (a node's own name
+    wins; a node with neither is node <i>); a repeated mesh is one part."""
+    tri = (PLANE_V, PLANE_F, 4)
+    tri2 = ([[0, 1, 0], [1, 1, 0], [0, 1, -1]], [[0, 1, 2]], 4)
+    nodes = [{"mesh": 0}, {"mesh": 1, "translation": [0, 3, 0]}, {"mesh": 1, "name": "gun"},
+             {"mesh": 2}, {"mesh": 0, "translation": [0, 0, 9]}]
+    path = tmp_path / "tank.gltf"
+    path.write_bytes(gltf_by_hand([[tri], [tri2], [tri2]], nodes, mesh_names=["hull", "turret", None]))
+    raw = read_terrain(str(path), up="z")
+    assert raw.part_names == ("hull", "turret", "gun", "node 3")
+    np.testing.assert_array_equal(raw.face_part, [0, 0, 1, 2, 3, 0, 0])
+    # none named anywhere: no parts, as before
+    path.write_bytes(gltf_by_hand([[tri], [tri2]], [{"mesh": 0}, {"mesh": 1}]))
+    raw = read_terrain(str(path), up="z")
+    assert raw.face_part is None and raw.part_names == ()
+
+
+def test_a_trimesh_export_without_node_names_keeps_the_geometry_names(tmp_path):
+    """trimesh writes its geometry names as the glTF meshes' names; with the node names stripped
+    (as some exporters leave them), those name the parts."""
+    scene, hull, turret = two_part_scene()
+    gltf, _ = write_gltf_files(tmp_path, scene)
+    header = json.loads(gltf.read_bytes())
+    for node in header["nodes"]:
+        node.pop("name", None)
+    gltf.write_text(json.dumps(header))
+    raw = read_terrain(str(gltf), up="z")
+    assert raw.part_names == ("hull_mesh", "turret_mesh")
+    assert np.bincount(raw.face_part).tolist() == [len(hull.faces), len(turret.faces)]
