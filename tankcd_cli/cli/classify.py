@@ -42,7 +42,7 @@ METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet 
 @click.option("--spacing", type=float, default=None, metavar="M",
               help="Heightmaps (PNG, RAW): the post spacing, m (required: the file does not say).")
 @click.option("--z-scale", "z_scale", type=float, default=None, metavar="M",
-              help="Heightmaps: metres per value step: height = z-offset + z-scale x value (default 1).")
+              help="Heightmaps: metres per value step, positive: height = z-offset + z-scale x value (default 1).")
 @click.option("--z-offset", "z_offset", type=float, default=None, metavar="M",
               help="Heightmaps: the height of value 0, m (default 0).")
 @click.option("--z-range", "z_range", nargs=2, type=float, default=None, metavar="LOW HIGH",

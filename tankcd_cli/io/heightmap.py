@@ -8,9 +8,13 @@ The grid (the store's convention, docs/formats.md): row 0 is the file's first ro
 top, and is the north; column 0 is the west. ``origin`` is the world x, y of post [0, 0], the
 north-west post (the image's top-left pixel); by default the south-west post is at (0, 0), so
 the heightmap covers x 0 .. (cols - 1) spacing, y 0 .. (rows - 1) spacing, as engines place a
-terrain. Posts are square, ``spacing`` m apart.
+terrain. Posts are square, ``spacing`` m apart (at least ``MIN_SPACING``, a micrometre, and
+the grid's extent within ``terrain_readers.MAX_COORDINATE``; posts finer than 1/100 of the
+vehicle's track length warn when classified: ``terrain/grid/resolution.py``).
 
-Heights: height = z_offset + z_scale * value (defaults 0 and 1: the values are metres). The
+Heights: height = z_offset + z_scale * value (defaults 0 and 1: the values are metres; the
+scale is positive, as a height range's LOW < HIGH: a negative one would turn the terrain
+upside down, a slip refused as bad input). The
 height-range form, ``z_range = (LOW, HIGH)``, maps the full scale of an integer heightmap
 (0 .. 65535 for 16 bits, 0 .. 255 for 8) onto LOW .. HIGH: z_scale = (HIGH - LOW) / full scale,
 z_offset = LOW, as Unity's "terrain height" and World Machine's or Gaea's export range say it
@@ -42,6 +46,7 @@ HEIGHTMAP_SUFFIXES = PNG_SUFFIXES + RAW_SUFFIXES
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # RAW types by suffix; a .raw is 16-bit unless its size only fits 8-bit posts
 RAW_TYPES = {"raw": "<u2", "r16": "<u2", "r8": "u1", "r32": "<f4"}
+MIN_SPACING = 1e-6  # m: finer posts are a unit slip (and their squares underflow the curvature's differences)
 SPACING_NEEDED = ("a heightmap holds no post spacing: give --spacing M (tankcd classify) or spacing = M in the "
                   "scene's [terrain] table")
 
@@ -145,12 +150,19 @@ def _checked(spec: HeightmapSpec | None, name: str) -> HeightmapSpec:
         raise InputError(name, SPACING_NEEDED)
     if not (_finite(spec.spacing) and spec.spacing > 0):
         raise InputError(name, f"--spacing must be a positive number of metres, got {spec.spacing!r}")
+    if spec.spacing < MIN_SPACING:
+        raise InputError(name, f"--spacing {spec.spacing!r} m is finer than {MIN_SPACING:g} m (a micrometre): no "
+                               "terrain is posted so finely; give the post spacing in metres")
     for key in ("z_scale", "z_offset"):
         value = getattr(spec, key)
         if value is not None and not _finite(value):
             raise InputError(name, f"{spec.LABELS[key]} must be a finite number, got {value!r}")
     if spec.z_scale is not None and spec.z_scale == 0:
         raise InputError(name, "--z-scale 0 makes every height the same: give the metres one value step is")
+    if spec.z_scale is not None and spec.z_scale < 0:
+        # as a reversed --z-range is: a terrain turned upside down is a slip, not a use
+        raise InputError(name, f"--z-scale must be positive, got {spec.z_scale!r}: a negative scale turns the "
+                               "terrain upside down (give --z-offset for the height of value 0)")
     if spec.z_range is not None:
         if spec.z_scale is not None or spec.z_offset is not None:
             raise InputError(name, "--z-range says the scale and the offset: give it or --z-scale/--z-offset, not both")
@@ -179,7 +191,13 @@ def _scale_offset(spec: HeightmapSpec, name: str, dtype: np.dtype, bits: int) ->
 
 
 def _grid(spec: HeightmapSpec, rows: int, cols: int, name: str) -> PostGrid:
+    from tankcd_cli.io.terrain_readers import MAX_COORDINATE
+
     h = float(spec.spacing)
+    extent = (max(rows, cols) - 1) * h
+    if extent > MAX_COORDINATE:
+        raise InputError(name, f"--spacing {spec.spacing!r} m over {max(rows, cols):,} posts spans {extent:.3g} m, "
+                               f"beyond {MAX_COORDINATE:.0e} m: give the post spacing in metres")
     if spec.origin is None:
         x0, y0 = 0.0, (rows - 1) * h  # the south-west post at (0, 0)
     else:

@@ -107,6 +107,9 @@ def _nothing_written(tmp_path, before):
     ("grey.png", ["--spacing", "0"], "--spacing must be a positive number of metres, got 0.0"),
     ("grey.png", ["--spacing", "-2.5"], "--spacing must be a positive number of metres, got -2.5"),
     ("grey.png", [], "a heightmap holds no post spacing: give --spacing M"),
+    ("grey.png", ["--spacing", "1e-300"], "--spacing 1e-300 m is finer than 1e-06 m (a micrometre)"),
+    ("grey.png", ["--spacing", "1e300"], "--spacing 1e+300 m over 12 posts spans 1.1e+301 m, beyond 1e+09 m"),
+    ("grey.png", ["--spacing", "1", "--z-scale", "-0.5"], "--z-scale must be positive, got -0.5"),
     ("odd.r16", [], "a heightmap holds no post spacing: give --spacing M"),
 ])
 def test_bad_heightmaps_are_one_line_exit_3_nothing_written(run, tmp_path, name, args, message):
@@ -260,3 +263,24 @@ def test_a_scene_heightmap_without_spacing_names_the_key(run, tmp_path):
     scene(tmp_path, 'path = "hm.png"')
     res = run("replay", "-", "--scene", "scene.toml", input="t,x,y,yaw_deg\n0,5,5,0\n")
     assert res.exit_code == 3 and "spacing = M in the scene's [terrain] table" in res.stderr
+
+
+def test_posts_finer_than_a_track_feels_warn_and_stay_bounded(run, tmp_path):
+    """--spacing 0.001 on a 200 x 200 heightmap (20 cm of ground): once minutes and gigabytes, now
+    the classes on one post in 43 (4.3 cm apart), said in a warning; --strict refuses it."""
+    r, c = np.mgrid[0:200, 0:200]
+    write_png(tmp_path / "fine.png", 30000 + 20000 * np.sin(r / 30) * np.cos(c / 40), "uint16")
+    res = run("classify", "fine.png", "--spacing", "0.001", "--z-scale", "1e-7", "-o", "fine.h5")
+    assert res.exit_code == 0, res.stderr
+    assert ("tankcd: warning: fine.png: posts 0.001 m apart are far finer than anything the t72's tracks feel (1/100 "
+            "of its 4.28 m track length is 0.0428 m): the classes are computed on one post in 43 (0.043 m apart), "
+            "each post taking the nearest one's; heights and curvature keep every post\n") in res.stderr
+    got = store(tmp_path / "fine.h5")
+    assert list(got["attrs"]["class_post_stride"]) == [43, 43] and got["spacing"] == (0.001, 0.001)
+    assert np.isfinite(got["mean"]).all() and (got["classes"] < 3).all()
+    coarse = run("-q", "classify", "fine.png", "--spacing", "0.5", "-o", "c.h5")
+    assert coarse.exit_code == 0 and list(store(tmp_path / "c.h5")["attrs"]["class_post_stride"]) == [1, 1]
+    before = sorted(os.listdir(tmp_path))
+    strict = run("classify", "fine.png", "--spacing", "0.001", "-o", "s.h5", "--strict")
+    assert strict.exit_code == 3 and "far finer than anything" in strict.stderr
+    _nothing_written(tmp_path, before)

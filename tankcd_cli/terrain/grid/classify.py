@@ -37,7 +37,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
     """
     from tankcd_cli.terrain.grid.store import GridStoreWriter
 
-    from tankcd_cli.terrain.grid.resolution import coarse_posts, spacing_over_track
+    from tankcd_cli.terrain.grid.resolution import coarse_posts, fine_posts, spacing_over_track
 
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
@@ -51,6 +51,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
 
     # set-up checks, before anything is written (--strict makes their warnings bad input)
     coarse = coarse_posts(grid, vehicle, info.source)
+    stride = fine_posts(grid, vehicle, info.source)
     quantum, passes = quantized_heights(read, grid, info, thresholds)
     smoothing = (quantum.step, passes) if passes else None
     started = time.perf_counter()
@@ -112,6 +113,7 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
             "quantum_filter": quantum_filter_text(passes),
             "post_spacing_over_track": spacing_over_track(dx, dy, vehicle.track_length),
             "coarse_posts": bool(coarse),
+            "class_post_stride": [int(stride[0]), int(stride[1])],
             "heightmap": info.heightmap,
         }
         writer.finish(attrs)

@@ -33,15 +33,13 @@ def _source(spec: tuple):
 def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, thresholds, smoothing=None):
     """Classify one tile on a worker (see ``tiled_classify.classify_tile``)."""
     from tankcd_cli.terrain.grid.sources import checked_read
-    from tankcd_cli.terrain.grid.tiled_classify import classify_tile, stencils, use_compiled
+    from tankcd_cli.terrain.grid.tiled_classify import classify_fetched, fetch_tile, tile_plan, use_compiled
 
-    st = stencils(grid, track_length, smoothing[1] if smoothing else 0)
+    plan = tile_plan(grid, track_length, thresholds, smoothing)
     source = _source(spec)
-    r0, r1, c0, c1 = core
-    wr, wc = r0 - st.halo_rows, c0 - st.halo_cols
     with _LOCK:  # one reader per DEM handle
-        z = checked_read(source, wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
-    return classify_tile(z, core, (wr, wc), grid, st, method, thresholds, use_compiled(grid), smoothing)
+        fetched = fetch_tile(lambda r0, r1, c0, c1: checked_read(source, r0, r1, c0, c1), plan, core)
+    return classify_fetched(plan, core, fetched, method, thresholds, use_compiled(grid))
 
 
 def classify_tiles_on_dask(scheduler: str, spec: tuple, grid, method: str, track_length: float, thresholds,

@@ -24,6 +24,20 @@ Per post (row 0 north, NaN at NODATA; x = column dx, y = -row dy):
   its absolute value averaged over a disk of radius L/2, both disks in metres
   over the posts (L the track length).
 - **Class** 0 flat, 1 general, 2 uneven; 255 at NODATA.
+
+**Posts finer than a track feels.** The disks are in metres, so their posts grow as the
+square of track length over spacing: at 1 cm posts a T-72's footprint disk holds 144,000
+posts and its halo 334 posts a side, at 1 mm a hundred times that. Where the posts are
+closer than ``track_length / FINEST_CLASS_POSTS`` (1/100 of it: 4.3 cm for a T-72) along an
+axis, the classes come from every s-th post along that axis (``class_stride``: the smallest
+s putting them at least that far apart, counted from post 0, so that every tiling takes the
+same posts): the coarse posts are classified as a DEM of their own (the same passes, the
+quantum filter's passes for their spacing) and each post takes the footprint-averaged |H|
+of the coarse post nearest to it (ties to the south and east), its class from that; H and
+the post area stay every post's own. The work is then bounded by the terrain's extent in
+track lengths (at most 100 coarse posts a track length) plus a fixed amount per post (the
+3 x 3 differences and the one-sided fits, whose ``FIT_RADIUS`` is in posts), whatever the
+spacing; the coarse posts are read one row at a time.
 """
 
 from __future__ import annotations
@@ -43,6 +57,18 @@ FIT_RADIUS = 12  # posts (along the coarser axis): holds the 40 nearest even at 
 MIN_FIT_POSTS = 14  # unknowns of the quartic
 DEFAULT_TILE = 512
 FAST_MIN_POSTS = 0  # compiled ahead of time, the passes cost nothing to load: every DEM takes them
+FINEST_CLASS_POSTS = 100  # posts a track length at most where the classes are computed (module doc)
+
+
+def class_stride(grid: PostGrid, track_length: float) -> tuple[int, int]:
+    """(rows, cols) step between the posts the classes are computed on: 1, or the smallest
+    whole number putting them at least ``track_length / FINEST_CLASS_POSTS`` apart."""
+    finest = track_length / FINEST_CLASS_POSTS
+
+    def step(h: float) -> int:
+        return 1 if h >= finest else int(math.ceil(finest / h - 1e-9))
+
+    return step(float(grid.dy)), step(float(grid.dx))
 
 
 def use_compiled(grid: PostGrid) -> bool:
@@ -393,10 +419,19 @@ def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_
         within half a step (``quantum.smooth_within_quantum``; ``st`` must cover the passes);
         the result keeps the window's own heights
     """
+    r0, c0 = core[0], core[2]
+    z, H, area, field = _core_fields(z_window, core, window_origin, grid, st, method, fast, smoothing)
+    return _classified(r0, c0, z, H, area, field, thresholds)
+
+
+def _core_fields(z_window, core, window_origin, grid, st, method, fast, smoothing):
+    """(z, H, area, footprint field) over the core of a window (see ``classify_tile``)."""
     r0, r1, c0, c1 = core
     wr, wc = window_origin
-    # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read
-    band = (max(r0 - wr - st.reach_rows, 0), max(c0 - wc - st.reach_cols, 0))
+    # the outer posts of the halo only feed fits' neighbourhoods: their own H is never read (a
+    # window cut at the grid's edge has a narrower halo there: the narrower side decides)
+    wr1, wc1 = wr + z_window.shape[0], wc + z_window.shape[1]
+    band = (max(min(r0 - wr, wr1 - r1) - st.reach_rows, 0), max(min(c0 - wc, wc1 - c1) - st.reach_cols, 0))
     z_fields = z_window
     if smoothing is not None and smoothing[1] > 0:
         from tankcd_cli.terrain.grid.quantum import smooth_within_quantum
@@ -404,11 +439,106 @@ def classify_tile(z_window: np.ndarray, core: tuple[int, int, int, int], window_
         z_fields = smooth_within_quantum(z_window, smoothing[0], smoothing[1])
     H, area, field = window_fields(z_fields, wr, wc, grid, st, method, band, fast)
     sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
-    z, H, area, field = z_window[sl], H[sl], area[sl], field[sl]
+    return z_window[sl], H[sl], area[sl], field[sl]
+
+
+def _classified(r0: int, c0: int, z, H, area, field, thresholds: Thresholds) -> TileResult:
     valid = np.isfinite(z)
     classes = np.where(valid, classify_values(np.nan_to_num(field), thresholds), NO_CLASS).astype(np.uint8)
     by_class = np.bincount(classes[valid], weights=area[valid], minlength=3)[:3]
     return TileResult(r0, c0, z, H, field, classes, by_class, int(valid.sum()))
+
+
+@dataclass(frozen=True)
+class TilePlan:
+    """How a grid's tiles are read and classified (module doc).
+
+    st : the stencils over the grid's own posts (with a stride: the fits' only)
+    stride : (rows, cols) step of the coarse posts the classes come from; (1, 1): every post
+    coarse, coarse_st, coarse_smoothing : the coarse posts' grid, stencils and quantum filter
+        (None with stride (1, 1))
+    """
+
+    grid: PostGrid
+    st: Stencils
+    smoothing: tuple[float, int] | None
+    stride: tuple[int, int] = (1, 1)
+    coarse: PostGrid | None = None
+    coarse_st: Stencils | None = None
+    coarse_smoothing: tuple[float, int] | None = None
+
+
+def tile_plan(grid: PostGrid, track_length: float, thresholds: Thresholds,
+              smoothing: tuple[float, int] | None = None) -> TilePlan:
+    """The :class:`TilePlan` of a grid: every post, or the classes on coarse posts where the
+    posts are finer than ``track_length / FINEST_CLASS_POSTS`` (``class_stride``)."""
+    passes = smoothing[1] if smoothing else 0
+    sr, sc = class_stride(grid, track_length)
+    if (sr, sc) == (1, 1):
+        return TilePlan(grid, stencils(grid, track_length, passes), smoothing)
+    import dataclasses
+
+    fit = fit_offsets(grid.dx, grid.dy)
+    own = np.zeros((1, 2), dtype=np.int64)
+    st = Stencils(own, own, fit, int(np.abs(fit[:, 0]).max()) + 1 + passes, int(np.abs(fit[:, 1]).max()) + 1 + passes,
+                  0, 0)
+    coarse = dataclasses.replace(grid, rows=(grid.rows - 1) // sr + 1, cols=(grid.cols - 1) // sc + 1,
+                                 dx=grid.dx * sc, dy=grid.dy * sr)
+    coarse_smoothing = None
+    if smoothing:
+        from tankcd_cli.terrain.grid.quantum import filter_passes
+
+        coarse_passes = filter_passes(smoothing[0], coarse.dx, coarse.dy, thresholds.flat)
+        coarse_smoothing = (smoothing[0], coarse_passes) if coarse_passes else None
+    coarse_st = stencils(coarse, track_length, coarse_smoothing[1] if coarse_smoothing else 0)
+    return TilePlan(grid, st, smoothing, (sr, sc), coarse, coarse_st, coarse_smoothing)
+
+
+def _nearest_coarse(index: np.ndarray, step: int, count: int) -> np.ndarray:
+    """The coarse post nearest to each post ``index`` along an axis (ties to the higher)."""
+    return np.minimum((np.asarray(index) + step // 2) // step, count - 1)
+
+
+def fetch_tile(read: Callable[[int, int, int, int], np.ndarray], plan: TilePlan, core) -> tuple:
+    """The heights a tile needs, read through ``read`` (not thread-safe: call it from one thread)."""
+    r0, r1, c0, c1 = core
+    st, grid = plan.st, plan.grid
+    # the window is cut at the grid's edges: beyond them every post is NaN, which adds nothing
+    # to a disk sum (zero area), to a fit (no neighbour) or to a triangle, so the result is the
+    # same bits as with the whole halo
+    wr, wc = max(r0 - st.halo_rows, 0), max(c0 - st.halo_cols, 0)
+    z = read(wr, min(r1 + st.halo_rows, grid.rows), wc, min(c1 + st.halo_cols, grid.cols))
+    if plan.coarse is None:
+        return z, (wr, wc)
+    (sr, sc), cg, cst = plan.stride, plan.coarse, plan.coarse_st
+    R0, R1 = int(_nearest_coarse(r0, sr, cg.rows)), int(_nearest_coarse(r1 - 1, sr, cg.rows)) + 1
+    C0, C1 = int(_nearest_coarse(c0, sc, cg.cols)), int(_nearest_coarse(c1 - 1, sc, cg.cols)) + 1
+    Rw, Cw = max(R0 - cst.halo_rows, 0), max(C0 - cst.halo_cols, 0)
+    Rw1, Cw1 = min(R1 + cst.halo_rows, cg.rows), min(C1 + cst.halo_cols, cg.cols)
+    zc = np.empty((Rw1 - Rw, Cw1 - Cw))
+    f0, f1 = Cw * sc, (Cw1 - 1) * sc + 1
+    for i, R in enumerate(range(Rw, Rw1)):  # one row of posts at a time: memory does not grow with the stride
+        zc[i] = read(R * sr, R * sr + 1, f0, f1)[0, ::sc]
+    return z, (wr, wc), zc, (Rw, Cw), (R0, R1, C0, C1)
+
+
+def classify_fetched(plan: TilePlan, core, fetched: tuple, method: str, thresholds: Thresholds,
+                     fast: bool = False) -> TileResult:
+    """The :class:`TileResult` of a tile from what :func:`fetch_tile` read."""
+    if plan.coarse is None:
+        z, origin = fetched
+        return classify_tile(z, core, origin, plan.grid, plan.st, method, thresholds, fast, plan.smoothing)
+    z_window, origin, zc, coarse_origin, coarse_core = fetched
+    r0, r1, c0, c1 = core
+    z, H, area, _ = _core_fields(z_window, core, origin, plan.grid, plan.st, method, fast, plan.smoothing)
+    _, _, _, coarse_field = _core_fields(zc, coarse_core, coarse_origin, plan.coarse, plan.coarse_st, method, fast,
+                                         plan.coarse_smoothing)
+    (sr, sc), R0, C0 = plan.stride, coarse_core[0], coarse_core[2]
+    rows = _nearest_coarse(np.arange(r0, r1), sr, plan.coarse.rows) - R0
+    cols = _nearest_coarse(np.arange(c0, c1), sc, plan.coarse.cols) - C0
+    field = coarse_field[np.ix_(rows, cols)]
+    field = np.where(np.isfinite(field), field, np.abs(H))  # the nearest coarse post is NODATA: the post's own |H|
+    return _classified(r0, c0, z, H, area, np.where(np.isfinite(z), field, np.nan), thresholds)
 
 
 def tiles_of(grid: PostGrid, tile):
@@ -434,18 +564,15 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: 
     """
     if method not in GRID_METHODS:
         raise ValueError(f"unknown curvature method {method!r}; choose one of {', '.join(GRID_METHODS)}")
-    st = stencils(grid, track_length, smoothing[1] if smoothing else 0)
+    plan = tile_plan(grid, track_length, thresholds, smoothing)
     cores = list(tiles_of(grid, tile))
     fast = use_compiled(grid)
 
-    def work(core, z, origin):
-        return classify_tile(z, core, origin, grid, st, method, thresholds, fast, smoothing)
+    def work(core, fetched):
+        return classify_fetched(plan, core, fetched, method, thresholds, fast)
 
     def fetch(core):
-        r0, r1, c0, c1 = core
-        wr, wc = r0 - st.halo_rows, c0 - st.halo_cols
-        z = read(wr, r1 + st.halo_rows, wc, c1 + st.halo_cols)
-        return z, (wr, wc)
+        return (fetch_tile(read, plan, core),)
 
     count = {"tiles": 0, "posts": 0}
 

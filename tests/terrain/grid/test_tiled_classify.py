@@ -180,3 +180,52 @@ def test_mostly_nodata_raises_no_runtime_warning(tmp_path, method):
     surface = open_grid(str(tmp_path / "sparse.h5"))
     assert surface.grid.rows > 0
     surface.tiles.close()
+
+
+
+# --- posts finer than a track feels ------------------------------------------------
+
+def test_class_stride_is_one_down_to_a_hundredth_of_the_track():
+    L = T72.track_length
+    assert gc.class_stride(PostGrid(9, 9, dx=L / 100, dy=L / 100), L) == (1, 1)
+    assert gc.class_stride(PostGrid(9, 9, dx=0.01, dy=0.02), L) == (3, 5)  # rows by dy, columns by dx
+    assert gc.class_stride(PostGrid(9, 9, dx=1e-3, dy=1e-3), L) == (43, 43)
+    for h in (1e-2, 1e-3, 1e-5):  # what a tile costs no longer grows with the spacing
+        plan = gc.tile_plan(PostGrid(5000, 5000, dx=h, dy=h), L, THRESHOLDS)
+        assert plan.st.halo_rows == gc.FIT_RADIUS + 1 and len(plan.st.disk_footprint) == 1
+        sr, sc = plan.stride
+        assert L / 100 <= h * sr < L / 100 + h and len(plan.coarse_st.disk_footprint) <= 7900
+
+
+@pytest.mark.parametrize("tile", [(30, 23), 1000])
+def test_fine_posts_take_the_classes_of_their_coarse_posts(tile):
+    """Posts 1 cm apart: H is every post's own (the same bits as without a stride), the footprint
+    field each post's nearest coarse post's, the coarse posts classified as a DEM of their own
+    (every 5th post, 5 cm apart); any tiling gives the same bits."""
+    rows, cols, h = 53, 61, 0.01
+    r, c = np.mgrid[0:rows, 0:cols] * h
+    z = 10 + 0.02 * np.sin(r / 0.11) * np.cos(c / 0.07) + 0.01 * rough_dem(rows, cols, seed=5, holes=False)
+    z[20:24, 30:33] = np.nan
+    got = classify_arrays(z, tile=tile, dx=h, dy=h)
+    s = 5
+    assert gc.class_stride(PostGrid(rows, cols, dx=h, dy=h), T72.track_length) == (s, s)
+    coarse = classify_arrays(z[::s, ::s], tile=1000, dx=h * s, dy=h * s)
+    near_r = np.minimum((np.arange(rows) + s // 2) // s, (rows - 1) // s)
+    near_c = np.minimum((np.arange(cols) + s // 2) // s, (cols - 1) // s)
+    expect = coarse["footprint"][np.ix_(near_r, near_c)]
+    valid = np.isfinite(z)
+    expect = np.where(np.isfinite(expect), expect, np.abs(got["mean"]))
+    np.testing.assert_array_equal(got["footprint"][valid], expect[valid])
+    np.testing.assert_array_equal(got["classes"][~valid], 255)
+    whole = classify_arrays(z, tile=1000, dx=h, dy=h)
+    for k in got:
+        np.testing.assert_array_equal(got[k], whole[k], err_msg=k)
+
+
+def test_fine_posts_keep_their_own_curvature(monkeypatch):
+    rows, cols, h = 30, 34, 0.03
+    z = 5 + 0.01 * rough_dem(rows, cols, seed=6)
+    strided = classify_arrays(z, tile=(20, 1000), dx=h, dy=h)
+    monkeypatch.setattr(gc, "FINEST_CLASS_POSTS", 10**9)  # no stride: the full disks, 71 posts across
+    full = classify_arrays(z, tile=1000, dx=h, dy=h)
+    np.testing.assert_array_equal(strided["mean"], full["mean"])
