@@ -211,6 +211,33 @@ def _grid(spec: HeightmapSpec, rows: int, cols: int, name: str) -> PostGrid:
     return PostGrid(rows, cols, x0, y0, h, h, crs_wkt, crs_words)
 
 
+def _crs_facts(spec: HeightmapSpec, grid: PostGrid, name: str) -> dict:
+    """The DemSourceInfo fields of a heightmap's --crs (its WKT and point scale); a SetupWarning
+    when that CRS's metres stray more than 1 % from ground metres over the grid (a heightmap is
+    placed, not reprojected: its spacing and heights would be taken as the CRS's metres)."""
+    if not grid.crs_wkt:
+        return {}
+    from rasterio.crs import CRS
+
+    from tankcd_cli.io.rasters import SCALE_TOLERANCE, crs_label, point_scale
+
+    crs = CRS.from_wkt(grid.crs_wkt)
+    south = grid.origin_y - (grid.rows - 1) * grid.dy
+    east = grid.origin_x + (grid.cols - 1) * grid.dx
+    scale = point_scale(crs, (grid.origin_x, south, east, grid.origin_y))
+    if scale is None:
+        return {"source_crs_wkt": grid.crs_wkt}
+    if scale.off_by > SCALE_TOLERANCE:
+        from tankcd_cli.errors import warn
+
+        warn(name, f"{crs_label(crs)} metres are {1 / scale.centre:.2f} ground metres here (point scale "
+                   f"{scale.centre:.2f} at the centre{scale.range_text()}): a heightmap is placed, not reprojected, "
+                   "so its slopes and distances are off by that much; give --origin and --spacing in a CRS whose "
+                   "metres are ground metres (the UTM zone of the place)")
+    return {"source_crs_wkt": grid.crs_wkt, "source_point_scale": scale.centre,
+            "source_point_scale_range": (scale.low, scale.high)}
+
+
 def _reading(spec: HeightmapSpec, kind: str, dtype: np.dtype, bits: int, band: int, rows: int, cols: int,
              scale: float, offset: float, grid: PostGrid) -> str:
     """How the file's values became posts, as JSON text (the store's ``heightmap`` attribute)."""
@@ -298,7 +325,7 @@ class RawHeightmap(_Heightmap):
         reading = _reading(spec, kind, dtype, bits, 1, rows, cols, self.scale, self.offset, self.grid)
         self.info = DemSourceInfo(name, "RAW", sha256=digest,
                                   height_dtype=_height_dtype(dtype, self.scale, self.offset), dtype=dtype.name,
-                                  heightmap=reading, notes=notes)
+                                  heightmap=reading, notes=notes, **_crs_facts(spec, self.grid, name))
 
     def _values(self, a0, a1, b0, b1):
         row_bytes = self.cols * self.dtype.itemsize
@@ -429,7 +456,7 @@ class PngHeightmap(_Heightmap):
                                   block=tuple(int(v) for v in ds.block_shapes[band - 1]),
                                   heightmap=_reading(spec, "png", dtype, bits, band, self.rows, self.cols, self.scale,
                                                      self.offset, self.grid),
-                                  notes=tuple(notes))
+                                  notes=tuple(notes), **_crs_facts(spec, self.grid, name))
         self._probe(name)
 
     def _probe(self, name):

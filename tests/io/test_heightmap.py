@@ -219,3 +219,23 @@ def test_reading_a_big_raw_window_by_window_keeps_memory_flat(tmp_path):
                 hm.read(r0 - 8, r0 + 520, c0 - 8, c0 + 2056)
         grown = _rss_mb() - before
     assert grown < 40, f"memory grew by {grown:.0f} MB reading a {side * side * 2 / 2**20:.0f} MB heightmap"
+
+
+def test_a_crs_whose_metres_are_not_ground_metres_warns(tmp_path):
+    """A heightmap is placed in its --crs, not reprojected: EPSG:3857 at 60 N (metres half a ground
+    metre) warns naming the scale; UTM does not; the scale is kept for the store either way."""
+    from tankcd_cli.errors import SetupWarning
+
+    path = write_png(tmp_path / "h.png", values())
+    merc = HeightmapSpec(spacing=2.0, origin=(1669792.0, 8399737.0), crs="EPSG:3857")
+    with pytest.warns(SetupWarning, match=r"EPSG:3857 metres are 0\.50 ground metres here \(point scale 2\.00 at "
+                                          r"the centre\): a heightmap is placed, not reprojected"):
+        with open_heightmap(str(path), merc) as hm:
+            assert hm.info.source_point_scale == pytest.approx(2.0, abs=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with open_heightmap(str(path), HeightmapSpec(spacing=2.0, origin=(500000.0, 6650000.0),
+                                                     crs="EPSG:32633")) as hm:
+            assert hm.info.source_point_scale == pytest.approx(0.9996, abs=1e-6)
+        with open_heightmap(str(path), HeightmapSpec(spacing=2.0)) as hm:  # a local grid: no scale
+            assert hm.info.source_point_scale == 0.0
