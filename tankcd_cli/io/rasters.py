@@ -602,8 +602,29 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
             crs_wkt, grid_crs = "", source_crs_name
         grid = PostGrid(ds.height, ds.width, float(origin[0]), float(origin[1]), float(spacing[0]), float(spacing[1]),
                         crs_wkt, grid_crs)
-        return RasterSource(grid, DemSourceInfo(reprojected=False, block=(block[0], block[1]), **common), ds, ds, keep)
-    return _warped(ds, name, src_crs, dst, common, keep, scale)
+        source = RasterSource(grid, DemSourceInfo(reprojected=False, block=(block[0], block[1]), **common), ds, ds,
+                              keep)
+    else:
+        source = _warped(ds, name, src_crs, dst, common, keep, scale)
+    if crs is not None:
+        _warn_of_chosen_scale(source.grid, crs, name)
+    return source
+
+
+def _warn_of_chosen_scale(grid: PostGrid, crs: str, name: str) -> None:
+    """A SetupWarning when the CRS ``--crs`` chose has metres that stray over 1 % from ground
+    metres over the grid (kept: the user asked for it)."""
+    from rasterio.crs import CRS
+
+    target = CRS.from_wkt(grid.crs_wkt)
+    south, east = grid.origin_y - (grid.rows - 1) * grid.dy, grid.origin_x + (grid.cols - 1) * grid.dx
+    scale = point_scale(target, (grid.origin_x, south, east, grid.origin_y))
+    if scale is not None and scale.off_by > SCALE_TOLERANCE:
+        from tankcd_cli.errors import warn
+
+        warn(name, f"--crs {crs}: its metres are {1 / scale.centre:.2f} ground metres here (point scale "
+                   f"{scale.centre:.2f} at the centre{scale.range_text()}): kept as asked, so slopes and distances "
+                   "are off by that much")
 
 
 def _probe(ds, name: str, band: int) -> None:

@@ -656,6 +656,17 @@ def test_crs_option_picks_the_target_of_a_scaled_crs(tmp_path):
             assert src.grid.dx == pytest.approx(1.0, abs=0.01)  # ground metres, not EPSG:3857's
 
 
+def test_crs_option_naming_a_scaled_crs_keeps_it_with_a_warning(tmp_path):
+    from tankcd_cli.errors import SetupWarning
+
+    merc, utm = _write_ramps(tmp_path)
+    for path in (merc, utm):  # kept as it is, or warped to it: either way its metres are half a ground metre
+        with pytest.warns(SetupWarning, match=r"--crs EPSG:3857: its metres are 0\.50 ground metres here \(point "
+                                              r"scale 2\.00 at the centre\): kept as asked"):
+            with open_raster(path, crs="EPSG:3857") as src:
+                assert src.grid.crs_name == "WGS 84 / Pseudo-Mercator"
+
+
 def test_a_crs_within_one_percent_is_kept(tmp_path):
     import warnings
 
