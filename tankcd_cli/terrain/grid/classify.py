@@ -96,7 +96,10 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
             "threshold_uneven": thresholds.uneven,
             "threshold_derivation": thresholds.derivation,
             "class_average": "area-weighted mean of |H| (H first averaged over a disk of radius track_length/4) "
-                             "over a disk of radius track_length/2, at every post",
+                             "over a disk of radius track_length/2, at every post" + (
+                                 "" if stride == (1, 1) else
+                                 f" of one in {stride[0]} x {stride[1]} (posts finer than track_length/100), each "
+                                 "post taking the nearest one's"),
             "vehicle": vehicle.name,
             "track_length": vehicle.track_length,
             "track_width": vehicle.track_width,
