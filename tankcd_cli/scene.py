@@ -343,9 +343,15 @@ def _heightmap(terrain: dict, terrain_path: str, path: str):
     if not given:
         return None
     if not is_heightmap(terrain_path):
-        raise InputError(path, f"{given[0]} describes a heightmap (PNG, RAW); {os.path.basename(terrain_path)} is "
-                               "none (a DEM raster or a store carries its own georeferencing)",
-                         where=f"[terrain] {given[0]}")
+        only = [k for k in given if k not in HeightmapSpec.SHARED]
+        if only:
+            raise InputError(path, f"{only[0]} describes a heightmap (PNG, RAW); {os.path.basename(terrain_path)} is "
+                                   "none (a DEM raster or a store carries its own georeferencing)",
+                             where=f"[terrain] {only[0]}")
+        if not _is_dem_raster(terrain_path):  # crs, band: a raster's target CRS and band, as classify's options
+            raise InputError(path, f"{given[0]} applies to a DEM raster (the CRS it is reprojected to, its band) or a "
+                                   f"heightmap; {os.path.basename(terrain_path)} is neither (a store or a mesh keeps "
+                                   "its own)", where=f"[terrain] {given[0]}")
 
     def number(key, positive=False, nonzero=False):
         value = terrain.get(key)
@@ -391,9 +397,19 @@ def _heightmap(terrain: dict, terrain_path: str, path: str):
     band = terrain.get("band")
     if band is not None and (not isinstance(band, int) or isinstance(band, bool) or band < 1):
         raise InputError(path, f"band must be a whole number from 1, got {band!r}", where="[terrain] band")
-    return HeightmapSpec(spacing=number("spacing", positive=True), z_scale=number("z_scale", nonzero=True),
+    return HeightmapSpec(spacing=number("spacing", positive=True), z_scale=number("z_scale", positive=True),
                          z_offset=number("z_offset"), z_range=z_range, origin=pair("origin"), crs=crs, size=size,
                          band=band)
+
+
+def _is_dem_raster(terrain_path: str) -> bool:
+    """Whether the terrain is a DEM raster (GDAL's, an ESRI grid), which --crs and --band apply to."""
+    from tankcd_cli.terrain.open import terrain_kind
+
+    try:
+        return terrain_kind(terrain_path) in ("raster", "esri_ascii")
+    except InputError:
+        return False
 
 
 def _finite(value) -> bool:

@@ -169,8 +169,10 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
     if kind in DEM_KINDS:
         from tankcd_cli.terrain.grid.sources import open_source
 
-        return _open_dem(open_source(kind, path, fmt=fmt, heightmap=heightmap), path, cached if cache else None,
-                         vehicle, say)
+        # a raster takes the CRS and band a scene's [terrain] table names (HeightmapSpec.SHARED)
+        crs, band = (heightmap.crs, heightmap.band) if kind != "heightmap" and heightmap is not None else (None, None)
+        return _open_dem(open_source(kind, path, fmt=fmt, crs=crs, band=band, heightmap=heightmap), path,
+                         cached if cache else None, vehicle, say)
     from tankcd_cli.terrain.mesh.classify import classify_mesh, read_mesh
     from tankcd_cli.terrain.store import is_hdf5, read_attrs
 
@@ -206,7 +208,7 @@ def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain
         if cached and os.path.exists(cached) and is_hdf5(cached):
             a = read_attrs(cached)
             if a.get("layout") == "grid" and a.get("source_sha256") == dem.info.sha256 \
-                    and a.get("heightmap", "") == dem.info.heightmap:
+                    and a.get("heightmap", "") == dem.info.heightmap and a.get("crs_name") == dem.grid.crs_name:
                 say(f"reading cached store {cached}")
                 surface = open_grid(cached)
                 from tankcd_cli.terrain.grid.resolution import coarse_posts

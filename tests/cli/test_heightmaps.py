@@ -242,6 +242,8 @@ def test_a_scene_reads_a_heightmap_as_its_terrain_table_says(run, tmp_path):
     ('path = "hm.png"\nspacing = 0', "[terrain] spacing", "spacing must be a positive number"),
     ('path = "hm.png"\nspacing = -1.0', "[terrain] spacing", "spacing must be a positive number"),
     ('path = "hm.png"\nspacing = 2\nz_range = [5, 1]', "[terrain] z_range", "LOW < HIGH"),
+    ('path = "hm.png"\nspacing = 2\nz_scale = -1', "[terrain] z_scale", "z_scale must be a positive number"),
+    ('path = "g.asc"\nspacing = 2\ncrs = "EPSG:32633"', "[terrain] spacing", "describes a heightmap"),
     ('path = "hm.png"\nspacing = 2\nz_range = [0, 1]\nz_scale = 2', "[terrain] z_scale", "not both"),
     ('path = "hm.png"\nspacing = 2\norigin = [1]', "[terrain] origin", "two finite numbers"),
     ('path = "hm.png"\nspacing = 2\nsize = "big"', "[terrain] size", "COLSxROWS"),

@@ -720,3 +720,26 @@ def test_a_tank_on_a_web_mercator_ramp_pitches_as_on_utm(tmp_path):
     for name in ("merc", "utm"):
         _, events = api.replay(str(track), terrain=str(tmp_path / f"{name}.h5"))
         assert [e for e in events if e["kind"] == "vehicle"], name
+
+
+def test_a_scene_names_the_crs_a_raster_is_reprojected_to(tmp_path):
+    """replay has no --crs: a scene's [terrain] crs (and band) apply to a DEM raster as classify's
+    --crs does; on a store it is bad input naming the key."""
+    import warnings
+
+    from tankcd_cli import api
+    from tankcd_cli.errors import SetupWarning
+    from tankcd_cli.scene import load_scene
+
+    merc, _ = _write_ramps(tmp_path)
+    (tmp_path / "scene.toml").write_text(f'[terrain]\npath = "{os.path.basename(merc)}"\ncrs = "EPSG:32632"\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SetupWarning)  # the scene chose: no warning
+        world = api.load_world(scene=str(tmp_path / "scene.toml"))
+    assert world.terrain.surface.grid.crs_name == "WGS 84 / UTM zone 32N"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SetupWarning)
+        api.classify(merc, str(tmp_path / "merc.h5"))
+    (tmp_path / "store.toml").write_text('[terrain]\npath = "merc.h5"\ncrs = "EPSG:32632"\n')
+    with pytest.raises(InputError, match=r"\[terrain\] crs: crs applies to a DEM raster"):
+        load_scene(str(tmp_path / "store.toml"))
