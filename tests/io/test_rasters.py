@@ -705,6 +705,9 @@ def test_a_tank_on_a_web_mercator_ramp_pitches_as_on_utm(tmp_path):
         pitch[name] = float(pose["pitch_deg"][0])
     assert abs(pitch["utm"]) == pytest.approx(math.degrees(math.atan(RAMP_SLOPE)), abs=0.05)
     assert pitch["merc"] == pytest.approx(pitch["utm"], abs=0.05)
+    auto = api.place(str(tmp_path / "merc.h5"), [e0], [n0], [30.0])  # the default matcher, within its 0.5 deg
+    assert float(auto["pitch_deg"][0]) ** 2 + float(auto["roll_deg"][0]) ** 2 == pytest.approx(
+        math.degrees(math.atan(RAMP_SLOPE)) ** 2, abs=2 * 11.3 * 0.5)
     facts = describe(str(tmp_path / "merc.h5"))
     assert facts["reprojected_from"] == "WGS 84 / Pseudo-Mercator"
     assert facts["source_point_scale"]["centre"] == pytest.approx(2.0, rel=2e-3)
