@@ -34,10 +34,16 @@ s putting them at least that far apart, counted from post 0, so that every tilin
 same posts): the coarse posts are classified as a DEM of their own (the same passes, the
 quantum filter's passes for their spacing) and each post takes the footprint-averaged |H|
 of the coarse post nearest to it (ties to the south and east), its class from that; H and
-the post area stay every post's own. The work is then bounded by the terrain's extent in
-track lengths (at most 100 coarse posts a track length) plus a fixed amount per post (the
-3 x 3 differences and the one-sided fits, whose ``FIT_RADIUS`` is in posts), whatever the
-spacing; the coarse posts are read one row at a time.
+the post area stay every post's own. The work no longer grows with the fineness: the coarse
+posts number at most 100 a track length (so they are bounded by the terrain's extent in
+track lengths), each tile classifies the coarse posts under it with their halo (at most the
+halo of posts L/100 apart, about 90 posts a side; neighbouring tiles compute the overlap
+again), and every post costs a fixed amount more (the 3 x 3 differences and the one-sided
+fits, whose ``FIT_RADIUS`` is in posts). The coarse posts are read one row of posts at a
+time, so memory does not grow with the stride.
+
+Windows are cut at the grid's edges (beyond them every post is NaN: it adds nothing to a
+disk sum, a fit or a triangle), so a small DEM is not padded with a halo of NaN.
 """
 
 from __future__ import annotations
