@@ -58,3 +58,20 @@ def test_a_cluster_writes_what_a_local_run_writes(asc, tmp_path):
     with h5py.File(local) as a, h5py.File(remote) as b:
         for name in ("grid/height", "curvature/mean", "classes/grid", "overview/classes", "overview/curvature"):
             np.testing.assert_array_equal(a[name][()], b[name][()], err_msg=name)
+
+
+def test_a_task_of_fine_posts_is_the_local_tile(tmp_path):
+    """Posts 1 cm apart (the classes on one post in 5): a task reads and classifies as a local tile."""
+    rng = np.random.default_rng(8)
+    z = 30 + np.cumsum(rng.normal(0, 0.003, (33, 29)), axis=0)
+    path = str(write_asc(tmp_path / "f.asc", z, cellsize=0.01, xll=500_000.0, yll=4_200_000.0))
+    spec = ("esri_ascii", path, None, None, None, None)
+    dem = open_source(*spec)
+    local = []
+    classify_grid_tiles(dem.read, dem.grid, "grid", T72.track_length, default_thresholds(T72), tile=16,
+                        on_tile=local.append)
+    for t in local:
+        core = (t.r0, t.r0 + t.height.shape[0], t.c0, t.c0 + t.height.shape[1])
+        task = cluster.tile_task(spec, core, dem.grid, "grid", T72.track_length, default_thresholds(T72))
+        for name in ("height", "mean", "footprint", "classes", "area_by_class"):
+            np.testing.assert_array_equal(getattr(task, name), getattr(t, name), err_msg=name)
