@@ -65,3 +65,11 @@ def test_the_grids_it_refuses(tmp_path):
                      str(tmp_path / "a.h5"))
     with pytest.raises(InputError, match="a 1 x 6 grid has no cells"):
         classify_dem(ArrayDem(np.zeros((1, 6)), PostGrid(1, 6), DemSourceInfo("line", "asc")), str(tmp_path / "b.h5"))
+
+
+def test_posts_closer_than_a_micrometre_are_bad_input(tmp_path):
+    """Any DEM, not only a heightmap: posts 1e-9 m apart (a unit slip) are one line, nothing written."""
+    dem = ArrayDem(np.ones((5, 5)), PostGrid(5, 5, dx=1e-9, dy=1e-9), DemSourceInfo("tiny.tif", "GTiff"))
+    with pytest.raises(InputError, match=r"^tiny.tif: posts 1e-09 m apart are closer than 1e-06 m"):
+        classify_dem(dem, str(tmp_path / "t.h5"))
+    assert not (tmp_path / "t.h5").exists()
