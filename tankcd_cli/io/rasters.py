@@ -607,7 +607,11 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
     else:
         source = _warped(ds, name, src_crs, dst, common, keep, scale)
     if crs is not None:
-        _warn_of_chosen_scale(source.grid, crs, name)
+        try:
+            _warn_of_chosen_scale(source.grid, crs, name)
+        except BaseException:  # --strict: the warning is an error; the warp goes with the source
+            source.close()
+            raise
     return source
 
 
