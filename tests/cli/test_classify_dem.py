@@ -249,3 +249,23 @@ def test_a_damaged_tile_is_exit_3_not_wrong_ground(run, tmp_path):
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "damaged" in lines[0] and str(store) in lines[0]
     assert not (tmp_path / "p.csv").exists()
+
+
+def test_a_web_mercator_dem_warns_is_reprojected_and_info_shows_the_scale(run, tmp_path):
+    """classify says the scale in one warning line; --strict refuses; info shows the source's point
+    scale (--crs choosing without a word: test_rasters)."""
+    from tests.io.test_rasters import _write_ramps
+
+    _write_ramps(tmp_path)
+    res = run("classify", "ramp_3857.tif", "-o", "m.h5")
+    assert res.exit_code == 0, res.stderr
+    warnings_said = [line for line in res.stderr.splitlines() if "warning" in line]
+    assert warnings_said == ["tankcd: warning: ramp_3857.tif: EPSG:3857 metres are 0.50 ground metres here (point "
+                             "scale 2.00 at the centre): reprojected to EPSG:32633; give --crs to choose another"]
+    facts = json.loads(run("info", "m.h5", "--json").stdout)
+    assert facts["crs"] == "WGS 84 / UTM zone 33N" and facts["reprojected_from"] == "WGS 84 / Pseudo-Mercator"
+    assert facts["source_point_scale"]["centre"] == pytest.approx(2.0, rel=2e-3)
+    assert facts["post_spacing"] == [1.0, 1.0]
+    strict = run("classify", "ramp_3857.tif", "-o", "s.h5", "--strict")
+    assert strict.exit_code == 3 and "EPSG:3857 metres are 0.50 ground metres" in strict.stderr
+    assert not os.path.exists(tmp_path / "s.h5")
