@@ -41,9 +41,9 @@ def _lattice(n: int, block: int, size: int, count: int) -> list[tuple[int, int]]
     for k in range(count):
         centre = int((k + 0.5) * n / count)
         start = (centre // block) * block
-        end = min(start + block, n)
-        a = min(max(centre - size // 2, start), end - size)
-        out.append((max(a, 0), max(a, 0) + size))
+        end = min(start + block, n)  # the last block may be short: the window keeps inside it
+        a = max(start, min(centre - size // 2, end - size))
+        out.append((a, min(a + size, end)))
     return sorted(set(out))
 
 
@@ -143,7 +143,7 @@ def _raster_facts(path, ds, Window, crs_name) -> dict:
     values, every = sampled(read, rows, cols, block)
     facts.update(_sample_facts(values, every))
     facts["file_bytes"] = os.path.getsize(path)
-    return {k: v for k, v in facts.items() if v is not None or k == "nodata_value"}
+    return {k: v for k, v in facts.items() if v is not None or k in ("nodata_value", "extent_z")}
 
 
 def _point_scale(crs, x: float, y: float) -> dict | None:
