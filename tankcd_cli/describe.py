@@ -1,7 +1,7 @@
 """A plain summary of any file tankcd reads or writes, for ``tankcd info``: a terrain store, a
 tree, a scene, a trajectory, a raw terrain (``describe_terrain``: a DEM, a heightmap, a mesh) and
-replay's outputs (``describe_outputs``: events, Parquet poses and events, a replay summary,
-fleet.json).
+replay's outputs (``describe_outputs``: events, poses CSV, Parquet poses and events, a replay
+summary, fleet.json).
 
 What a file is comes from its content where its name does not decide: an HDF5 store or tree by its
 signature and attributes, Parquet by its magic number and its ``tankcd.table``, JSON by the keys of
@@ -23,8 +23,8 @@ from tankcd_cli.errors import InputError
 
 
 WHAT_INFO_DESCRIBES = ("not a file tankcd reads or writes: not a terrain store, a tree, a scene, a trajectory "
-                       "(CSV, GPX, DIS capture), a DEM, a heightmap, a terrain mesh, events, Parquet poses or "
-                       "events, a replay summary or fleet.json")
+                       "(CSV, GPX, DIS capture), a DEM, a heightmap, a terrain mesh, events, poses, Parquet "
+                       "poses or events, a replay summary or fleet.json")
 
 
 def describe_store(path: str, scene: str | None = None) -> dict:
@@ -101,9 +101,13 @@ def _describe_other(path: str, scene: str | None) -> dict:
         return outputs.describe_parquet(path)
     if path.lower().endswith(".toml"):
         return describe_scene(path)
+    if os.path.getsize(path) == 0:
+        raise InputError(path, "file is empty")
     kind = outputs.json_kind(path)
     if kind is not None:
         return outputs.describe_json(path, kind)
+    if outputs.is_poses_csv(path):  # what replay writes, not a trajectory to read
+        return outputs.describe_poses_csv(path)
     from tankcd_cli.io.trajectory import trajectory_format
 
     if trajectory_format(path) != "csv":  # the trajectory reader knows it (GPX, a capture)

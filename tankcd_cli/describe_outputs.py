@@ -196,6 +196,61 @@ def describe_events_jsonl(path: str) -> dict:
     return {"file": path, "kind": "events", "format": "JSON Lines", **tally.facts()}
 
 
+# --- poses CSV ----------------------------------------------------------------------------------------
+
+def is_poses_csv(path: str) -> bool:
+    """Whether the file starts with the poses CSV's header (``io.poses_csv.header``, with or without
+    ``entity``)."""
+    from tankcd_cli.io.poses_csv import header
+
+    first = _first_line(path)
+    return first is not None and first.rstrip("\r\n") in (header(False).rstrip("\n"), header(True).rstrip("\n"))
+
+
+def describe_poses_csv(path: str) -> dict:
+    """A poses CSV (``replay --poses``), read line by line: rows, the step and time span, rows per
+    status and per entity. A row without the header's columns is an InputError naming its line."""
+    tally_status: Counter = Counter()
+    tally_entity: Counter = Counter()
+    rows = 0
+    t = [math.inf, -math.inf]
+    step = [None, None]
+    try:
+        with open(path, encoding="utf-8-sig") as fh:
+            names = fh.readline().rstrip("\r\n").split(",")
+            width, has_entity = len(names), "entity" in names
+            k_step, k_t = names.index("step"), names.index("t")
+            for number, line in enumerate(fh, 2):
+                cells = line.rstrip("\r\n").split(",")
+                if len(cells) != width:
+                    if not line.strip():
+                        continue
+                    raise InputError(path, f"expected {width} columns as in the header, found {len(cells)}",
+                                     where=f"line {number}")
+                rows += 1
+                tally_status[cells[-1]] += 1
+                if has_entity:
+                    tally_entity[cells[1]] += 1
+                try:
+                    s = int(cells[k_step])
+                    v = float(cells[k_t]) if cells[k_t] else math.nan
+                except ValueError:
+                    raise InputError(path, f"step {cells[k_step]!r} or t {cells[k_t]!r} is not a number",
+                                     where=f"line {number}") from None
+                step[0] = s if step[0] is None else step[0]
+                step[1] = s
+                if math.isfinite(v):
+                    t[0], t[1] = min(t[0], v), max(t[1], v)
+    except UnicodeDecodeError:
+        raise InputError(path, "not UTF-8 text") from None
+    except OSError as exc:
+        raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
+    return {"file": path, "kind": "poses (CSV)", "rows": rows, "columns": names,
+            "step_first": step[0], "step_last": step[1], "t_first": _time(t[0]), "t_last": _time(t[1]),
+            "status": dict(sorted(tally_status.items())),
+            **({"entities": dict(sorted(tally_entity.items()))} if has_entity else {})}
+
+
 # --- Parquet --------------------------------------------------------------------------------------
 
 _WKT_NAME = re.compile(r'^\s*[A-Za-z_0-9]+\[\s*"([^"]*)"')

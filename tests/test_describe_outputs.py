@@ -28,7 +28,8 @@ def replayed(tmp_path_factory):
     from tankcd_cli import api
 
     out = tmp_path_factory.mktemp("outputs")
-    summary = api.replay_to_files(str(TRAJECTORY), None, str(out / "events.jsonl"), scene=str(SAMPLE / "scene.toml"))
+    summary = api.replay_to_files(str(TRAJECTORY), str(out / "poses.csv"), str(out / "events.jsonl"),
+                                  scene=str(SAMPLE / "scene.toml"))
     (out / "summary.json").write_text(json.dumps(summary.as_dict(), indent=2) + "\n")
     bad = out / "bad.csv"
     bad.write_text("t,x,y,yaw_deg\n0,500010,4500080,0\n1,oops,4500080,0\n")
@@ -86,6 +87,26 @@ def test_parquet_poses_rows_span_and_statuses(replayed):
     assert facts["t_first"] == min(t) and facts["t_last"] == max(t)
     assert facts["status"] == dict(Counter(table.column("status").to_pylist()))
     assert sum(facts["status"].values()) == summary.rows
+
+
+def test_a_poses_csv_says_what_its_parquet_says(replayed, tmp_path):
+    from tankcd_cli.io.poses_csv import header
+
+    out, summary, _ = replayed
+    facts = describe_store(str(out / "poses.csv"))
+    parquet = describe_store(str(out / "poses.parquet"))
+    assert facts["kind"] == "poses (CSV)" and facts["rows"] == summary.rows
+    for key in ("rows", "columns", "step_first", "step_last", "t_first", "t_last", "status"):
+        assert facts[key] == parquet[key], key
+    rows = "".join(f"{k},{name},{0.5 * k:.6f}" + ",0" * 10 + ",flat,two_point,,," + status + "\n"
+                   for k, (name, status) in enumerate([("T-72 4", "ok"), ("bravo", "off"), ("T-72 4", "ok")]))
+    (tmp_path / "exercise.csv").write_text(header(entity=True) + rows)
+    facts = describe_store(str(tmp_path / "exercise.csv"))
+    assert facts["entities"] == {"T-72 4": 2, "bravo": 1} and facts["status"] == {"ok": 2, "off": 1}
+    assert (facts["step_first"], facts["step_last"], facts["t_first"], facts["t_last"]) == (0, 2, 0.0, 1.0)
+    (tmp_path / "cut.csv").write_text(header() + "0,0.000000,1,2\n")
+    with pytest.raises(InputError, match="cut.csv: line 2: expected 17 columns as in the header, found 4"):
+        describe_store(str(tmp_path / "cut.csv"))
 
 
 def test_a_replay_summary_shows_its_fields_and_warnings(replayed, tmp_path):
