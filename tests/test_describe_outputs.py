@@ -101,6 +101,10 @@ def test_a_poses_csv_says_what_its_parquet_says(replayed, tmp_path):
     rows = "".join(f"{k},{name},{0.5 * k:.6f}" + ",0" * 10 + ",flat,two_point,,," + status + "\n"
                    for k, (name, status) in enumerate([("T-72 4", "ok"), ("bravo", "off"), ("T-72 4", "ok")]))
     (tmp_path / "exercise.csv").write_text(header(entity=True) + rows)
+    from tankcd_cli.describe_outputs import _poses_csv_by_arrow, _poses_csv_by_lines
+
+    for path in (out / "poses.csv", tmp_path / "exercise.csv"):  # pyarrow's reader and the line reader agree
+        assert _poses_csv_by_arrow(str(path)) == _poses_csv_by_lines(str(path)) == describe_store(str(path))
     facts = describe_store(str(tmp_path / "exercise.csv"))
     assert facts["entities"] == {"T-72 4": 2, "bravo": 1} and facts["status"] == {"ok": 2, "off": 1}
     assert (facts["step_first"], facts["step_last"], facts["t_first"], facts["t_last"]) == (0, 2, 0.0, 1.0)
@@ -203,8 +207,10 @@ def test_jsonl_and_parquet_counts_are_the_events_counted(counts_dir, evts):
         w.write_events([{"step": s, "t": t, "kind": k, "a": a, "b": b, **x} for s, t, k, a, b, x in evts])
     kinds, obstacles, parts, entities = _count(evts)
     times = [round(t, 6) for _, t, *_ in evts if t is not None]
-    for path in ("e.jsonl", "e.parquet"):
-        facts = describe_store(str(out / path))
+    from tankcd_cli.describe_outputs import _events_jsonl_by_arrow, _events_jsonl_by_lines
+
+    for facts in [describe_store(str(out / "e.parquet")), _events_jsonl_by_lines(str(out / "e.jsonl")),
+                  _events_jsonl_by_arrow(str(out / "e.jsonl"))]:
         assert facts["events"] == len(evts) and facts["by_kind"] == dict(kinds)
         assert facts["between"] == sum(1 for *_, x in evts if x.get("between"))
         assert (facts["obstacles"], facts["parts"], facts["entities"]) == (dict(obstacles), dict(parts), dict(entities))
@@ -230,6 +236,12 @@ def test_json_kinds_by_their_keys(tmp_path):
     (tmp_path / "mixed.jsonl").write_text('{"step":1,"t":0,"kind":"terrain","a":"hull","b":"terrain"}\n{"x":1}\n')
     with pytest.raises(InputError, match=r"mixed.jsonl: line 2: not an event"):
         describe_store(str(tmp_path / "mixed.jsonl"))
+    good = '{"step":1,"t":0.5,"kind":"terrain","a":"hull","b":"terrain"}\n'
+    (tmp_path / "blank.jsonl").write_text(good + "\n" + good)  # a blank line: read line by line, the same counts
+    assert describe_store(str(tmp_path / "blank.jsonl"))["by_kind"] == {"terrain": 2}
+    (tmp_path / "two.jsonl").write_text(good + good.strip() + good)  # two objects on one line: not JSON Lines
+    with pytest.raises(InputError, match=r"two.jsonl: line 2: not JSON: Extra data"):
+        describe_store(str(tmp_path / "two.jsonl"))
     (tmp_path / "cut.json").write_text('{\n  "trajectories": 1,\n')
     with pytest.raises(InputError, match=r"cut.json: line \d+: not valid JSON"):
         describe_store(str(tmp_path / "cut.json"))
