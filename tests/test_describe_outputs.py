@@ -247,6 +247,20 @@ def test_json_kinds_by_their_keys(tmp_path):
         describe_store(str(tmp_path / "cut.json"))
 
 
+def test_parquet_metadata_names_the_crs_and_shows_keys_it_does_not_know(tmp_path):
+    from pyproj import CRS
+
+    from tankcd_cli.io.parquet import EventsParquetWriter, output_metadata
+
+    meta = output_metadata(CRS.from_epsg(32633).to_wkt(), [], table="events", time_origin="2026-01-02T10:00:00Z")
+    with EventsParquetWriter(str(tmp_path / "e.parquet"), meta) as w:
+        w.write_events([{"step": 0, "t": 0.0, "kind": "terrain", "a": "hull", "b": "terrain", "depth": 0.02}])
+    facts = describe_store(str(tmp_path / "e.parquet"))
+    assert facts["crs"] == "WGS 84 / UTM zone 33N" and facts["crs_wkt"].startswith("PROJCRS[")
+    assert facts["time_origin"] == "2026-01-02T10:00:00Z" and facts["sources"] == []
+    assert facts["by_kind"] == {"terrain": 1} and facts["rows"] == 1
+
+
 def test_a_parquet_file_not_of_tankcd_is_refused(tmp_path):
     import pyarrow as pa
     import pyarrow.parquet as pq

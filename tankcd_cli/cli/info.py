@@ -80,6 +80,8 @@ def _lines(facts: dict, indent: str = "") -> list[str]:
     objects and lists of objects (obstacles) as indented blocks."""
     out = []
     for key, value in facts.items():
+        if key in JSON_ONLY:
+            continue
         label = f"{indent}{_label(key)}:"
         if isinstance(value, dict) and key in NAMED and len(_fmt(value, key)) > INLINE:
             out.append(label)  # many names (entities): one a line, spelled as the file has them
@@ -105,6 +107,7 @@ def _lines(facts: dict, indent: str = "") -> list[str]:
 
 
 # what a null fact means, in the text output
+JSON_ONLY = {"crs_wkt"}  # facts too long for a line of text (the text names the CRS)
 # dicts keyed by the file's own names (obstacles, parts, entities), shown as they are spelled
 NAMED = {"obstacles", "parts", "entities", "status", "channels"}
 ITEM_LABELS = ("name", "trajectory", "role")  # what labels an item of a list of objects, the first it has
