@@ -104,7 +104,7 @@ def _describe_other(path: str, scene: str | None) -> dict:
     if os.path.getsize(path) == 0:
         raise InputError(path, "file is empty")
     kind = outputs.json_kind(path)
-    if kind is not None:
+    if kind in ("events", "summary", "fleet"):
         return outputs.describe_json(path, kind)
     if outputs.is_poses_csv(path):  # what replay writes, not a trajectory to read
         return outputs.describe_poses_csv(path)
@@ -118,6 +118,8 @@ def _describe_other(path: str, scene: str | None) -> dict:
 
         return {"raster": describe_terrain.describe_raster, "esri_ascii": describe_terrain.describe_raster,
                 "heightmap": describe_terrain.describe_heightmap, "mesh": describe_terrain.describe_mesh}[terrain](path)
+    if kind == "json":  # JSON, and no mesh either (a glTF is JSON too)
+        return outputs.describe_json(path, kind)
     try:  # what is left is a CSV to the trajectory reader
         return describe_trajectory(path, scene)
     except InputError:

@@ -28,9 +28,9 @@ WINDOW = 64
 
 
 def _classify_hint(path: str, extra: str = "") -> str:
-    stem = os.path.splitext(os.path.basename(path))[0]
-    return (f"not classified: a raw terrain, not a store; tankcd classify {os.path.basename(path)}{extra} -o "
-            f"{stem}.h5 makes one (replay classifies it on the fly)")
+    """That the file is no store, and the command that makes one (where ``--cache`` keeps it)."""
+    return (f"not classified: a raw terrain, not a store; tankcd classify {path}{extra} -o "
+            f"{os.path.splitext(path)[0]}.h5 makes one (replay classifies it on the fly)")
 
 
 def _lattice(n: int, block: int, size: int, count: int) -> list[tuple[int, int]]:

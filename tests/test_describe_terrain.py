@@ -35,7 +35,7 @@ def test_a_geotiff_says_its_grid_crs_and_nodata_share(tmp_path):
     before = sorted(os.listdir(tmp_path))
     facts = describe_store(str(path))
     assert sorted(os.listdir(tmp_path)) == before  # no store, no cache beside it
-    assert facts["kind"] == "DEM raster" and facts["format"] == "GTiff" and "tankcd classify utm.tif" in facts["store"]
+    assert facts["kind"] == "DEM raster" and facts["format"] == "GTiff" and f"tankcd classify {path} -o {tmp_path / 'utm.h5'}" in facts["store"]
     assert facts["crs"] == "WGS 84 / UTM zone 33N" and facts["crs_units"] == "metre"
     assert facts["grid_posts"] == {"rows": 40, "columns": 50} and facts["posts"] == 2000
     assert facts["post_spacing"] == [2.0, 2.0]
@@ -154,6 +154,17 @@ def test_a_mesh_says_its_counts_bounds_and_parts(tmp_path):
     assert facts["vertices"] == 7 and facts["faces"] == 3
     assert facts["extent_x"] == [0.0, 30.0] and facts["extent_y"] == [0.0, 5.0] and facts["extent_z"] == [-2.0, 3.0]
     assert facts["parts"] == {"ridge": 2, "gully": 1} and len(facts["sha256"]) == 64
+
+
+def test_a_gltf_is_a_mesh_though_it_is_json(tmp_path):
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices=[[0, 0, 0], [4, 0, 0], [0, 0, -3]], faces=[[0, 1, 2]])  # y-up: z -> -y
+    trimesh.Scene(mesh).export(str(tmp_path / "ground.gltf"), file_type="gltf", embed_buffers=True)
+    assert (tmp_path / "ground.gltf").read_bytes().lstrip().startswith(b"{")
+    facts = describe_store(str(tmp_path / "ground.gltf"))
+    assert facts["kind"] == "terrain mesh" and facts["up_applied"] == "y" and facts["faces"] == 1
+    assert facts["extent_y"] == pytest.approx([0.0, 3.0])  # y-up turned z-up: the file's -z is north
 
 
 def test_a_damaged_raster_is_one_line(tmp_path):
