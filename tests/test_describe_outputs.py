@@ -196,7 +196,7 @@ def counts_dir(tmp_path_factory):
     return tmp_path_factory.mktemp("counts")
 
 
-@settings(max_examples=15, deadline=None)
+@settings(max_examples=10, deadline=None)
 @given(evts=events())
 def test_jsonl_and_parquet_counts_are_the_events_counted(counts_dir, evts):
     from tankcd_cli.io.parquet import EventsParquetWriter
