@@ -108,16 +108,18 @@ def _describe_other(path: str, scene: str | None) -> dict:
         return outputs.describe_json(path, kind)
     if outputs.is_poses_csv(path):  # what replay writes, not a trajectory to read
         return outputs.describe_poses_csv(path)
-    from tankcd_cli.io.trajectory import trajectory_format
-
-    if trajectory_format(path) != "csv":  # the trajectory reader knows it (GPX, a capture)
-        return describe_trajectory(path, scene)
+    # a terrain first: its readers go by a suffix of their own or by magic bytes, where the trajectory
+    # reader takes any XML for GPX (a VRT mosaic, a Collada or XDMF mesh are XML too)
     terrain = _raw_terrain_kind(path)
     if terrain is not None:
         from tankcd_cli import describe_terrain
 
         return {"raster": describe_terrain.describe_raster, "esri_ascii": describe_terrain.describe_raster,
                 "heightmap": describe_terrain.describe_heightmap, "mesh": describe_terrain.describe_mesh}[terrain](path)
+    from tankcd_cli.io.trajectory import trajectory_format
+
+    if trajectory_format(path) != "csv":  # the trajectory reader knows it (GPX, a capture)
+        return describe_trajectory(path, scene)
     if kind == "json":  # JSON, and no mesh either (a glTF is JSON too)
         return outputs.describe_json(path, kind)
     try:  # what is left is a CSV to the trajectory reader

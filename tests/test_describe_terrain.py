@@ -171,3 +171,17 @@ def test_a_damaged_raster_is_one_line(tmp_path):
     (tmp_path / "cut.tif").write_bytes(b"II*\x00" + b"\x00" * 12)
     with pytest.raises(InputError, match="cut.tif: not a raster GDAL can read"):
         describe_store(str(tmp_path / "cut.tif"))
+
+
+def test_an_xml_raster_is_a_dem_not_a_gpx_track(tmp_path):
+    """A VRT is XML, which the trajectory reader takes for GPX by its first byte: the terrain readers'
+    own magic (<VRTDataset) decides first, with the suffix or without it."""
+    write_tif(tmp_path / "tile.tif", np.full((10, 12), 7.0, dtype="float32"), "EPSG:32633", 500_000.0, 4_500_000.0, 5.0)
+    vrt = ('<VRTDataset rasterXSize="12" rasterYSize="10"><SRS>EPSG:32633</SRS>'
+           '<GeoTransform>500000, 5, 0, 4500000, 0, -5</GeoTransform><VRTRasterBand dataType="Float32" band="1">'
+           '<SimpleSource><SourceFilename relativeToVRT="1">tile.tif</SourceFilename><SourceBand>1</SourceBand>'
+           '</SimpleSource></VRTRasterBand></VRTDataset>\n')
+    for name in ("mosaic.vrt", "mosaic"):
+        (tmp_path / name).write_text(vrt)
+        facts = describe_store(str(tmp_path / name))
+        assert facts["kind"] == "DEM raster" and facts["format"] == "VRT" and facts["extent_z"] == [7.0, 7.0]
