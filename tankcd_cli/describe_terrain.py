@@ -127,7 +127,7 @@ def _raster_facts(path, ds, Window, crs_name) -> dict:
         factor = 1.0 if crs is None else float(crs.linear_units_factor[1])
         facts["size_km"] = [round((xs[1] - xs[0]) * factor / 1000, 3), round((ys[1] - ys[0]) * factor / 1000, 3)]
     if crs is not None and crs.is_projected:
-        facts["point_scale_at_centre"] = _point_scale(crs, (xs[0] + xs[1]) / 2, (ys[0] + ys[1]) / 2)
+        facts["point_scale"] = _point_scale(crs, (xs[0], ys[0], xs[1], ys[1]))
     block = tuple(int(v) for v in ds.block_shapes[0])
     facts["tile_posts"] = {"rows": block[0], "columns": block[1]}
     if ds.count > 1:
@@ -146,22 +146,32 @@ def _raster_facts(path, ds, Window, crs_name) -> dict:
     return {k: v for k, v in facts.items() if v is not None or k in ("nodata_value", "extent_z")}
 
 
-def _point_scale(crs, x: float, y: float) -> dict | None:
-    """The projection's scale at (x, y) (pyproj's factors): a ground metre is this many CRS metres,
-    along the meridian and the parallel (1 for a true metric grid; about 2 for Web Mercator at
-    60 deg). None where pyproj cannot say."""
+def _point_scale(crs, bounds: tuple[float, float, float, float]) -> dict | None:
+    """A projected CRS's point scale (its metres over ground metres, pyproj's factors) over the
+    posts' ``bounds`` (west, south, east, north): ``centre`` (the square root of the areal scale at
+    the centre), ``range`` (the least and greatest meridional or parallel scale at the centre, the
+    corners and the edges' midpoints), ``ground_metres_per_crs_metre`` (1 / centre). 1 for a true
+    metric grid; about 2 for Web Mercator at 60 deg. None where pyproj cannot say. The same
+    figures a store records of its source (``source_point_scale``, docs/formats.md)."""
     try:
         from pyproj import CRS, Proj, Transformer
 
         src = CRS.from_wkt(crs.to_wkt())
-        lon, lat = Transformer.from_crs(src, src.geodetic_crs, always_xy=True).transform(x, y)
-        f = Proj(src).get_factors(lon, lat)
-        values = [float(f.meridional_scale), float(f.parallel_scale)]
-    except Exception:  # noqa: BLE001 - a CRS pyproj cannot invert: the fact is left out
+        west, south, east, north = bounds
+        mx, my = (west + east) / 2, (south + north) / 2
+        xs = np.array([mx, west, east, east, west, mx, east, mx, west])
+        ys = np.array([my, south, south, north, north, south, my, north, my])
+        lon, lat = Transformer.from_crs(src, src.geodetic_crs, always_xy=True).transform(xs, ys)
+        f = Proj(src).get_factors(np.asarray(lon, dtype=float), np.asarray(lat, dtype=float))
+        both = np.concatenate([np.asarray(f.meridional_scale, dtype=float), np.asarray(f.parallel_scale, dtype=float)])
+        areal = float(np.asarray(f.areal_scale, dtype=float)[0])
+    except Exception:  # noqa: BLE001 - pyproj's errors vary by version: the fact is left out
         return None
-    if not all(math.isfinite(v) for v in values):
+    if not (np.isfinite(both).all() and (both > 0).all() and math.isfinite(areal) and areal > 0):
         return None
-    return {"meridional": round(values[0], 6), "parallel": round(values[1], 6)}
+    centre = math.sqrt(areal)
+    return {"centre": round(centre, 6), "range": [round(float(both.min()), 6), round(float(both.max()), 6)],
+            "ground_metres_per_crs_metre": round(1 / centre, 6)}
 
 
 # --- a heightmap ----------------------------------------------------------------------------------

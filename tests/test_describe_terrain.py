@@ -45,9 +45,11 @@ def test_a_geotiff_says_its_grid_crs_and_nodata_share(tmp_path):
     assert facts["nodata_fraction"] == 40 / 2000 and facts["nodata_value"] == -9999.0
     valid = z[z != -9999.0]
     assert facts["extent_z"] == [float(valid.min()), float(valid.max())]
-    # on the zone's central meridian a transverse Mercator's scale is its k0, 0.9996; near it, k0 / cos(angle)
-    scale = facts["point_scale_at_centre"]
-    assert scale["meridional"] == pytest.approx(0.9996, abs=1e-6) and scale["parallel"] == pytest.approx(0.9996, abs=1e-6)
+    # on the zone's central meridian (x = 500 km) a transverse Mercator's scale is its k0, 0.9996, and
+    # k0 (1 + (dx / R)^2 / 2) a little off it: 98 m east, within 1e-9
+    scale = facts["point_scale"]
+    assert scale["centre"] == pytest.approx(0.9996, abs=1e-6) and scale["range"] == pytest.approx([0.9996] * 2, abs=1e-6)
+    assert scale["ground_metres_per_crs_metre"] == pytest.approx(1 / 0.9996, abs=1e-6)
 
 
 def test_web_mercator_says_its_point_scale(tmp_path):
@@ -56,9 +58,12 @@ def test_web_mercator_says_its_point_scale(tmp_path):
     z = np.full((20, 20), 50.0, dtype="float32")
     path = write_tif(tmp_path / "web.tif", z, "EPSG:3857", 1_000_000.0, y + 10 * 30.0 + 15.0, 30.0)
     facts = describe_store(str(path))
-    scale = facts["point_scale_at_centre"]  # 1 / cos(latitude): a ground metre is two CRS metres at 60 N
-    assert scale["meridional"] == pytest.approx(1 / math.cos(math.radians(lat)), rel=1e-3)
-    assert scale["parallel"] == pytest.approx(1 / math.cos(math.radians(lat)), rel=1e-3)
+    scale = facts["point_scale"]  # Mercator's scale is 1 / cos(latitude): two CRS metres a ground metre at 60 N
+    assert scale["centre"] == pytest.approx(1 / math.cos(math.radians(lat)), rel=1e-3)
+    # over the extent it runs from the south edge's secant to the north edge's (the sphere's inverse Mercator)
+    ys = facts["extent_y"]
+    secant = [1 / math.cos(2 * math.atan(math.exp(v / 6378137.0)) - math.pi / 2) for v in ys]
+    assert scale["range"] == pytest.approx(secant, abs=2e-6)
 
 
 def test_a_geographic_raster_keeps_its_degrees(tmp_path):
@@ -66,7 +71,7 @@ def test_a_geographic_raster_keeps_its_degrees(tmp_path):
     facts = describe_store(str(write_tif(tmp_path / "geo.tif", z, "EPSG:4326", 6.0, 46.0, 1 / 3600)))
     assert facts["crs"] == "WGS 84" and facts["crs_units"] == "degree"
     assert facts["post_spacing"] == pytest.approx([1 / 3600, 1 / 3600])
-    assert "size_km" not in facts and "point_scale_at_centre" not in facts
+    assert "size_km" not in facts and "point_scale" not in facts
     assert facts["nodata_value"] is None and facts["nodata_fraction"] == 0.0
 
 
