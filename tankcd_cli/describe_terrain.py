@@ -238,7 +238,8 @@ def _raw_facts(path: str, kind: str) -> dict:
     if nbytes == 0:
         raise InputError(path, "file is empty")
     dtype = np.dtype(RAW_TYPES[kind])
-    facts = {"file": path, "kind": "heightmap", "format": f"RAW (.{kind})", "store": _classify_hint(path, " --spacing M")}
+    facts = {"file": path, "kind": "heightmap", "format": f"RAW (.{kind})",
+             "store": _classify_hint(path, " --spacing M")}
     try:
         cols, rows, dtype = _raw_shape(path, kind, nbytes, dtype, None)
     except InputError as exc:

@@ -35,12 +35,14 @@ def test_a_geotiff_says_its_grid_crs_and_nodata_share(tmp_path):
     before = sorted(os.listdir(tmp_path))
     facts = describe_store(str(path))
     assert sorted(os.listdir(tmp_path)) == before  # no store, no cache beside it
-    assert facts["kind"] == "DEM raster" and facts["format"] == "GTiff" and f"tankcd classify {path} -o {tmp_path / 'utm.h5'}" in facts["store"]
+    assert facts["kind"] == "DEM raster" and facts["format"] == "GTiff"
+    assert f"tankcd classify {path} -o {tmp_path / 'utm.h5'}" in facts["store"]
     assert facts["crs"] == "WGS 84 / UTM zone 33N" and facts["crs_units"] == "metre"
     assert facts["grid_posts"] == {"rows": 40, "columns": 50} and facts["posts"] == 2000
     assert facts["post_spacing"] == [2.0, 2.0]
     assert facts["north_west_post"] == [500_001.0, 4_499_999.0]  # the pixel's centre
-    assert facts["extent_x"] == [500_001.0, 500_001.0 + 49 * 2] and facts["extent_y"] == [4_499_999.0 - 39 * 2, 4_499_999.0]
+    assert facts["extent_x"] == [500_001.0, 500_001.0 + 49 * 2]
+    assert facts["extent_y"] == [4_499_999.0 - 39 * 2, 4_499_999.0]
     assert facts["every_post"] and facts["sampled_posts"] == 2000
     assert facts["nodata_fraction"] == 40 / 2000 and facts["nodata_value"] == -9999.0
     valid = z[z != -9999.0]
@@ -48,7 +50,8 @@ def test_a_geotiff_says_its_grid_crs_and_nodata_share(tmp_path):
     # on the zone's central meridian (x = 500 km) a transverse Mercator's scale is its k0, 0.9996, and
     # k0 (1 + (dx / R)^2 / 2) a little off it: 98 m east, within 1e-9
     scale = facts["point_scale"]
-    assert scale["centre"] == pytest.approx(0.9996, abs=1e-6) and scale["range"] == pytest.approx([0.9996] * 2, abs=1e-6)
+    assert scale["centre"] == pytest.approx(0.9996, abs=1e-6)
+    assert scale["range"] == pytest.approx([0.9996] * 2, abs=1e-6)
     assert scale["ground_metres_per_crs_metre"] == pytest.approx(1 / 0.9996, abs=1e-6)
 
 
@@ -104,7 +107,8 @@ def test_a_large_raster_is_described_by_a_bounded_sample_quickly_and_nothing_is_
     assert sorted(os.listdir(tmp_path)) == before and os.listdir(tmp) == []
     assert seconds < 5.0  # reading every post takes minutes and 6.4 GB
     assert peak < 64 << 20
-    assert facts["grid_posts"] == {"rows": rows, "columns": cols} and facts["tile_posts"] == {"rows": 256, "columns": 256}
+    assert facts["grid_posts"] == {"rows": rows, "columns": cols}
+    assert facts["tile_posts"] == {"rows": 256, "columns": 256}
     assert not facts["every_post"] and facts["sampled_posts"] <= SAMPLE_WINDOWS ** 2 * WINDOW ** 2
     assert facts["nodata_fraction"] == 1.0  # the lattice misses the one tile written: all NODATA
     assert facts["extent_z"] is None

@@ -111,7 +111,8 @@ JSON_ONLY = {"crs_wkt"}  # facts too long for a line of text (the text names the
 # dicts keyed by the file's own names (obstacles, parts, entities), shown as they are spelled
 NAMED = {"obstacles", "parts", "entities", "status", "channels"}
 ITEM_LABELS = ("name", "trajectory", "role")  # what labels an item of a list of objects, the first it has
-NONE_TEXT = {"up": "the format's convention", "on_terrain": "unknown (no terrain)", "time_origin": "none (relative times)",
+NONE_TEXT = {"up": "the format's convention", "on_terrain": "unknown (no terrain)",
+             "time_origin": "none (relative times)",
              "nodata_value": "none (every post a height)", "extent_z": "none (no heights read)",
              "mesh": "none (generated from the preset's dimensions)", "path": "none",
              "dem_grid_posts": "none (an irregular mesh)"}

@@ -187,16 +187,17 @@ def test_warnings_are_one_a_line(run, outputs, tmp_path):
     summary["warnings"] = ["patrol.csv: line 7: a warning long enough to stand on its own line", "terrain: another"]
     (tmp_path / "warned.json").write_text(json.dumps(summary))
     text = run("info", tmp_path / "warned.json").stdout
-    assert "\nwarnings:\n  - patrol.csv: line 7: a warning long enough to stand on its own line\n  - terrain: another\n" \
-        in text
+    assert ("\nwarnings:\n  - patrol.csv: line 7: a warning long enough to stand on its own line\n"
+            "  - terrain: another\n") in text
 
 
 def test_raw_terrains_text_and_json(run, tmp_path):
     lines = _text(run, SAMPLE / "battlefield.asc")
     assert lines["kind"] == "DEM raster" and lines["grid posts"] == "161 rows x 241 columns"
     assert lines["post spacing"] == "1 m (x) x 1 m (y)" and lines["nodata share"] == "0.0%"
-    assert lines["store"] == (f"not classified: a raw terrain, not a store; tankcd classify {SAMPLE / 'battlefield.asc'} "
-                              f"-o {SAMPLE / 'battlefield.h5'} makes one (replay classifies it on the fly)")
+    assert lines["store"] == ("not classified: a raw terrain, not a store; tankcd classify "
+                              f"{SAMPLE / 'battlefield.asc'} -o {SAMPLE / 'battlefield.h5'} makes one "
+                              "(replay classifies it on the fly)")
     facts = _json(run, SAMPLE / "battlefield.asc")
     assert facts["extent_x"] == [500000.0, 500240.0] and facts["every_post"] is True
     assert os.listdir(tmp_path) == []  # info wrote nothing (it runs in tmp_path)
