@@ -271,3 +271,18 @@ def test_a_parquet_file_not_of_tankcd_is_refused(tmp_path):
     (tmp_path / "cut.parquet").write_bytes(b"PAR1" + b"\0" * 20)
     with pytest.raises(InputError, match="cut.parquet: not a Parquet file pyarrow can read"):
         describe_store(str(tmp_path / "cut.parquet"))
+
+
+def test_parquet_poses_of_an_exercise_count_rows_per_entity(tmp_path):
+    import numpy as np
+
+    from tankcd_cli.io.parquet import ParquetTableWriter, pose_schema
+
+    entity = np.array(["T-72 4", "bravo", "T-72 4", "T-72 4"])
+    with ParquetTableWriter(str(tmp_path / "p.parquet"), pose_schema(True), {"tankcd.table": "poses"}) as w:
+        w.write({"step": np.arange(2), "t": np.array([0.0, 0.5]), "entity": entity[:2], "status": ["ok", "off"]})
+        w.write({"step": np.arange(2, 4), "t": np.array([1.0, np.nan]), "entity": entity[2:], "status": ["ok", "ok"]})
+    facts = describe_store(str(tmp_path / "p.parquet"))
+    assert facts["rows"] == 4 and facts["row_groups"] == 2
+    assert facts["entities"] == {"T-72 4": 3, "bravo": 1} and facts["status"] == {"off": 1, "ok": 3}
+    assert (facts["step_first"], facts["step_last"], facts["t_first"], facts["t_last"]) == (0, 3, 0.0, 1.0)
