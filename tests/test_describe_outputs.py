@@ -286,3 +286,10 @@ def test_parquet_poses_of_an_exercise_count_rows_per_entity(tmp_path):
     assert facts["rows"] == 4 and facts["row_groups"] == 2
     assert facts["entities"] == {"T-72 4": 3, "bravo": 1} and facts["status"] == {"off": 1, "ok": 3}
     assert (facts["step_first"], facts["step_last"], facts["t_first"], facts["t_last"]) == (0, 3, 0.0, 1.0)
+
+
+def test_the_api_describes_as_info_does(replayed):
+    from tankcd_cli import api
+
+    out, _, _ = replayed
+    assert api.describe(out / "events.jsonl") == describe_store(str(out / "events.jsonl"))
