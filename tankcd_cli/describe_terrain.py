@@ -232,7 +232,7 @@ def _png_facts(path: str) -> dict:
 
 
 def _raw_facts(path: str, kind: str) -> dict:
-    from tankcd_cli.io.heightmap import RAW_TYPES, _raw_shape
+    from tankcd_cli.io.heightmap import RAW_TYPES
 
     nbytes = os.path.getsize(path)
     if nbytes == 0:
@@ -240,12 +240,16 @@ def _raw_facts(path: str, kind: str) -> dict:
     dtype = np.dtype(RAW_TYPES[kind])
     facts = {"file": path, "kind": "heightmap", "format": f"RAW (.{kind})",
              "store": _classify_hint(path, " --spacing M")}
-    try:
-        cols, rows, dtype = _raw_shape(path, kind, nbytes, dtype, None)
-    except InputError as exc:
-        facts.update(values=np.dtype(dtype).name, bits=dtype.itemsize * 8,
-                     grid_posts=f"not square: {exc.what} (classify needs --size COLSxROWS)")
+    # as the RAW reader takes a file without --size: square, and a .raw 8-bit when only 8-bit posts fit
+    types = [dtype] + ([np.dtype("u1")] if kind == "raw" else [])
+    square = [(math.isqrt(nbytes // t.itemsize), t) for t in types if nbytes % t.itemsize == 0]
+    square = [(n, t) for n, t in square if n >= 2 and n * n * t.itemsize == nbytes]
+    if not square:
+        facts.update(values=dtype.name, bits=dtype.itemsize * 8,
+                     grid_posts=f"{nbytes:,} bytes: not a square of {dtype.itemsize * 8}-bit posts "
+                                "(classify needs --size COLSxROWS)")
         return facts
+    (cols, dtype), rows = square[0], square[0][0]
     facts.update(grid_posts={"rows": rows, "columns": cols}, posts=rows * cols,
                  grid_posts_from="the file's size, taken as a square (--size COLSxROWS says otherwise)",
                  values=np.dtype(dtype).name + (" little-endian" if dtype.itemsize > 1 else ""),

@@ -150,6 +150,9 @@ def test_a_raw_heightmap_square_or_not(tmp_path):
     (tmp_path / "odd.r16").write_bytes(np.zeros(6 * 4, dtype="<u2").tobytes())
     facts = describe_store(str(tmp_path / "odd.r16"))
     assert "--size COLSxROWS" in facts["grid_posts"] and "extent_value" not in facts
+    (tmp_path / "bytes.raw").write_bytes(bytes(range(9)))  # 9 bytes: only 3 x 3 8-bit posts fit, as the reader says
+    facts = describe_store(str(tmp_path / "bytes.raw"))
+    assert facts["grid_posts"] == {"rows": 3, "columns": 3} and facts["bits"] == 8 and facts["extent_value"] == [0, 8]
 
 
 def test_a_mesh_says_its_counts_bounds_and_parts(tmp_path):
