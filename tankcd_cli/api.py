@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 __all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
-           "replay_fleet", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks"]
+           "replay_fleet", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -496,3 +496,14 @@ def gun_envelope(vehicle="t72", azimuth_deg=None, method: str = "exact", resolut
         v = _as_vehicle(vehicle)
     az = np.arange(0.0, 360.0, 1.0) if azimuth_deg is None else np.atleast_1d(np.asarray(azimuth_deg, dtype=float))
     return elevation_envelope(v, az, resolution_deg=resolution_deg, method=method)
+
+
+def describe(path: str, scene: str | None = None) -> dict:
+    """What ``tankcd info PATH --json`` prints, as a dict of plain values: the facts of any file
+    tankcd reads or writes (a store, a tree, a scene, a trajectory, a raw terrain, never classified,
+    events, poses, Parquet, a replay summary, fleet.json; docs/formats.md, "info --json").
+    ``scene``: with a trajectory, which vehicle of that scene each entity is. A file that is none of
+    them is an InputError."""
+    from tankcd_cli.describe import describe_store
+
+    return describe_store(str(path), scene)

@@ -1,4 +1,12 @@
-"""A plain summary of a terrain store, a tree, a scene or a trajectory, for ``tankcd info``.
+"""A plain summary of any file tankcd reads or writes, for ``tankcd info``: a terrain store, a
+tree, a scene, a trajectory, a raw terrain (``describe_terrain``: a DEM, a heightmap, a mesh) and
+replay's outputs (``describe_outputs``: events, poses CSV, Parquet poses and events, a replay
+summary, fleet.json).
+
+What a file is comes from its content where its name does not decide: an HDF5 store or tree by its
+signature and attributes, Parquet by its magic number and its ``tankcd.table``, JSON by the keys of
+its first object, a trajectory by the trajectory reader's own detection
+(``io.trajectory.trajectory_format``), a terrain by the terrain readers' (``terrain.open.terrain_kind``).
 
 Facts are ordered dicts of plain values (numbers, strings, lists, nested dicts)
 with snake_case keys: ``info --json`` prints them as they are, the text output
@@ -14,12 +22,15 @@ import os
 from tankcd_cli.errors import InputError
 
 
-TRAJECTORY_SUFFIXES = (".csv", ".txt", ".gpx", ".pcap", ".pcapng", ".cap")
+WHAT_INFO_DESCRIBES = ("not a file tankcd reads or writes: not a terrain store, a tree, a scene, a trajectory "
+                       "(CSV, GPX, DIS capture), a DEM, a heightmap, a terrain mesh, events, poses, Parquet "
+                       "poses or events, a replay summary or fleet.json")
 
 
 def describe_store(path: str, scene: str | None = None) -> dict:
-    """Facts about a store, a tree, a scene or a trajectory as an ordered dict of plain values
-    (``scene``: with a trajectory, which vehicle of that scene each entity is)."""
+    """Facts about any file ``tankcd info`` describes (the module doc), as an ordered dict of
+    plain values (``scene``: with a trajectory, which vehicle of that scene each entity is). A
+    file that is none of them, or that its reader refuses, is an InputError (exit 3)."""
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
@@ -27,13 +38,10 @@ def describe_store(path: str, scene: str | None = None) -> dict:
 
     if not os.path.exists(path):
         raise InputError(path, "no such file")
+    if os.path.isdir(path):
+        raise InputError(path, "is a directory: info describes one file")
     if not is_hdf5(path):
-        if path.lower().endswith(".toml"):
-            return describe_scene(path)
-        if path.lower().endswith(TRAJECTORY_SUFFIXES):
-            return describe_trajectory(path, scene)
-        raise InputError(path, "not an HDF5 store, a scene or a trajectory (tankcd info describes stores, trees, "
-                               "scenes, trajectories, GPX tracks and DIS captures)")
+        return _describe_other(path, scene)
     with read_errors(path, "HDF5 file"):
         with h5py.File(path, "r") as h5:
             kind = h5.attrs.get("format")
@@ -82,6 +90,75 @@ def describe_store(path: str, scene: str | None = None) -> dict:
                          "unreferenced_vertices": a.get("unreferenced_vertices"),
                          "degenerate_faces": a.get("degenerate_faces"), "repeated_faces": a.get("repeated_faces")},
         }
+
+
+def _describe_other(path: str, scene: str | None) -> dict:
+    """Any file but an HDF5 one, by what its content (or, where the content cannot say, its
+    reader's suffix rules) says it is."""
+    from tankcd_cli import describe_outputs as outputs
+
+    if outputs.is_parquet_file(path):
+        return outputs.describe_parquet(path)
+    if path.lower().endswith(".toml"):
+        return describe_scene(path)
+    if os.path.getsize(path) == 0:
+        raise InputError(path, "file is empty")
+    kind = outputs.json_kind(path)
+    if kind in ("events", "summary", "fleet"):
+        return outputs.describe_json(path, kind)
+    if outputs.is_poses_csv(path):  # what replay writes, not a trajectory to read
+        return outputs.describe_poses_csv(path)
+    # a terrain first: its readers go by a suffix of their own or by magic bytes, where the trajectory
+    # reader takes any XML for GPX (a VRT mosaic, a Collada or XDMF mesh are XML too)
+    terrain = _raw_terrain_kind(path)
+    if terrain is not None:
+        from tankcd_cli import describe_terrain
+
+        return {"raster": describe_terrain.describe_raster, "esri_ascii": describe_terrain.describe_raster,
+                "heightmap": describe_terrain.describe_heightmap, "mesh": describe_terrain.describe_mesh}[terrain](path)
+    from tankcd_cli.io.trajectory import trajectory_format
+
+    if trajectory_format(path) != "csv":  # the trajectory reader knows it (GPX, a capture)
+        return describe_trajectory(path, scene)
+    if kind == "json":  # JSON, and no mesh either (a glTF is JSON too)
+        return outputs.describe_json(path, kind)
+    try:  # what is left is a CSV to the trajectory reader
+        return describe_trajectory(path, scene)
+    except InputError:
+        if _looks_like_csv(path):
+            raise  # the reader's own words: the line and what is wrong with it
+        raise InputError(path, WHAT_INFO_DESCRIBES) from None
+
+
+def _raw_terrain_kind(path: str) -> str | None:
+    """``raster``, ``esri_ascii``, ``heightmap`` or ``mesh`` for a terrain input that is not a store
+    (``terrain.open.terrain_kind``; a mesh only with a suffix a mesh reader knows, since the terrain
+    readers take anything else for a mesh and judge it when reading), else None."""
+    from tankcd_cli.terrain.open import terrain_kind
+
+    kind = terrain_kind(path)
+    if kind in ("raster", "esri_ascii", "heightmap"):
+        return kind
+    from tankcd_cli.io.terrain_readers import known_formats
+
+    return "mesh" if os.path.splitext(path)[1].lower().lstrip(".") in known_formats() else None
+
+
+def _looks_like_csv(path: str) -> bool:
+    """Whether the file's first line is text with a comma (a CSV the reader refused, not some other file)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    if b"\0" in head:
+        return False
+    first = head.lstrip().split(b"\n", 1)[0]
+    try:
+        first.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return False
+    return b"," in first
 
 
 def _shape(shape) -> dict:

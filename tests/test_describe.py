@@ -148,8 +148,10 @@ def test_a_scene_with_a_vehicle_mesh_counts_its_triangles_and_parts(files):
 def test_what_is_not_a_store_a_tree_or_a_scene_is_refused(files, tmp_path):
     with pytest.raises(InputError, match="no such file"):
         describe_store(str(tmp_path / "none.h5"))
-    with pytest.raises(InputError, match="not an HDF5 store, a scene or a trajectory"):
-        describe_store(str(files / "ground.asc"))
+    assert describe_store(str(files / "ground.asc"))["kind"] == "DEM raster"  # a raw terrain, described
+    (tmp_path / "junk.bin").write_bytes(b"\x00\x01junk")
+    with pytest.raises(InputError, match="junk.bin: not a file tankcd reads or writes: not a terrain store"):
+        describe_store(str(tmp_path / "junk.bin"))
     with pytest.raises(InputError, match="is a bounding-volume tree, not a terrain"):
         describe_scene(_scene(tmp_path / "tree.toml", files / "hut.bvh.h5"))
     assert describe_store(_scene(files / "via_store.toml", "ground.asc"))["kind"] == "scene"  # a .toml: a scene

@@ -19,7 +19,7 @@ LAYERS = [
     ("matching and trees", ["tankcd_cli.matching", "tankcd_cli.bvh"]),
     ("collision", ["tankcd_cli.collision"]),
     ("runs", ["tankcd_cli.replay", "tankcd_cli.tradeoff", "tankcd_cli.plots", "tankcd_cli.sample",
-              "tankcd_cli.describe"]),
+              "tankcd_cli.describe", "tankcd_cli.describe_outputs", "tankcd_cli.describe_terrain"]),
     ("library face", ["tankcd_cli.api"]),
     ("command line", ["tankcd_cli.cli", "tankcd_cli.__main__"]),
 ]

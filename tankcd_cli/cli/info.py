@@ -1,4 +1,4 @@
-"""tankcd info FILE: describe a terrain store, a tree, a scene or a trajectory."""
+"""tankcd info FILE: describe any file tankcd reads or writes."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def _a_file(ctx, param, value):
     return value
 
 
-@click.command(short_help="Describe a terrain store, a tree, a scene or a trajectory.")
+@click.command(short_help="Describe any file tankcd reads or writes (stores, terrains, outputs).")
 @click.argument("file", type=click.Path(allow_dash=True), callback=_a_file)
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
 @click.option("--scene", type=click.Path(), default=None,
@@ -34,6 +34,19 @@ def info(report, file, as_json, scene):
     GPX, DIS capture): its rows, time span and entities (rows or updates,
     time span, pieces of motion; with --scene, the vehicle each is), and
     what was skipped.
+
+    A raw terrain is described without classifying it (nothing is written):
+    a DEM raster (GeoTIFF, ESRI ASCII, ...: size, CRS, post spacing, extent,
+    its NODATA share and heights from a bounded sample), a heightmap (PNG,
+    RAW: size, bits, values, and the options classify needs) or a mesh
+    (vertices, faces, bounds, parts). What replay writes: events (JSON Lines:
+    events per kind, the share between rows, the time span, the obstacles,
+    parts and entities named), poses and events as Parquet (rows, row groups,
+    columns, the metadata: CRS, options, sources with their SHA-256, tankcd's
+    version; the same counts), a replay summary (its fields and warnings) and
+    fleet.json (trajectories ok and failed, rows, collisions, the world). A
+    file that is none of these, or that its reader refuses, exits 3 with one
+    line naming it.
 
     Every pair says its order: "161 rows x 241 columns", "0.24 km (x) x 0.16 km (y)",
     "x 500000, y 4500160", "500000 to 500240".
@@ -67,15 +80,26 @@ def _lines(facts: dict, indent: str = "") -> list[str]:
     objects and lists of objects (obstacles) as indented blocks."""
     out = []
     for key, value in facts.items():
+        if key in JSON_ONLY:
+            continue
         label = f"{indent}{_label(key)}:"
-        if isinstance(value, dict) and not _pair(key, value) and (_nested(value) or len(_fmt(value)) > INLINE):
+        if isinstance(value, dict) and key in NAMED and len(_fmt(value, key)) > INLINE:
+            out.append(label)  # many names (entities): one a line, spelled as the file has them
+            out += [f"{indent}  {_fmt(k)}: {_fmt(v)}" for k, v in value.items()]
+        elif isinstance(value, dict) and not _pair(key, value) and (_nested(value) or len(_fmt(value)) > INLINE):
             out.append(label)
             out += _lines(value, indent + "  ")
         elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
             out.append(label)
             for i, item in enumerate(value):
-                out.append(f"{indent}  {_label(str(item.get('name', i + 1)))}:")
-                out += _lines({k: v for k, v in item.items() if k != "name"}, indent + "    ")
+                by = next((k for k in ITEM_LABELS if isinstance(item.get(k), str)), None)
+                name = str(item[by]) if by else str(i + 1)
+                out.append(f"{indent}  {_fmt(name) if by == 'trajectory' else _label(name)}:")
+                out += _lines({k: v for k, v in item.items() if k != by}, indent + "    ")
+        elif isinstance(value, list) and value and all(isinstance(v, str) for v in value) \
+                and any(len(v) > INLINE // 3 for v in value):  # long texts (warnings): one a line
+            out.append(label)
+            out += [f"{indent}  - {_fmt(v)}" for v in value]
         else:
             text = NONE_TEXT.get(key, "none") if value is None else _fmt(value, key)
             out.append(f"{label:<{WIDTH}}{text}" if len(label) < WIDTH else f"{label} {text}")
@@ -83,7 +107,13 @@ def _lines(facts: dict, indent: str = "") -> list[str]:
 
 
 # what a null fact means, in the text output
+JSON_ONLY = {"crs_wkt"}  # facts too long for a line of text (the text names the CRS)
+# dicts keyed by the file's own names (obstacles, parts, entities), shown as they are spelled
+NAMED = {"obstacles", "parts", "entities", "status", "channels"}
+ITEM_LABELS = ("name", "trajectory", "role")  # what labels an item of a list of objects, the first it has
 NONE_TEXT = {"up": "the format's convention", "on_terrain": "unknown (no terrain)",
+             "time_origin": "none (relative times)",
+             "nodata_value": "none (every post a height)", "extent_z": "none (no heights read)",
              "mesh": "none (generated from the preset's dimensions)", "path": "none",
              "dem_grid_posts": "none (an irregular mesh)"}
 # every pair says its order: sizes and spacings as "A unit (x) x B unit (y)"; the label loses the unit
@@ -102,6 +132,8 @@ def _label(key: str) -> str:
         return SIZES[key][0]
     if key.startswith("area_fraction_"):  # a fraction in JSON, a percentage here
         return "area " + key.removeprefix("area_fraction_")
+    if key.endswith("_fraction"):
+        return key.removesuffix("_fraction").replace("_", " ") + " share"
     return key.replace("_", " ")
 
 
@@ -140,13 +172,15 @@ def _fmt(value, key: str = "") -> str:
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, float):
-        if key.startswith("area_fraction_"):
+        if key.startswith("area_fraction_") or key.endswith("_fraction"):
             return f"{value:.1%}"
         return f"{value:.10g}"  # UTM northings keep their metres
-    if isinstance(value, (list, tuple)):
-        return ", ".join(_fmt(v) for v in value)
     if isinstance(value, (dict, list, tuple)) and not value:
         return "none"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(_fmt(v) for v in value)
+    if isinstance(value, dict) and key in NAMED:
+        return ", ".join(f"{_fmt(k)} {_fmt(v)}" for k, v in value.items())
     if isinstance(value, dict):
         return ", ".join(f"{_label(k)} " + (f"[{_fmt(v, k)}]" if isinstance(v, (list, tuple)) else _fmt(v, k))
                          for k, v in value.items())

@@ -16,7 +16,7 @@ from tankcd_cli.errors import InputError, SetupWarning
 # command name -> (module, short help); modules are imported only when run
 COMMANDS = {
     "classify": ("tankcd_cli.cli.classify", "Classify a terrain: mean curvature and region classes into an HDF5 store."),
-    "info": ("tankcd_cli.cli.info", "Describe a terrain store, a tree, a scene or a trajectory."),
+    "info": ("tankcd_cli.cli.info", "Describe any file tankcd reads or writes (stores, terrains, outputs)."),
     "bvh": ("tankcd_cli.cli.bvh", "Build a serialized bounding-volume tree of a model or a scene's obstacles."),
     "collide": ("tankcd_cli.cli.collide", "Test the vehicle at given poses against the scene's obstacles."),
     "demo": ("tankcd_cli.cli.demo", "Run the whole pipeline on the bundled sample battlefield."),

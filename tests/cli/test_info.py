@@ -1,6 +1,7 @@
 """tankcd info: every pair says its order, in text; JSON numbers are numbers; all four kinds of file."""
 
 import json
+import os
 import re
 from pathlib import Path
 
@@ -121,3 +122,137 @@ def test_trajectory_entities_and_their_vehicles(run, tmp_path):
     facts = json.loads(run("info", path, "--json", "--scene", scene).stdout)
     assert [e["vehicle"] for e in facts["entities"]] == ["[vehicle] t72", "[[entity]] id bravo: m1"]
     assert run("info", SAMPLE / "patrol.csv").stdout.count("\n  patrol:\n") == 1
+
+
+# --- what replay writes, raw terrains, and what is none of them --------------------------------------
+
+@pytest.fixture(scope="module")
+def outputs(tmp_path_factory):
+    """The sample patrol replayed by the command line: events as JSON Lines, poses and events as
+    Parquet, the summary as a file; and a fleet of it (fleet.json)."""
+    out = tmp_path_factory.mktemp("info_outputs")
+    runner = CliRunner()
+    scene = SAMPLE / "scene.toml"
+    for args in (["replay", SAMPLE / "patrol.csv", "--scene", scene, "--poses", out / "poses.parquet",
+                  "--events", out / "events.jsonl", "--summary", out / "summary.json", "-q"],
+                 ["replay", SAMPLE / "patrol.csv", "--scene", scene, "--out-dir", out / "fleet",
+                  "--out-format", "parquet", "-q"]):
+        result = runner.invoke(cli, [str(a) for a in args])
+        assert result.exit_code == 0, result.output
+    return out
+
+
+def test_events_jsonl_text_and_json(run, outputs):
+    lines = _text(run, outputs / "events.jsonl")
+    assert lines["kind"] == "events" and lines["format"] == "JSON Lines"
+    assert lines["by kind"] == "obstacle 19, internal 33, terrain 16"
+    assert lines["between"] == "2" and lines["between share"] == "2.9%"
+    assert lines["obstacles"] == "wall 19" and lines["parts"] == "drum_left 1, gun 36, hull 20, track_left 11"
+    facts = _json(run, outputs / "events.jsonl")
+    assert facts["by_kind"] == {"obstacle": 19, "internal": 33, "terrain": 16} and facts["events"] == 68
+    assert facts["between_fraction"] == pytest.approx(2 / 68, abs=1e-6)
+
+
+def test_parquet_poses_and_events_text_and_json(run, outputs):
+    lines = _text(run, outputs / "fleet" / "patrol.events.parquet")
+    assert lines["kind"] == "events (Parquet)" and lines["by kind"] == "obstacle 19, internal 33, terrain 16"
+    assert lines["replay"] == "matcher auto, escalate none, tolerance none, attitude tolerance none, mode continuous"
+    assert lines["crs"] == "local grid (no CRS)"
+    text = run("info", outputs / "fleet" / "patrol.events.parquet").stdout
+    assert f"\n  wall:\n    role:             obstacle\n    path:             {SAMPLE / 'wall.obj'}\n" in text
+    facts = _json(run, outputs / "poses.parquet")
+    assert facts["kind"] == "poses (Parquet)" and facts["rows"] == 1144 and facts["row_groups"] == 1
+    assert facts["t_first"] == 0.0 and facts["t_last"] == 114.3 and facts["status"] == {"ok": 1144}
+    assert [s["role"] for s in facts["sources"]] == ["trajectory", "scene", "obstacle", "obstacle", "terrain"]
+    assert all(len(s["sha256"]) == 64 for s in facts["sources"])
+
+
+def test_summary_and_fleet_json_text_and_json(run, outputs):
+    lines = _text(run, outputs / "summary.json")
+    assert lines["kind"] == "replay summary" and lines["rows"] == "1144"
+    assert lines["collisions"] == "obstacle 18, internal 32, terrain 16" and lines["warnings"] == "none"
+    assert _json(run, outputs / "summary.json")["between"] == {"obstacle": 1, "internal": 1, "terrain": 0,
+                                                               "off_terrain": 0}
+    lines = _text(run, outputs / "fleet" / "fleet.json")
+    assert lines["kind"] == "fleet summary (fleet.json)" and lines["ok"] == "1" and lines["failed"] == "0"
+    assert lines["failures"] == "none" and lines["ran on"] == "1 process"
+    text = run("info", outputs / "fleet" / "fleet.json").stdout
+    assert f"results:\n  {SAMPLE / 'patrol.csv'}:\n    status:           ok\n    rows:             1144\n" in text
+    facts = _json(run, outputs / "fleet" / "fleet.json")
+    assert facts["rows"] == 1144 and facts["results"][0]["poses"].endswith("patrol.poses.parquet")
+
+
+def test_warnings_are_one_a_line(run, outputs, tmp_path):
+    summary = json.loads((outputs / "summary.json").read_text())
+    summary["warnings"] = ["patrol.csv: line 7: a warning long enough to stand on its own line", "terrain: another"]
+    (tmp_path / "warned.json").write_text(json.dumps(summary))
+    text = run("info", tmp_path / "warned.json").stdout
+    assert ("\nwarnings:\n  - patrol.csv: line 7: a warning long enough to stand on its own line\n"
+            "  - terrain: another\n") in text
+
+
+def test_raw_terrains_text_and_json(run, tmp_path):
+    lines = _text(run, SAMPLE / "battlefield.asc")
+    assert lines["kind"] == "DEM raster" and lines["grid posts"] == "161 rows x 241 columns"
+    assert lines["post spacing"] == "1 m (x) x 1 m (y)" and lines["nodata share"] == "0.0%"
+    assert lines["store"] == ("not classified: a raw terrain, not a store; tankcd classify "
+                              f"{SAMPLE / 'battlefield.asc'} -o {SAMPLE / 'battlefield.h5'} makes one "
+                              "(replay classifies it on the fly)")
+    facts = _json(run, SAMPLE / "battlefield.asc")
+    assert facts["extent_x"] == [500000.0, 500240.0] and facts["every_post"] is True
+    assert os.listdir(tmp_path) == []  # info wrote nothing (it runs in tmp_path)
+    assert not (SAMPLE / "battlefield.h5").exists()
+    lines = _text(run, SAMPLE / "battlefield.obj")
+    assert lines["kind"] == "terrain mesh" and lines["vertices"] == "38801" and lines["faces"] == "76800"
+    assert _json(run, SAMPLE / "depot.obj")["extent_z"] == [0.0, 6.0]
+
+
+def test_a_heightmap_says_the_options_it_needs(run, tmp_path):
+    import numpy as np
+
+    (tmp_path / "hm.r16").write_bytes(np.arange(64 * 64, dtype="<u2").tobytes())
+    lines = _text(run, tmp_path / "hm.r16")
+    assert lines["kind"] == "heightmap" and lines["grid posts"] == "64 rows x 64 columns"
+    assert lines["spacing"] == "--spacing M (required: the file holds no post spacing)"
+    assert _json(run, tmp_path / "hm.r16")["extent_value"] == [0.0, 4095.0]
+
+
+def test_unknown_or_unreadable_files_exit_3_in_one_line(run, tmp_path):
+    (tmp_path / "junk.bin").write_bytes(bytes(range(256)))
+    (tmp_path / "other.json").write_text('{"hello": 1}\n')
+    (tmp_path / "bad.jsonl").write_text('{"step":1,"t":0,"kind":"terrain","a":"hull","b":"terrain"}\nnope\n')
+    (tmp_path / "cut.parquet").write_bytes(b"PAR1 cut short")
+    for name, what in (("junk.bin", "not a file tankcd reads or writes: not a terrain store, a tree, a scene"),
+                       ("other.json", "a JSON file, but not one tankcd writes"),
+                       ("bad.jsonl", "line 2: not JSON"),
+                       ("cut.parquet", "not a Parquet file pyarrow can read"),
+                       ("missing.csv", "no such file")):
+        result = run("info", tmp_path / name)
+        assert result.exit_code == 3, (name, result.stderr)
+        assert result.stderr.count("\n") == 1 and f"{tmp_path / name}: {what}" in result.stderr, result.stderr
+        assert result.stdout == ""
+    result = run("info", tmp_path)
+    assert result.exit_code == 3 and "is a directory" in result.stderr
+
+
+def test_a_trajectory_is_what_the_trajectory_reader_says(run, tmp_path, monkeypatch):
+    """info asks io.trajectory.trajectory_format, not a list of its own: a .cap capture is a capture
+    exactly when the reader reads it as one."""
+    import tankcd_cli.io.trajectory as trajectory
+
+    seen = []
+    real = trajectory.trajectory_format
+
+    def reader_says(path, fmt=None):
+        seen.append(path)
+        return "pcap" if str(path).endswith(".cap") else real(path, fmt)
+
+    monkeypatch.setattr(trajectory, "trajectory_format", reader_says)
+    monkeypatch.setattr(trajectory, "trajectory_info", lambda path, fmt=None: (_ for _ in ()).throw(
+        RuntimeError(f"read {path} as a trajectory")))
+    (tmp_path / "exercise.cap").write_bytes(b"\xd4\xc3\xb2\xa1" + bytes(20))
+    from tankcd_cli.describe import describe_store
+
+    with pytest.raises(RuntimeError, match="exercise.cap as a trajectory"):
+        describe_store(str(tmp_path / "exercise.cap"))
+    assert str(tmp_path / "exercise.cap") in seen
