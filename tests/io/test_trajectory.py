@@ -383,7 +383,6 @@ def test_geographic_ranges_name_the_line(tmp_path, row, fragment):
     ("t,x,y,heading_deg", "lacks the required column yaw_deg (found: t, x, y, heading_deg); heading_deg (a compass "
                           "bearing from true north) goes with lon, lat"),
     ("t,lon,y,yaw_deg", "lacks the required column x (found: t, lon, y, yaw_deg); geographic positions need both"),
-    ("t,lon,lat", "lacks the required column yaw_deg (or heading_deg)"),
 ])
 def test_headers_that_mix_the_frames_are_refused(tmp_path, header, fragment):
     msg, _ = _error(_write(tmp_path, header + "\n"), crs="EPSG:32632")
@@ -431,7 +430,7 @@ def test_gpx_two_tracks_with_segments_as_entities_and_pieces(tmp_path):
     reader = read_trajectory(path, crs="EPSG:32632", chunk_rows=3)
     chunks = list(reader)
     got = _joined(chunks)
-    assert got["names"] == ("Alpha_ 1st", "track2") and reader.where == "line"
+    assert got["names"] == ("Alpha_ 1st", "track2") and reader.where == "trkpt"
     assert got["entity"].tolist() == [0] * 9 + [1] * 2
     assert np.flatnonzero(got["piece_start"]).tolist() == [0, 4, 7, 9]  # each segment's first point
     np.testing.assert_allclose(got["t"], [0, 1, 2, 3, 60, 61, 62, 120, 125, -10, -9])  # from the file's first point
@@ -444,8 +443,8 @@ def test_gpx_two_tracks_with_segments_as_entities_and_pieces(tmp_path):
     want = [30, 30, 120, 120, 250, 250, 250, 250, 250, 0, 0]  # a still piece keeps its track's last heading
     err = (az - np.array(want) + 180) % 360 - 180
     assert np.abs(err).max() < 1e-4
-    text = open(path).read().splitlines()
-    assert all(text[k - 1].startswith("<trkpt") for k in got["line"])
+    assert got["line"].tolist() == list(range(1, 12))  # track points by their number from 1
+    assert all(c.where == "trkpt" for c in chunks)
     assert all(not c.has_turret and c.has_entity for c in chunks)
     assert not got["turret_deg"].any() and not got["gun_deg"].any()
 
@@ -603,7 +602,8 @@ def test_export_writes_the_csv_tankcd_reads_atomically(tmp_path):
     out = str(tmp_path / "out.csv")
     result = export_trajectory(cap, out, crs="EPSG:32632", chunk_rows=5)
     assert result["rows"] == 45 and result["entities"] == 3 and result["skipped"] == {"not_ip": 1}
-    assert open(out).readline() == "t,entity,x,y,yaw_deg,turret_deg,gun_deg\n"
+    assert open(out).read().splitlines()[:2] == ["# time_origin: 2026-05-28T20:26:40.05Z",
+                                                 "t,entity,x,y,yaw_deg,turret_deg,gun_deg"]
     src = _joined(read_trajectory(cap, crs="EPSG:32632"))
     back = _joined(read_trajectory(out))
     assert back["names"] == src["names"] and back["entity"].tolist() == src["entity"].tolist()
@@ -613,8 +613,8 @@ def test_export_writes_the_csv_tankcd_reads_atomically(tmp_path):
     # non-ASCII names take the careful writer; a single-vehicle file is named after its stem
     p = _write(tmp_path, "t,x,y,yaw_deg,entity\n0,1,2,3,Т-72\n", "u.csv")
     export_trajectory(p, str(tmp_path / "u_out.csv"))
-    assert open(tmp_path / "u_out.csv", encoding="utf-8").read().splitlines()[1] == \
-        "0.000000000,Т-72,1.000000,2.000000,3.000000000,0.000000000,0.000000000"
+    assert open(tmp_path / "u_out.csv", encoding="utf-8").read().splitlines() == [
+        "t,entity,x,y,yaw_deg", "0.000000000,Т-72,1.000000,2.000000,3.000000000"]  # no turret, gun: none written
     export_trajectory(_write(tmp_path, "t,x,y,yaw_deg\n0,1,2,3\n", "solo.csv"), str(tmp_path / "s_out.csv"))
     assert open(tmp_path / "s_out.csv").read().splitlines()[1].split(",")[1] == "solo"
     # an error midway leaves nothing at the target
