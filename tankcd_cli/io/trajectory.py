@@ -1002,6 +1002,8 @@ def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = 
     import os
 
     readers = [read_trajectory(p, chunk_rows=chunk_rows, crs=crs) for p in paths]
+    kinds = {r.where for r in readers}
+    where = kinds.pop() if len(kinds) == 1 else "line"  # what the rows' numbers count, where all files agree
     pending: list = [None] * len(readers)  # each reader's unread rows: a chunk and where it starts
     alive = list(range(len(readers)))
     names: list = []
@@ -1080,6 +1082,6 @@ def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = 
             yield TrajectoryChunk(np.arange(step + sl.start, step + sl.stop), int(cat["line"][sl.start]), cat["t"][sl],
                                   cat["x"][sl], cat["y"][sl], cat["yaw_deg"][sl], cat["turret_deg"][sl],
                                   cat["gun_deg"][sl], has_turret, cat["line"][sl], entity[sl], tuple(names),
-                                  piece[sl], True, time_origin=origin)
+                                  piece[sl], True, where, origin)
         step += n
         alive = [k for k in alive if fill(k)]
