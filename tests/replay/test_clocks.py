@@ -177,3 +177,19 @@ def test_gpx_motion_warnings_name_the_track_point(run, ground):
     said = json.loads((ground / "s.json").read_text())["warnings"]
     fast = [w for w in said if "faster than any vehicle" in w]
     assert len(fast) == 1 and "trkpt 3: 78.0 m/s from trkpt 2" in fast[0] and "line" not in fast[0], said
+
+
+def test_api_replay_takes_lon_lat_arrays_as_the_geographic_csv(ground):
+    from tankcd_cli import api
+
+    seconds = np.arange(0.0, 6.01, 0.5)
+    lon, lat = _lonlat(WEST + 10 + 8 * seconds, np.full(len(seconds), Y))
+    (ground / "g.csv").write_text("t,lon,lat,heading_deg\n" + "".join(f"{s!r},{a!r},{b!r},90\n" for s, a, b in
+                                                                      zip(seconds.tolist(), lon, lat)))
+    world = api.load_world(scene=str(ground / "scene.toml"))
+    poses, _ = api.replay({"t": seconds, "lon": lon, "lat": lat, "heading_deg": np.full(len(seconds), 90.0)},
+                          world=world)
+    want, _ = api.replay(str(ground / "g.csv"), world=world)
+    for key in ("x", "y", "z", "yaw_deg", "pitch_deg"):
+        np.testing.assert_array_equal(poses[key], want[key], err_msg=key)
+    np.testing.assert_allclose(poses["x"], WEST + 10 + 8 * seconds, atol=1e-6)
