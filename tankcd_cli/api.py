@@ -232,10 +232,12 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
 def export_trajectory(trajectory: str, output: str, scene: str | None = None, terrain: str | None = None,
                       crs: str | None = None, fmt: str | None = None, up: str | None = None) -> dict:
     """Write any trajectory input (a trajectory CSV, a geographic CSV, GPX, a DIS capture) as the
-    trajectory CSV tankcd reads (``t,entity,x,y,yaw_deg,turret_deg,gun_deg``, the layout of
-    docs/formats.md, "Trajectory CSV written by tankcd"), converted to a CRS: the terrain's (a
-    store, any terrain input, or a scene's terrain) or ``crs`` (EPSG code or WKT). Geographic
-    inputs need one of them; a CSV in metres needs none. ``output``: a file (written beside and
+    trajectory CSV tankcd reads (``t,entity,x,y,yaw_deg``, and ``turret_deg,gun_deg`` where the
+    input has them: the layout of docs/formats.md, "Trajectory CSV written by tankcd"), converted
+    to a CRS: the terrain's (a store, any terrain input, or a scene's terrain) or ``crs`` (EPSG
+    code or WKT; ``EPSG:4326``: ``lon,lat,heading_deg``, the geographic CSV). Geographic inputs
+    need one of them (an InputError naming them, before anything is written); a CSV in metres
+    needs none. An absolute clock is kept in a ``# time_origin:`` line. ``output``: a file (written beside and
     renamed when complete) or ``-``. ``fmt``: the input's format when its suffix does not say
     (csv, gpx, pcap, pcapng). Returns {"rows", "entities", "skipped"} (packets or lines skipped,
     by reason)."""

@@ -5,15 +5,17 @@ reader for every input a user holds, as chunks a replay streams.
 
 - ``csv``: the trajectory CSV (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``,
   ``entity``), also as logs are kept (comment lines before the header, header names in any case,
-  ``;`` or tab as separator, ISO 8601 times), and in geographic coordinates (``lon``, ``lat``,
-  ``heading_deg`` or ``yaw_deg``: converted to the terrain's CRS); see ``trajectory_csv``;
+  ``;`` or tab as separator, ISO 8601 times, ``unix_time``), and in geographic coordinates (``lon``,
+  ``lat``, ``heading_deg`` or ``yaw_deg`` or none: converted to the terrain's CRS); see ``trajectory_csv``;
 - ``gpx``: GPX tracks (each track an entity, each segment a piece of motion);
 - ``pcap``, ``pcapng``: DIS captures (each ``site:application:entity`` an entity).
 
 Every chunk is a :class:`TrajectoryChunk`: rows in the input's order, positions and headings in
 the terrain's CRS, each row's entity as a code into the names seen so far, and where each
-entity's pieces of motion start. Every bad row or record is an :class:`InputError` naming the
-file and the line (or point, or packet); the rows before it have been yielded.
+entity's pieces of motion start, and where the input has an absolute clock the UTC instant of
+its t = 0 (``time_origin``, docs/formats.md "Times and clocks"). Every bad row or record is an
+:class:`InputError` naming the file and the line (or point, or packet); the rows before it have
+been yielded.
 """
 
 from __future__ import annotations
@@ -242,7 +244,9 @@ class TrajectoryReader:
             if not lay.entity and step > 0:
                 order.check(np.zeros(1, np.int64), np.array([-np.inf]), np.zeros(1, np.int64), 1)  # a row before
             where_t = {c: j for j, c in enumerate(lay.columns)}
-            raws = _headed_from_track(rows, lay, self.path) if lay.heading is None else None
+            # no heading column: the track's (not needed to describe the file, unconverted)
+            raws = _headed_from_track(rows, lay, self.path) if lay.heading is None and (
+                self.convert or self.lonlat) else None
             while True:
                 raw = rows.next_rows() if raws is None else next(raws, None)
                 self._csv_skipped(lay)
