@@ -807,13 +807,15 @@ def test_the_origins_text_reads_back_into_the_same_float():
 
     from tankcd_cli.io.trajectory import utc_text
 
-    @settings(max_examples=400, deadline=None)
+    @settings(max_examples=100, deadline=None)
     @given(st.floats(min_value=1e8, max_value=4e9))
     def check(origin):
         got = trajectory_csv.iso_seconds(utc_text(origin).encode())
         assert trajectory_csv.epoch_seconds(*got) == origin
 
     check()
+    for origin in np.random.default_rng(4).uniform(1.7e9, 1.9e9, 2000).tolist():  # today's dates, densely
+        assert trajectory_csv.epoch_seconds(*trajectory_csv.iso_seconds(utc_text(origin).encode())) == origin
 
 
 def test_lon_lat_without_a_heading_heads_along_the_track_as_gpx_does(tmp_path):
@@ -862,3 +864,36 @@ def test_an_export_whose_turret_angles_come_late_gets_their_columns(tmp_path):
     early = str(tmp_path / "early.csv")
     export_trajectory(_capture(tmp_path, frames[:6], "none.pcap"), early, crs="EPSG:32632", chunk_rows=2)
     assert open(early).read().splitlines()[1] == "t,entity,x,y,yaw_deg"
+
+
+def test_files_merged_on_their_clocks_count_from_the_earliest_whatever_their_zones(tmp_path):
+    from datetime import datetime, timedelta, timezone
+
+    from hypothesis import given, settings, strategies as st
+
+    from tankcd_cli.io.trajectory import merged_trajectories, utc_text
+
+    base = datetime(2026, 5, 4, 10, 0, 0, tzinfo=timezone.utc)
+
+    @settings(max_examples=12, deadline=None)
+    @given(st.lists(st.tuples(st.integers(-50_000, 50_000), st.integers(-14, 14), st.integers(1, 4)),
+                    min_size=1, max_size=3), st.integers(1, 5))
+    def check(files, chunk_rows):
+        paths, truth = [], []
+        for k, (start_ms, zone, n) in enumerate(files):
+            tz = timezone(timedelta(hours=zone))
+            instants = [start_ms / 1000 + 0.25 * j for j in range(n)]
+            text = "t,x,y,yaw_deg\n" + "".join(
+                f"{(base + timedelta(seconds=s)).astimezone(tz).isoformat(timespec='milliseconds')},{j},0,0\n"
+                for j, s in enumerate(instants))
+            paths.append(_write(tmp_path, text, f"f{k}.csv"))
+            truth.append(instants)
+        merged = list(merged_trajectories(paths, chunk_rows=chunk_rows))
+        first = min(v[0] for v in truth)
+        assert {utc_text(c.time_origin) for c in merged} == {utc_text(base.timestamp() + first)}
+        t = np.concatenate([c.t for c in merged])
+        names = np.concatenate([c.names() for c in merged])
+        for k, instants in enumerate(truth):
+            np.testing.assert_allclose(t[names == f"f{k}"], np.array(instants) - first, rtol=0, atol=1e-6)
+
+    check()
