@@ -30,8 +30,6 @@ import numpy as np
 from tankcd_cli.errors import InputError
 from tankcd_cli.io.files import open_input
 
-NO_CRS_TEXT = "geographic input needs a terrain with a CRS"  # the start of io.geodesy.NO_CRS
-
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
 FORMATS = ("csv", "gpx", "pcap", "pcapng")
@@ -801,8 +799,8 @@ class TrajectoryInfo:
     counts from, where the input has one (UTC); has_entity, has_turret : as the chunks';
     entities : one :class:`EntitySpan` each, in order of first appearance; skipped : what was passed
     over, by name (a capture's packets and PDUs, a CSV's comment and blank lines); columns : the
-    CSV header's names as written (empty for other formats); time_origin : ``start`` as ISO 8601 UTC
-    (``...Z``, to the nanosecond the input gives), None where t is relative."""
+    CSV header's names as written (empty for other formats); time_origin : the instant of t = 0 as
+    ISO 8601 UTC (``...Z``, ``utc_text``), None where t is relative."""
 
     path: str
     format: str
@@ -921,6 +919,7 @@ def export_trajectory(path: str, out: str, crs: str | None = None, fmt: str | No
     (InputError naming the options that give one) or a bad first row writes nothing. Returns
     {"rows", "entities", "skipped"}."""
     from tankcd_cli.io.atomic import output_text
+    from tankcd_cli.io.geodesy import NO_CRS
 
     lonlat = is_wgs84(crs)
     turret = None  # the columns: from the first chunk (a capture's later turret: again, with them)
@@ -929,7 +928,7 @@ def export_trajectory(path: str, out: str, crs: str | None = None, fmt: str | No
         try:
             first = next(reader, None)
         except InputError as exc:
-            if NO_CRS_TEXT in exc.what:
+            if exc.what == NO_CRS:  # no CRS was given: name the options that give one
                 raise InputError(exc.source, EXPORT_NO_CRS) from None
             raise
         if lonlat and not reader.geographic:
