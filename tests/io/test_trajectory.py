@@ -854,7 +854,7 @@ def test_an_export_whose_turret_angles_come_late_gets_their_columns(tmp_path):
     from tests.io import captures as C
 
     tur = C.TURRET_AZIMUTH
-    frames = [(1.0 + 0.1 * k, _es(1, 0, [])) for k in range(6)] + [(2.0, _es(1, 0, [(tur, 0.5)]))]
+    frames = [(1.0 + 0.5 * k, _es(1, 0, [])) for k in range(6)] + [(5.0, _es(1, 0, [(tur, 0.5)]))]  # parts 1.5 s on
     path = _capture(tmp_path, frames)
     out = str(tmp_path / "late.csv")
     export_trajectory(path, out, crs="EPSG:32632", chunk_rows=2)
@@ -864,6 +864,11 @@ def test_an_export_whose_turret_angles_come_late_gets_their_columns(tmp_path):
     early = str(tmp_path / "early.csv")
     export_trajectory(_capture(tmp_path, frames[:6], "none.pcap"), early, crs="EPSG:32632", chunk_rows=2)
     assert open(early).read().splitlines()[1] == "t,entity,x,y,yaw_deg"
+    # to standard output, written as it goes: the columns stay as the header said, and a warning says so
+    from tankcd_cli.errors import SetupWarning
+
+    with pytest.warns(SetupWarning, match="turret and gun angles from packet 7 on"):
+        export_trajectory(path, "-", crs="EPSG:32632", chunk_rows=2)
 
 
 def test_files_merged_on_their_clocks_count_from_the_earliest_whatever_their_zones(tmp_path):
