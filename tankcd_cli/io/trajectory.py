@@ -33,7 +33,7 @@ from tankcd_cli.io.files import open_input
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
 FORMATS = ("csv", "gpx", "pcap", "pcapng")
-EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")  # turret and gun: where the input has them
+EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")  # turret, gun: where the input has them
 REORDER_WINDOW = 1.0  # s: a capture's packets this much out of time order are put back in order
 _EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
 

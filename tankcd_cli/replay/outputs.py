@@ -131,7 +131,8 @@ def replay_outputs(outputs: ReplayOutputs, entity: bool, metadata: Callable[[], 
         yield poses, events
 
 
-def replay_metadata(world, trajectories, options, hash_trajectories: bool = True, time_origin: str | None = None) -> dict:
+def replay_metadata(world, trajectories, options, hash_trajectories: bool = True,
+                    time_origin: str | None = None) -> dict:
     """A replay's Parquet metadata (``io.parquet.output_metadata``): the terrain's CRS, the units
     and conventions, tankcd's version, ``tankcd.replay`` (the options: matcher, escalate,
     tolerance, mode; ``time_origin``: the UTC instant of t = 0, ISO 8601 ``...Z``, or null where the

@@ -93,8 +93,9 @@ class MotionChecks:
                                                    dt[j], speed[j]), "speed"))
         for j in _first_per_vehicle(who, (turn >= MAX_TURN) & (dt > 0) & ~self.turn_warned[who]):
             self.turn_warned[who[j]] = True
-            messages.append((who[j], 1, f"{self._who(who[j])}{self.where} {line[step[j] + 1]}: the heading turns "
-                                        f"{turn[j]:.1f} deg from {self.where} {line[step[j]]} in {dt[j]:g} s; the motion "
+            at = self.where
+            messages.append((who[j], 1, f"{self._who(who[j])}{at} {line[step[j] + 1]}: the heading turns "
+                                        f"{turn[j]:.1f} deg from {at} {line[step[j]]} in {dt[j]:g} s; the motion "
                                         "between them takes the shorter way, a guess at that size (rows closer in "
                                         "time would say which way it turned)", "turn"))
         for _, _, what, kind in sorted(messages, key=lambda m: (m[0], m[1])):
