@@ -169,7 +169,10 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
         line's inputs), a list of paths replayed as one exercise (``--together``: each file an
         entity named after its stem, or its own entities), or a dict of arrays with ``t``, ``x``,
         ``y``, ``yaw_deg`` and optionally ``turret_deg``, ``gun_deg`` (metres, seconds, degrees;
-        ``t`` never decreasing) and ``entity`` (each row's vehicle: an exercise, rows in time order)
+        ``t`` never decreasing) and ``entity`` (each row's vehicle: an exercise, rows in time order);
+        or with ``lon``, ``lat`` (WGS 84 degrees) in place of ``x``, ``y`` and ``heading_deg`` (a
+        compass bearing), ``yaw_deg`` (from true east) or neither (the track's, warned), converted
+        to the terrain's CRS as a geographic CSV is (see ``trajectory_chunks``)
     scene or terrain (with ``vehicle``) : the world, or ``world`` from ``load_world``
     discrete : check the rows only (default: every effect along the motion between rows too)
     escalate : check key-point poses against the reference's certificate and solve those that
@@ -197,7 +200,7 @@ def _chunks(trajectory, world):
         from tankcd_cli.io.trajectory import merged_trajectories
 
         return merged_trajectories([str(p) for p in trajectory], crs=world.crs)
-    return trajectory_chunks(trajectory)
+    return trajectory_chunks(trajectory, crs=world.crs)
 
 
 def replay_to_files(trajectory, poses: str | None = "-", events: str | None = None, scene: str | None = None,
@@ -229,10 +232,12 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
 def export_trajectory(trajectory: str, output: str, scene: str | None = None, terrain: str | None = None,
                       crs: str | None = None, fmt: str | None = None, up: str | None = None) -> dict:
     """Write any trajectory input (a trajectory CSV, a geographic CSV, GPX, a DIS capture) as the
-    trajectory CSV tankcd reads (``t,entity,x,y,yaw_deg,turret_deg,gun_deg``, the layout of
-    docs/formats.md, "Trajectory CSV written by tankcd"), converted to a CRS: the terrain's (a
-    store, any terrain input, or a scene's terrain) or ``crs`` (EPSG code or WKT). Geographic
-    inputs need one of them; a CSV in metres needs none. ``output``: a file (written beside and
+    trajectory CSV tankcd reads (``t,entity,x,y,yaw_deg``, and ``turret_deg,gun_deg`` where the
+    input has them: the layout of docs/formats.md, "Trajectory CSV written by tankcd"), converted
+    to a CRS: the terrain's (a store, any terrain input, or a scene's terrain) or ``crs`` (EPSG
+    code or WKT; ``EPSG:4326``: ``lon,lat,heading_deg``, the geographic CSV). Geographic inputs
+    need one of them (an InputError naming them, before anything is written); a CSV in metres
+    needs none. An absolute clock is kept in a ``# time_origin:`` line. ``output``: a file (written beside and
     renamed when complete) or ``-``. ``fmt``: the input's format when its suffix does not say
     (csv, gpx, pcap, pcapng). Returns {"rows", "entities", "skipped"} (packets or lines skipped,
     by reason)."""
@@ -328,13 +333,24 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     return fleet
 
 
-def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
+def trajectory_chunks(columns: dict, chunk_rows: int = 65536, crs: str | None = None):
     """A dict of arrays (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``, and
     ``entity``: each row's vehicle, which makes the rows an exercise) as the chunks a replay
     streams, checked as a CSV's rows are: every value finite, ``t`` never decreasing (within each
-    entity), entity names usable as CSV cells (an InputError names the first bad row, from 0)."""
+    entity), entity names usable as CSV cells (an InputError names the first bad row, from 0).
+
+    Geographic rows: ``lon``, ``lat`` (deg, WGS 84) in place of ``x``, ``y``, with ``heading_deg``
+    (a compass bearing, clockwise from true north) or ``yaw_deg`` (counter-clockwise from true
+    east) or neither (each row heads toward its entity's next row, as a GPX track's points do; a
+    warning says so), converted to ``crs`` (the terrain's: ``api.replay`` gives it; an InputError
+    without one) as the geographic CSV is. ``t`` as ``numpy.datetime64`` values is an absolute
+    clock: t counts from the first row and the chunks carry its ``time_origin``."""
     from tankcd_cli.errors import InputError
     from tankcd_cli.io.trajectory import TrajectoryChunk
+
+    columns, origin = _absolute_t(columns)
+    if "lon" in columns and "lat" in columns and not ("x" in columns and "y" in columns):
+        columns = _geographic_columns(columns, crs)
 
     missing = [c for c in TRAJECTORY_COLUMNS[:4] if c not in columns]
     if missing:
@@ -380,14 +396,86 @@ def trajectory_chunks(columns: dict, chunk_rows: int = 65536):
             if not names:
                 yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl],
                                       cols["yaw_deg"][sl], cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret,
-                                      step.copy())
+                                      step.copy(), time_origin=origin)
                 continue
             seen = max(seen, int(codes[sl].max()) + 1)  # codes in order of first appearance: a prefix
             yield TrajectoryChunk(step, sl.start, cols["t"][sl], cols["x"][sl], cols["y"][sl], cols["yaw_deg"][sl],
                                   cols["turret_deg"][sl], cols["gun_deg"][sl], has_turret, step.copy(),
-                                  codes[sl], names[:seen], piece_start[sl], True)
+                                  codes[sl], names[:seen], piece_start[sl], True, time_origin=origin)
 
     return chunks()
+
+
+def _absolute_t(columns: dict) -> tuple[dict, float | None]:
+    """``t`` as numpy.datetime64 values -> seconds from the first row, and that row's instant as seconds
+    since 1970 (the chunks' ``time_origin``); other columns as they are (no origin)."""
+    t = columns.get("t")
+    if t is None:
+        return columns, None
+    t = np.atleast_1d(np.asarray(t))
+    if t.dtype.kind != "M":
+        return columns, None
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.io.trajectory_csv import epoch_seconds
+
+    ns = t.astype("datetime64[ns]").astype(np.int64)
+    bad = np.flatnonzero(np.isnat(t))
+    if len(bad):
+        raise InputError("trajectory", "t is not a time (NaT)", where=f"row {int(bad[0])}")
+    if not len(ns):
+        return {**columns, "t": np.zeros(0)}, None
+    return {**columns, "t": (ns - ns[0]) / 1e9}, epoch_seconds(*divmod(int(ns[0]), 1_000_000_000))
+
+
+def _geographic_columns(columns: dict, crs: str | None) -> dict:
+    """A dict with ``lon``, ``lat`` (and ``heading_deg``, ``yaw_deg`` or neither) -> the same with ``x``,
+    ``y``, ``yaw_deg`` in ``crs``, as the geographic CSV's rows are converted (docs/formats.md)."""
+    from tankcd_cli.errors import InputError, warn
+    from tankcd_cli.io.gpx import track_headings
+    from tankcd_cli.io.trajectory import _check_crs, _geographic
+
+    if "heading_deg" in columns and "yaw_deg" in columns:
+        raise InputError("trajectory", "both heading_deg (a compass bearing) and yaw_deg (counter-clockwise from "
+                                       "east) beside lon, lat: keep one")
+    lon, lat = (np.atleast_1d(np.asarray(columns[c], dtype=float)) for c in ("lon", "lat"))
+    if lat.shape != lon.shape:
+        raise InputError("trajectory", f"column lat has {lat.size} values, lon has {lon.size}")
+    bad = np.flatnonzero(~((np.abs(lon) <= 180.0) & (np.abs(lat) <= 90.0)))
+    if len(bad):
+        k = int(bad[0])
+        raise InputError("trajectory", f"lon {lon[k]!r}, lat {lat[k]!r} is out of range (-180 to 180, -90 to 90 "
+                                       "degrees)", where=f"row {k}")
+    _check_crs(crs, "trajectory")
+    compass = "yaw_deg" not in columns
+    if "heading_deg" in columns or "yaw_deg" in columns:
+        h = np.atleast_1d(np.asarray(columns["heading_deg" if compass else "yaw_deg"], dtype=float))
+        if h.shape != lon.shape:
+            raise InputError("trajectory", f"the heading has {h.size} values, lon has {lon.size}")
+        bad = np.flatnonzero(~np.isfinite(h))
+        if len(bad):
+            raise InputError("trajectory", f"the heading is not a finite number ({h[bad[0]]!r})",
+                             where=f"row {int(bad[0])}")
+    else:
+        n = len(lon)
+        if "entity" in columns:
+            _, codes = _entity_codes(columns["entity"], n)
+        else:
+            codes = np.zeros(n, dtype=np.int64)
+        order = np.argsort(codes, kind="stable")
+        h = np.full(n, np.nan)
+        h[order] = np.degrees(track_headings(lon[order], lat[order], codes[order]))
+        if n:
+            warn("trajectory", "no heading (heading_deg or yaw_deg) beside lon, lat: each row heads toward its "
+                               "vehicle's next row, as a GPX track's points do")
+    still = np.isnan(h)  # a vehicle that never moves: yaw 0
+    x, y, yaw, bad = _geographic(lon, lat, np.where(still, 0.0, h), compass, crs, "trajectory")
+    yaw[still] = 0.0
+    if bad >= 0:
+        raise InputError("trajectory", f"lon {lon[bad]!r}, lat {lat[bad]!r} has no place in the terrain's CRS",
+                         where=f"row {bad}")
+    out = {k: v for k, v in columns.items() if k not in ("lon", "lat", "heading_deg")}
+    out.update(x=x, y=y, yaw_deg=yaw)
+    return out
 
 
 def _entity_codes(values, n: int) -> tuple[tuple, np.ndarray]:

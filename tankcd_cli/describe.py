@@ -317,7 +317,7 @@ def describe_trajectory(path: str, scene: str | None = None) -> dict:
         entities.append(entry)
     return {"file": path, "kind": kind, "format": info.format, "coordinates": info.coordinates,
             "rows": info.rows, "t_first": finite(info.t_first), "t_last": finite(info.t_last),
-            "start_utc": info.start.isoformat() if info.start is not None else None,
+            "start_utc": info.start.isoformat() if info.start is not None else None, "time_origin": info.time_origin,
             "turret_and_gun": info.has_turret, "entities": entities, "skipped": dict(info.skipped),
             "columns": list(info.columns)}
 

@@ -194,3 +194,53 @@ def test_the_gun_envelope_is_the_collision_layers(tmp_path):
     assert (api.gun_envelope(str(tmp_path / "s.toml"))["min_elevation"] == -10.0).all()
     with pytest.raises(InputError, match="unknown vehicle preset"):
         api.vehicle("tiger")
+
+
+def test_arrays_in_lon_lat_are_converted_as_the_geographic_csv(tmp_path):
+    pyproj = pytest.importorskip("pyproj")
+    import warnings
+
+    from tankcd_cli.errors import SetupWarning
+    from tankcd_cli.io.trajectory import read_trajectory
+
+    geod = pyproj.Geod(ellps="WGS84")
+    lon, lat = [10.0], [50.0]
+    for az in (80, 80, 95, 95, 110):
+        x, y, _ = geod.fwd(lon[-1], lat[-1], az, 5.0)
+        lon.append(x)
+        lat.append(y)
+    t = np.arange(6.0)
+    heading = np.array([80, 80, 95, 95, 110, 110.0])
+    wkt = pyproj.CRS("EPSG:32632").to_wkt()
+
+    def joined(chunks):
+        chunks = list(chunks)
+        return {f: np.concatenate([getattr(c, f) for c in chunks]) for f in ("t", "x", "y", "yaw_deg")}
+
+    for given, header, cells in ((dict(heading_deg=heading), "t,lon,lat,heading_deg", heading),
+                                 (dict(yaw_deg=90 - heading), "t,lon,lat,yaw_deg", 90 - heading),
+                                 ({}, "t,lon,lat", None)):
+        path = tmp_path / "g.csv"
+        path.write_text(header + "\n" + "".join(
+            f"{float(a)!r},{b!r},{c!r}" + ("" if cells is None else f",{float(cells[k])!r}") + "\n"
+            for k, (a, b, c) in enumerate(zip(t, lon, lat))))
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always", SetupWarning)
+            mine = joined(api.trajectory_chunks({"t": t, "lon": lon, "lat": lat, **given}, crs=wkt))
+            theirs = joined(read_trajectory(str(path), crs=wkt))
+        assert (len(said) == 2) == (cells is None)  # no heading: both warn (the track's is taken)
+        for f in mine:
+            np.testing.assert_array_equal(mine[f], theirs[f], err_msg=f)
+    with pytest.raises(InputError, match="CRS"):
+        list(api.trajectory_chunks({"t": t, "lon": lon, "lat": lat, "heading_deg": heading}))
+    with pytest.raises(InputError, match="row 2: lon"):
+        list(api.trajectory_chunks({"t": t, "lon": [10, 10, 200, 10, 10, 10], "lat": lat, "heading_deg": heading},
+                                   crs=wkt))
+
+
+def test_arrays_with_datetime64_times_carry_their_clock():
+    when = np.datetime64("2026-05-04T10:00:00.250") + np.arange(3) * np.timedelta64(500, "ms")
+    chunks = list(api.trajectory_chunks({"t": when, "x": [0, 1, 2], "y": [0, 0, 0], "yaw_deg": [0, 0, 0]}))
+    from tankcd_cli.io.trajectory import utc_text
+
+    assert chunks[0].t.tolist() == [0.0, 0.5, 1.0] and utc_text(chunks[0].time_origin) == "2026-05-04T10:00:00.25Z"

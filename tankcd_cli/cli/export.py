@@ -19,7 +19,7 @@ FORMATS = ("csv", "gpx", "pcap", "pcapng")
 @click.option("--terrain", type=click.Path(), default=None, callback=no_stdin,
               help="Convert to the CRS of this terrain (a store is read in place; other inputs are classified).")
 @click.option("--crs", default=None, metavar="CRS",
-              help="Convert to this CRS (EPSG:32633, WKT) instead of a terrain's.")
+              help="Convert to this CRS (EPSG:32633, WKT) instead of a terrain's; EPSG:4326: lon, lat, heading_deg.")
 @click.option("--format", "fmt", type=click.Choice(FORMATS), default=None,
               help="The input's format when its suffix does not say (default: by suffix).")
 @click.option("--up", type=click.Choice(UP_AXES), default=None, help="Up axis of a terrain mesh given by --terrain.")
@@ -27,12 +27,15 @@ FORMATS = ("csv", "gpx", "pcap", "pcapng")
 @click.pass_obj
 def export(report, trajectory, output, scene, terrain, crs, fmt, up):
     """Write TRAJECTORY (a trajectory CSV, a geographic CSV, a GPX track or a
-    DIS capture) as the trajectory CSV tankcd reads: t, entity, x, y, yaw_deg,
-    turret_deg, gun_deg, the rows in the reader's order, positions in the
-    CRS of --terrain, --scene's terrain or --crs (a geographic input needs
-    one; headings get the grid's convergence). For inspection, and for
-    other tools: replaying the export gives the same poses as replaying the
-    input. Written beside OUTPUT and renamed when complete."""
+    DIS capture) as the trajectory CSV tankcd reads: t, entity, x, y, yaw_deg
+    (and turret_deg, gun_deg where the input has them), the rows in the
+    reader's order, positions in the CRS of --terrain, --scene's terrain or
+    --crs (a geographic input needs one; headings get the grid's
+    convergence); --crs EPSG:4326 writes lon, lat, heading_deg (a compass
+    bearing). An input's absolute clock (GPX, a capture, ISO 8601 times) is
+    kept in a '# time_origin:' line before the header. For inspection, and
+    for other tools: replaying the export gives the same poses as replaying
+    the input. Written beside OUTPUT and renamed when complete."""
     from tankcd_cli import api
 
     if sum(v is not None for v in (scene, terrain, crs)) > 1:

@@ -53,7 +53,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.option("--together", is_flag=True,
               help="Several trajectories as one exercise: their rows merged in time into one world (each file an "
                    "entity named after its stem, or its own entities), one poses and one events output, every "
-                   "contact between the vehicles found.")
+                   "contact between the vehicles found. Files with absolute times (GPX, captures, ISO 8601 times) "
+                   "meet at their UTC times, t counting from the earliest.")
 @click.option("--discrete", is_flag=True,
               help="Check the effects at the rows only (the paper's frame-by-frame way, for comparison); by "
                    "default they are checked along the motion between rows too.")

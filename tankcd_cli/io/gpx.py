@@ -38,6 +38,7 @@ class GpxTrack:
     heading : (N,) float64 rad, true (compass) heading, clockwise from true north (see ``track_headings``)
     line : (N,) int64 the line of each point's ``<trkpt`` tag
     start : the first point's time (UTC)
+    origin : the same as seconds since 1970 (the instant of t = 0)
     """
 
     track: np.ndarray
@@ -51,6 +52,7 @@ class GpxTrack:
     heading: np.ndarray
     line: np.ndarray
     start: datetime
+    origin: float | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -244,4 +246,5 @@ class _Points:
             microsecond=int(micros[0] % 1_000_000))
         return GpxTrack(track=track, track_names=list(self.track_names), segment=segment, piece=piece, lon=lon,
                         lat=lat, ele=np.frombuffer(self.ele, np.float64).copy(), t=t,
-                        heading=track_headings(lon, lat, piece), line=line, start=start)
+                        heading=track_headings(lon, lat, piece), line=line, start=start,
+                        origin=float(micros[0]) / 1e6)

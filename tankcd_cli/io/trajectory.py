@@ -5,15 +5,17 @@ reader for every input a user holds, as chunks a replay streams.
 
 - ``csv``: the trajectory CSV (``t``, ``x``, ``y``, ``yaw_deg``; optional ``turret_deg``, ``gun_deg``,
   ``entity``), also as logs are kept (comment lines before the header, header names in any case,
-  ``;`` or tab as separator, ISO 8601 times), and in geographic coordinates (``lon``, ``lat``,
-  ``heading_deg`` or ``yaw_deg``: converted to the terrain's CRS); see ``trajectory_csv``;
+  ``;`` or tab as separator, ISO 8601 times, ``unix_time``), and in geographic coordinates (``lon``,
+  ``lat``, ``heading_deg`` or ``yaw_deg`` or none: converted to the terrain's CRS); see ``trajectory_csv``;
 - ``gpx``: GPX tracks (each track an entity, each segment a piece of motion);
 - ``pcap``, ``pcapng``: DIS captures (each ``site:application:entity`` an entity).
 
 Every chunk is a :class:`TrajectoryChunk`: rows in the input's order, positions and headings in
 the terrain's CRS, each row's entity as a code into the names seen so far, and where each
-entity's pieces of motion start. Every bad row or record is an :class:`InputError` naming the
-file and the line (or point, or packet); the rows before it have been yielded.
+entity's pieces of motion start, and where the input has an absolute clock the UTC instant of
+its t = 0 (``time_origin``, docs/formats.md "Times and clocks"). Every bad row or record is an
+:class:`InputError` naming the file and the line (or point, or packet); the rows before it have
+been yielded.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from tankcd_cli.io.files import open_input
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
 FORMATS = ("csv", "gpx", "pcap", "pcapng")
-EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
+EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")  # turret, gun: where the input has them
 REORDER_WINDOW = 1.0  # s: a capture's packets this much out of time order are put back in order
 _EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
 
@@ -55,7 +57,10 @@ class TrajectoryChunk:
     piece_start : (N,) bool the row starts a piece of motion of its entity: no motion from that
         entity's previous row to it (the entity's first row, a GPX segment's first point)
     has_entity : the input names its entities (an entity column, GPX tracks, DIS entity ids)
-    where : "line" or "packet"
+    where : "line", "trkpt" (a GPX track point's number from 1) or "packet"
+    time_origin : the UTC instant of t = 0 as seconds since 1970 (float64: about 0.2 us at today's
+        dates), where the input carries an absolute clock (GPX times, a capture's packet times, a
+        CSV's ISO 8601 or ``unix_time`` times or ``# time_origin`` comment); None: t is relative
     """
 
     step: np.ndarray
@@ -73,6 +78,7 @@ class TrajectoryChunk:
     piece_start: np.ndarray = None
     has_entity: bool = False
     where: str = "line"
+    time_origin: float | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -160,6 +166,9 @@ class TrajectoryReader:
     entity_names : the names seen so far (as the last chunk's)
     geographic : a CSV in lon, lat (None before the header is read; True for GPX and captures)
     start : the instant ``t`` counts from where the input has one (ISO times, GPX, a capture), UTC
+    time_origin : the same as seconds since 1970 (the chunks'), None where t is relative
+    lonlat : the chunks give x = lon, y = lat (deg, WGS 84) and yaw_deg counter-clockwise from true
+        east (the local ENU yaw) instead of the terrain's CRS (``export`` to EPSG:4326)
     skipped : what was passed over, by name (a capture's packets and PDUs that are no Entity State,
         a CSV's comment and blank lines); complete once the chunks are exhausted
     counts : a capture's :class:`~tankcd_cli.io.dis.CaptureCounts` (None for other inputs)
@@ -167,14 +176,16 @@ class TrajectoryReader:
     """
 
     def __init__(self, path: str, chunk_rows: int = 65536, part: TrajectoryPart | None = None,
-                 crs: str | None = None, fmt: str | None = None, convert: bool = True):
+                 crs: str | None = None, fmt: str | None = None, convert: bool = True, lonlat: bool = False):
         self.path = path
+        self.lonlat = lonlat
+        self.time_origin: float | None = None
         self.format = trajectory_format(path, fmt)
-        self.where = "packet" if self.format in ("pcap", "pcapng") else "line"
+        self.where = {"pcap": "packet", "pcapng": "packet", "gpx": "trkpt"}.get(self.format, "line")
         self.chunk_rows = max(1, int(chunk_rows))
         self.part = part
         self.crs = crs
-        self.convert = convert
+        self.convert = convert and not lonlat
         self.entity_names: tuple = ()
         self.geographic: bool | None = None if self.format == "csv" else True
         self.start: datetime | None = None
@@ -231,13 +242,18 @@ class TrajectoryReader:
             if not lay.entity and step > 0:
                 order.check(np.zeros(1, np.int64), np.array([-np.inf]), np.zeros(1, np.int64), 1)  # a row before
             where_t = {c: j for j, c in enumerate(lay.columns)}
+            # no heading column: the track's (not needed to describe the file, unconverted)
+            raws = _headed_from_track(rows, lay, self.path) if lay.heading is None and (
+                self.convert or self.lonlat) else None
             while True:
-                raw = rows.next_rows()
+                raw = rows.next_rows() if raws is None else next(raws, None)
                 self._csv_skipped(lay)
                 if raw is None:
                     return
-                if lay.iso and self.start is None:
-                    self.start = _EPOCH + timedelta(seconds=lay.t0[0], microseconds=lay.t0[1] // 1000)
+                if self.time_origin is None and lay.time_origin is not None:
+                    self.time_origin = lay.time_origin
+                    self.start = _EPOCH + (timedelta(seconds=lay.t0[0], microseconds=lay.t0[1] // 1000) if lay.iso
+                                           else timedelta(microseconds=round(lay.time_origin * 1e6)))
                 if lay.entity:
                     for nm in rows.names[len(names.list):]:
                         names.add(nm)
@@ -274,8 +290,13 @@ class TrajectoryReader:
             error = self._order_error(lay.name, lay.entity, names, order, codes[bad], t[bad], lines[bad])
             k = bad
         x, y, yaw = a[:k], b[:k], h[:k]
+        compass = lay.heading != "yaw_deg"  # heading_deg, or none: taken from the track as a compass bearing
+        still = np.isnan(h[:k])  # no heading from the track: a vehicle that never moves (yaw 0)
+        if lay.geographic and self.lonlat:
+            yaw = np.where(still, 0.0, 90.0 - h[:k]) if compass else h[:k]
         if lay.geographic and self.convert and k:
-            x, y, yaw, bad = _geographic(a[:k], b[:k], h[:k], lay.heading == "heading_deg", self.crs, lay.name)
+            x, y, yaw, bad = _geographic(a[:k], b[:k], np.where(still, 0.0, h[:k]), compass, self.crs, lay.name)
+            yaw[still] = 0.0
             if bad >= 0:
                 k = bad
                 error = InputError(lay.name, f"lon {float(a[k])!r}, lat {float(b[k])!r} has no place in the terrain's "
@@ -295,7 +316,7 @@ class TrajectoryReader:
 
         chunk = TrajectoryChunk(np.arange(step, step + k), int(lines[0]), t[:k], x, y, yaw, optional("turret_deg"),
                                 optional("gun_deg"), lay.has_turret, lines[:k], codes[:k], names.tuple(), piece[:k],
-                                lay.entity, "line")
+                                lay.entity, "line", self.time_origin)
         return chunk, error
 
     @staticmethod
@@ -318,6 +339,7 @@ class TrajectoryReader:
             _check_crs(self.crs, self.path)
         g = read_gpx(self.path)
         self.start = g.start
+        self.time_origin = g.origin
         names = _Names(_track_names(g.track_names))
         n = len(g)
         codes = g.track.astype(np.int64)
@@ -338,13 +360,17 @@ class TrajectoryReader:
                                            source=self.path)
                 yaw = np.degrees(yaw)
                 yaw[np.isnan(heading[lo:hi])] = 0.0  # a track that never moves: no heading to give
+            elif self.lonlat:  # the local ENU yaw
+                x, y, yaw = g.lon[lo:hi], g.lat[lo:hi], np.nan_to_num(90.0 - np.degrees(heading[lo:hi]), nan=0.0)
             else:
                 x, y, yaw = g.lon[lo:hi], g.lat[lo:hi], np.degrees(heading[lo:hi])
             top = int(codes[hi - 1]) + 1  # tracks come in file order: the names seen so far
             zeros = np.zeros(hi - lo)
-            yield TrajectoryChunk(np.arange(lo, hi), int(g.line[lo]), g.t[lo:hi], x, y, yaw, zeros, zeros, False,
-                                  g.line[lo:hi], codes[lo:hi], tuple(names.list[:top]), piece_start[lo:hi], True,
-                                  "line")
+            point = np.arange(lo + 1, hi + 1)  # a track point by its number from 1 (its line says little in
+            # a file written on one line, as many are)
+            yield TrajectoryChunk(np.arange(lo, hi), lo + 1, g.t[lo:hi], x, y, yaw, zeros, zeros, False,
+                                  point, codes[lo:hi], tuple(names.list[:top]), piece_start[lo:hi], True,
+                                  "trkpt", self.time_origin)
         if bad >= 0:
             k = bad
             prev = order.last_t[codes[k]]
@@ -369,6 +395,7 @@ class TrajectoryReader:
             if self.start is None and cap._first_sec[0] >= 0:
                 self.start = _EPOCH + timedelta(seconds=int(cap._first_sec[0]), microseconds=round(
                     float(cap._first_frac[0]) * 1e6))
+                self.time_origin = float(cap._first_sec[0]) + float(cap._first_frac[0])
             self.skipped = cap.counts.skipped()
             for chunk in state.take(self, states, step):
                 step += len(chunk)
@@ -420,6 +447,16 @@ class _CaptureState:
             cols = trajectory_columns(states, reader.crs, source=reader.path)
             block = {"t": states.t, "x": cols["x"], "y": cols["y"], "yaw_deg": cols["yaw_deg"],
                      "turret_deg": cols["turret_deg"], "gun_deg": cols["gun_deg"]}
+        elif reader.lonlat:
+            from tankcd_cli.io.dis import articulation_angles
+            from tankcd_cli.io.geodesy import dis_orientation_to_enu, ecef_to_geodetic
+
+            lon, lat, _ = ecef_to_geodetic(states.location)
+            o = np.asarray(states.orientation, dtype=np.float64).reshape(-1, 3)
+            yaw, _, _ = dis_orientation_to_enu(o[:, 0], o[:, 1], o[:, 2], lon, lat)
+            turret, gun = articulation_angles(states.turret_azimuth, states.gun_elevation)
+            block = {"t": states.t, "x": lon, "y": lat, "yaw_deg": np.degrees(yaw), "turret_deg": np.degrees(turret),
+                     "gun_deg": np.degrees(gun)}
         else:
             from tankcd_cli.io.dis import articulation_angles
 
@@ -468,7 +505,7 @@ class _CaptureState:
             yield TrajectoryChunk(np.arange(step + lo, step + hi), int(block["packet"][lo]), block["t"][lo:hi],
                                   block["x"][lo:hi], block["y"][lo:hi], block["yaw_deg"][lo:hi], turret[lo:hi],
                                   gun[lo:hi], self.has_turret, block["packet"][lo:hi], codes[lo:hi], names,
-                                  piece[lo:hi], True, "packet")
+                                  piece[lo:hi], True, "packet", reader.time_origin)
         if bad >= 0:
             code = int(codes[bad])
             prev = float(self.order.last_t[code])
@@ -478,6 +515,43 @@ class _CaptureState:
                                           f"{REORDER_WINDOW:g} s this reader puts back in order; sort the capture by "
                                           "time first (Wireshark's reordercap does)",
                              where=f"packet {int(block['packet'][bad])}")
+
+
+def _headed_from_track(rows, lay, path: str):
+    """The raw rows of a lon, lat CSV without a heading column, each given the compass heading of its
+    track as a GPX track's points are (``io.gpx.track_headings``: the azimuth to the same entity's
+    next row; a row that does not move keeps the heading before it), in degrees in the heading
+    column (NaN where the entity never moves). The heading needs the rows after a row, so the file
+    is read whole first, as a GPX file is (memory follows the file; a warning says so)."""
+    from tankcd_cli.errors import warn
+    from tankcd_cli.io.gpx import track_headings
+
+    raws = []
+    while True:
+        raw = rows.next_rows()
+        if raw is None:
+            break
+        raws.append(raw)
+        if raw.error is not None:
+            break
+    n = sum(r.n for r in raws)
+    whose = "its entity's" if lay.entity else "the track's"
+    if n:
+        warn(lay.name, f"no heading column (heading_deg or yaw_deg) beside lon, lat: each row heads toward {whose} "
+                       f"next row, as a GPX track's points do (the file is read whole for it: {n:,} rows)")
+        lon = np.concatenate([r.values[1, :r.n] for r in raws])
+        lat = np.concatenate([r.values[2, :r.n] for r in raws])
+        codes = np.concatenate([r.codes[:r.n] for r in raws]) if lay.entity else np.zeros(n, np.int64)
+        order = np.argsort(codes, kind="stable")  # each entity's rows together, in file order
+        ok = (np.abs(lon) <= 180.0) & (np.abs(lat) <= 90.0)  # the rows the range check refuses: no heading
+        heading = np.full(n, np.nan)
+        good = order[ok[order]]
+        heading[good] = np.degrees(track_headings(lon[good], lat[good], codes[good]))
+        at = 0
+        for r in raws:
+            r.values[3, :r.n] = heading[at:at + r.n]
+            at += r.n
+    yield from raws
 
 
 def _carry(values: np.ndarray, codes: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -725,7 +799,8 @@ class TrajectoryInfo:
     counts from, where the input has one (UTC); has_entity, has_turret : as the chunks';
     entities : one :class:`EntitySpan` each, in order of first appearance; skipped : what was passed
     over, by name (a capture's packets and PDUs, a CSV's comment and blank lines); columns : the
-    CSV header's names as written (empty for other formats)."""
+    CSV header's names as written (empty for other formats); time_origin : the instant of t = 0 as
+    ISO 8601 UTC (``...Z``, ``utc_text``), None where t is relative."""
 
     path: str
     format: str
@@ -740,6 +815,7 @@ class TrajectoryInfo:
     entities: tuple
     skipped: dict = field(default_factory=dict)
     columns: tuple = ()
+    time_origin: str | None = None
 
 
 def trajectory_info(path: str, fmt: str | None = None, chunk_rows: int = 65536) -> TrajectoryInfo:
@@ -784,44 +860,129 @@ def trajectory_info(path: str, fmt: str | None = None, chunk_rows: int = 65536) 
                           t_first=float(np.nanmin(t_first)) if total else float("nan"),
                           t_last=float(np.nanmax(t_last)) if total else float("nan"), start=reader.start,
                           has_entity=has_entity, has_turret=has_turret, entities=entities,
-                          skipped=dict(reader.skipped), columns=columns)
+                          skipped=dict(reader.skipped), columns=columns, time_origin=utc_text(reader.time_origin))
 
 
 # -- export ------------------------------------------------------------------------------------------------------
 _EXPORT_DECIMALS = np.array([9, 6, 6, 9, 9, 9])  # t (ns), x, y (um), angles (1e-9 deg)
+_EXPORT_LONLAT_DECIMALS = np.array([9, 10, 10, 9, 9, 9])  # lon, lat to 1e-10 deg (about 11 um)
+EXPORT_NO_CRS = ("a geographic trajectory (lon, lat; GPX; a DIS capture) is exported in a CRS: give --terrain, "
+                 "--scene or --crs (EPSG:32633, or EPSG:4326 for lon, lat)")
+
+
+def utc_text(origin: float | None) -> str | None:
+    """Seconds since 1970 -> ISO 8601 UTC (``2026-05-04T10:00:00.05Z``), None for None. The fraction is
+    the float's shortest decimal (``repr``'s: 7 digits at most at today's dates), so that
+    ``trajectory_csv.iso_seconds`` and ``epoch_seconds`` read it back into the same float64."""
+    from decimal import ROUND_FLOOR, Decimal
+
+    if origin is None:
+        return None
+    exact = Decimal(repr(float(origin)))
+    if exact.as_tuple().exponent < -9:  # before 1973 a float holds more than nanoseconds: to 1 ns
+        exact = exact.quantize(Decimal(1).scaleb(-9))
+    whole = int(exact.to_integral_value(rounding=ROUND_FLOOR))
+    frac = format(exact - whole, "f")  # "0.05", "0"
+    text = (_EPOCH + timedelta(seconds=whole)).strftime("%Y-%m-%dT%H:%M:%S")
+    digits = frac.partition(".")[2].rstrip("0")
+    return text + (f".{digits}" if digits else "") + "Z"
+
+
+def is_wgs84(crs: str | None) -> bool:
+    """``crs`` is WGS 84 longitude and latitude (EPSG:4326, in either axis order)."""
+    if not crs:
+        return False
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
+
+    try:
+        given = CRS.from_user_input(crs)
+    except CRSError:
+        return False
+    return given.is_geographic and given.equals(CRS.from_epsg(4326), ignore_axis_order=True)
+
+
+class _TurretLate(Exception):
+    """A capture's turret and gun angles first seen after the export's header was written without them."""
 
 
 def export_trajectory(path: str, out: str, crs: str | None = None, fmt: str | None = None,
                       chunk_rows: int = 65536) -> dict:
-    """Write any trajectory input as the trajectory CSV tankcd reads: ``t,entity,x,y,yaw_deg,turret_deg,
-    gun_deg`` in the terrain's CRS (``crs`` as ``read_trajectory`` takes it), rows in the reader's order,
-    t to 1 ns, positions to 1 um, angles to 1e-9 deg. ``out``: a file (written beside and renamed when
-    complete: an error leaves nothing) or '-'. Returns {"rows", "entities", "skipped"}."""
+    """Write any trajectory input as the trajectory CSV tankcd reads: ``t,entity,x,y,yaw_deg`` in the
+    terrain's CRS (``crs`` as ``read_trajectory`` takes it), or with ``crs`` EPSG:4326
+    ``t,entity,lon,lat,heading_deg`` (WGS 84 degrees, a compass heading: the geographic CSV), and
+    ``turret_deg,gun_deg`` where the input has those angles; rows in the reader's order, t to 1 ns,
+    positions to 1 um (lon, lat to 1e-10 deg), angles to 1e-9 deg. Where the input has an absolute
+    clock a ``# time_origin: ...Z`` comment before the header keeps it (read back: the same origin and
+    the same t). ``out``: a file (written beside and renamed when complete: an error leaves nothing)
+    or '-'. The first chunk is read before anything is written: a geographic input without a CRS
+    (InputError naming the options that give one) or a bad first row writes nothing. Returns
+    {"rows", "entities", "skipped"}."""
     from tankcd_cli.io.atomic import output_text
+    from tankcd_cli.io.geodesy import NO_CRS
 
-    reader = read_trajectory(path, chunk_rows, crs=crs, fmt=fmt)
-    rows = 0
-    with output_text(out, ".csv", newline="") as fh:
-        fh.write(",".join(EXPORT_COLUMNS) + "\n")
-        for chunk in reader:
-            fh.write(_export_text(chunk))
-            rows += len(chunk)
-    return {"rows": rows, "entities": len(reader.entity_names), "skipped": dict(reader.skipped)}
+    lonlat = is_wgs84(crs)
+    turret = None  # the columns: from the first chunk (a capture's later turret: again, with them)
+    while True:
+        reader = TrajectoryReader(path, chunk_rows, None, None if lonlat else crs, fmt, lonlat=lonlat)
+        try:
+            first = next(reader, None)
+        except InputError as exc:
+            if exc.what == NO_CRS:  # no CRS was given: name the options that give one
+                raise InputError(exc.source, EXPORT_NO_CRS) from None
+            raise
+        if lonlat and not reader.geographic:
+            raise InputError(path, "x, y in metres are in no CRS tankcd knows: export them to lon, lat from a "
+                                   "geographic input only (or give --crs of a projected CRS: written as they are)")
+        if turret is None:
+            turret = bool(first is not None and first.has_turret)
+        columns = ("t", "entity") + (("lon", "lat", "heading_deg") if lonlat else ("x", "y", "yaw_deg"))
+        columns += ("turret_deg", "gun_deg") if turret else ()
+        rows = 0
+        try:
+            with output_text(out, ".csv", newline="") as fh:
+                if reader.time_origin is not None:
+                    fh.write(f"# time_origin: {utc_text(reader.time_origin)}\n")
+                fh.write(",".join(columns) + "\n")
+                for chunk in ([first] if first is not None else []):
+                    fh.write(_export_text(chunk, lonlat, turret))
+                    rows += len(chunk)
+                for chunk in reader:
+                    if chunk.has_turret and not turret:
+                        if out == "-":
+                            from tankcd_cli.errors import warn
+
+                            warn(path, f"turret and gun angles from {reader.where} {int(chunk.line[0])} on: the "
+                                       "export's columns, written before, have none (export to a file to keep them)")
+                            turret = False
+                        else:
+                            raise _TurretLate
+                    fh.write(_export_text(chunk, lonlat, turret))
+                    rows += len(chunk)
+        except _TurretLate:
+            reader.close()
+            turret = True
+            continue
+        return {"rows": rows, "entities": len(reader.entity_names), "skipped": dict(reader.skipped)}
 
 
-def _export_text(chunk: TrajectoryChunk) -> str:
+def _export_text(chunk: TrajectoryChunk, lonlat: bool = False, turret: bool = True) -> str:
     from tankcd_cli.io.fixed_text import table_text
 
-    numbers = np.column_stack([chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.turret_deg, chunk.gun_deg])
+    heading = np.mod(90.0 - chunk.yaw_deg, 360.0) if lonlat else chunk.yaw_deg  # lonlat: from ENU yaw to compass
+    cols = [chunk.t, chunk.x, chunk.y, heading] + ([chunk.turret_deg, chunk.gun_deg] if turret else [])
+    numbers = np.column_stack(cols)
+    decimals = (_EXPORT_LONLAT_DECIMALS if lonlat else _EXPORT_DECIMALS)[:len(cols)]
     names = list(chunk.entity_names)
     text = None
     if all(n.isascii() for n in names):
-        kinds = np.array([0, 1, 0, 0, 0, 0, 0])
-        index = np.array([0, 0, 1, 2, 3, 4, 5])
-        text = table_text(numbers, _EXPORT_DECIMALS, chunk.entity.reshape(-1, 1), names, kinds, index)
+        kinds = np.array([0, 1] + [0] * (len(cols) - 1))
+        index = np.array([0, 0] + list(range(1, len(cols))))
+        text = table_text(numbers, decimals, chunk.entity.reshape(-1, 1), names, kinds, index)
     if text is None:  # a name beyond ASCII, or a number too large for fixed point
         label = np.asarray(names, dtype=object)[chunk.entity]
-        text = "".join(f"{r[0]:.9f},{e},{r[1]:.6f},{r[2]:.6f},{r[3]:.9f},{r[4]:.9f},{r[5]:.9f}\n"
+        forms = ["{:.%df}" % d for d in decimals]
+        text = "".join(",".join([forms[0].format(r[0]), e] + [f.format(v) for f, v in zip(forms[1:], r[1:])]) + "\n"
                        for r, e in zip(numbers.tolist(), label.tolist()))
     return text
 
@@ -833,10 +994,19 @@ def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = 
     file. Each file is one entity named after its stem, or its own entities when it names them
     (``has_entity``); the names are the exercise's, so two files naming the same entity is an
     InputError naming both. Steps count the merged rows from 0; each row keeps its file's line
-    (messages name the file of a bad row: each file is read by its own reader)."""
+    (messages name the file of a bad row: each file is read by its own reader).
+
+    Files with an absolute clock (``time_origin``: GPX, captures, CSVs with ISO 8601 or ``unix_time``
+    times or a ``# time_origin`` comment) are aligned on it: t counts from the earliest origin of
+    them all (each file's rows shifted by its origin's distance from it), and the chunks carry that
+    origin. Files without one are lined up by their own t. A mix of the two is an InputError naming
+    a file of each kind."""
+    import dataclasses
     import os
 
     readers = [read_trajectory(p, chunk_rows=chunk_rows, crs=crs) for p in paths]
+    kinds = {r.where for r in readers}
+    where = kinds.pop() if len(kinds) == 1 else "line"  # what the rows' numbers count, where all files agree
     pending: list = [None] * len(readers)  # each reader's unread rows: a chunk and where it starts
     alive = list(range(len(readers)))
     names: list = []
@@ -844,6 +1014,8 @@ def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = 
     maps: list = [np.zeros(0, dtype=np.int64) for _ in readers]  # per reader: local code -> exercise code
     step = 0
     has_turret = False
+    shift = [0.0] * len(readers)  # s added to each file's t: its origin's distance from the exercise's
+    origin = None
 
     def global_codes(k, chunk):
         local = chunk.entity_names if chunk.has_entity else (os.path.splitext(os.path.basename(paths[k]))[0],)
@@ -865,10 +1037,27 @@ def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = 
             if chunk is None:
                 return False
             if len(chunk):
+                if shift[k]:
+                    chunk = dataclasses.replace(chunk, t=chunk.t + shift[k])
                 pending[k] = (chunk, 0, global_codes(k, chunk))
         return True
 
     alive = [k for k in alive if fill(k)]
+    origins = {k: pending[k][0].time_origin for k in alive}
+    timed = [k for k in alive if origins[k] is not None]
+    if timed and len(timed) < len(alive):
+        a, r = timed[0], next(k for k in alive if origins[k] is None)
+        raise InputError(paths[a], f"has absolute times (from {utc_text(origins[a])}) and {paths[r]} relative ones "
+                                   "(seconds from its first row): they cannot be aligned; give both an absolute "
+                                   "clock (ISO 8601 times, unix_time, or a '# time_origin:' comment: docs/formats.md) "
+                                   "or neither")
+    if timed:
+        origin = min(origins[k] for k in timed)
+        for k in timed:
+            shift[k] = origins[k] - origin
+            if shift[k]:
+                chunk, at, codes = pending[k]
+                pending[k] = (dataclasses.replace(chunk, t=chunk.t + shift[k]), at, codes)
     while alive:
         # every row up to the earliest last time in the files' pending chunks can go now
         limit = min(float(pending[k][0].t[-1]) for k in alive)
@@ -896,6 +1085,6 @@ def merged_trajectories(paths: list, chunk_rows: int = 65536, crs: str | None = 
             yield TrajectoryChunk(np.arange(step + sl.start, step + sl.stop), int(cat["line"][sl.start]), cat["t"][sl],
                                   cat["x"][sl], cat["y"][sl], cat["yaw_deg"][sl], cat["turret_deg"][sl],
                                   cat["gun_deg"][sl], has_turret, cat["line"][sl], entity[sl], tuple(names),
-                                  piece[sl], True)
+                                  piece[sl], True, where, origin)
         step += n
         alive = [k for k in alive if fill(k)]

@@ -14,9 +14,12 @@ The rules (each refusal one line naming the file and the line):
   splitting it into the required columns (refused where none or more than one does); a header
   with none of them is refused;
 - ``t``: numbers (seconds), or ISO 8601 times (seconds from the file's first row), decided by the
-  first row; a mix is refused;
+  first row; a mix is refused; ``unix_time`` in its place: seconds since 1970-01-01T00:00:00Z (t
+  counts from the first row); a comment ``# time_origin: <ISO 8601 time>`` before the header names
+  the instant t counts from (numbers as they are, ISO and ``unix_time`` times counted from it);
 - ``x``, ``y`` or ``lon``, ``lat`` (``x``, ``y`` win where both are there); the heading ``yaw_deg``
-  or, with ``lon``, ``lat``, ``heading_deg`` (a compass bearing from true north);
+  or, with ``lon``, ``lat``, ``heading_deg`` (a compass bearing from true north), or with ``lon``,
+  ``lat`` none (``heading`` is None: the reader takes it from the track);
 - ``entity``: an id without quotes, commas or control characters (blanks around it ignored);
 - numbers: a point as the decimal mark (a decimal comma is refused, naming the fix).
 """
@@ -34,7 +37,9 @@ from tankcd_cli.errors import InputError
 SEPARATORS = (",", ";", "\t")
 SEP_NAMES = {",": "a comma", ";": "a semicolon", "\t": "a tab"}
 OPTIONAL = ("turret_deg", "gun_deg")
-KNOWN = ("t", "x", "y", "lon", "lat", "yaw_deg", "heading_deg", "turret_deg", "gun_deg", "entity")
+KNOWN = ("t", "unix_time", "x", "y", "lon", "lat", "yaw_deg", "heading_deg", "turret_deg", "gun_deg", "entity")
+EPOCH_COLUMN = "unix_time"  # t as seconds since 1970-01-01T00:00:00Z
+_ORIGIN = re.compile(rb"\s*#\s*time_origin\s*:\s*(.*?)\s*", re.IGNORECASE)
 BLOCK = 1 << 22  # bytes read at a time
 NOT_UTF8 = "not UTF-8 text (a trajectory is a CSV file)"
 _ISO = re.compile(rb"(\d{4})-(\d\d)-(\d\d)[Tt ](\d\d):(\d\d):(\d\d)(?:\.(\d{1,9}))?(?:([Zz])|([+-])(\d\d)(?::?(\d\d))?)?")
@@ -66,6 +71,14 @@ def iso_seconds(text: bytes):
     return day * 86400 + hh * 3600 + mi * 60 + ss - offset, ns
 
 
+def epoch_seconds(seconds: int, ns: int) -> float:
+    """(whole seconds since 1970, nanoseconds) -> the float64 nearest to their exact sum (the decimal
+    ``utc_text`` writes is read back into the float it came from)."""
+    from decimal import Decimal
+
+    return float(Decimal(int(seconds)) + Decimal(int(ns)).scaleb(-9))
+
+
 def stem_name(path: str) -> str:
     """The entity name of a file without an entity column: its stem ('stdin' for '-'), without the
     characters an entity id may not hold (commas, quotes, control characters: '_' instead)."""
@@ -85,16 +98,31 @@ class Layout:
     header_line: int  # the header's line number
     body_start: int  # byte offset of the line after the header
     width: int
-    columns: list  # output columns, in order: t, x|lon, y|lat, yaw_deg|heading_deg, [turret_deg], [gun_deg]
+    columns: list  # output columns, in order: t|unix_time, x|lon, y|lat, yaw_deg|heading_deg, [turret_deg], [gun_deg]
     colmap: np.ndarray  # (width,) int32: the output column of each cell (entity: len(columns)), or -1
     geographic: bool
-    heading: str  # "yaw_deg" or "heading_deg"
+    heading: str | None  # "yaw_deg" or "heading_deg"; None: lon, lat without one (from the track)
     entity: bool
     has_turret: bool
     comment_lines: int = 0
     iso: bool | None = None  # t as ISO 8601 times (None: not known before the first row)
     t0: tuple = (0, 0)  # the first row's time (s since 1970, ns) where iso
     blank_lines: int = 0
+    origin: tuple | None = None  # a ``# time_origin:`` comment's instant (s since 1970, ns)
+    epoch: bool = False  # t is the unix_time column: seconds since 1970
+    base: float | None = None  # where epoch: the value t counts from (the origin's, or the first row's)
+
+    @property
+    def time_origin(self) -> float | None:
+        """The UTC instant of t = 0 as seconds since 1970 (None: t is relative): the ``time_origin``
+        comment's, else the first row's where t is an absolute time (ISO 8601, ``unix_time``)."""
+        if self.origin is not None:
+            return epoch_seconds(*self.origin)
+        if self.iso:
+            return epoch_seconds(*self.t0)
+        if self.epoch:
+            return self.base
+        return None
 
     @property
     def text_col(self) -> int:
@@ -105,6 +133,7 @@ def read_layout(fh, name: str, geographic_ok: bool = True) -> Layout:
     """Read the lines before the header and the header from a binary stream (left after the header)."""
     offset = lineno = comments = 0
     header = None
+    origin = None
     while True:
         raw = fh.readline()
         if not raw:
@@ -116,6 +145,16 @@ def read_layout(fh, name: str, geographic_ok: bool = True) -> Layout:
             continue
         if line.lstrip().startswith(b"#"):
             comments += 1
+            m = _ORIGIN.fullmatch(line.rstrip(b"\r\n"))
+            if m is not None:
+                got = iso_seconds(m.group(1))
+                if got is None:
+                    raise InputError(name, f"time_origin {m.group(1).decode(errors='replace')[:40]!r} is not an ISO "
+                                           "8601 time (such as 2026-05-04T10:00:00.25Z)", where=f"line {lineno}")
+                if origin is not None:
+                    raise InputError(name, "a second time_origin comment (give the instant t counts from once)",
+                                     where=f"line {lineno}")
+                origin = got
             continue
         header = line
         break
@@ -137,12 +176,18 @@ def read_layout(fh, name: str, geographic_ok: bool = True) -> Layout:
     cells = [h.strip().strip('"').strip() for h in text.split(sep)]
     folded = [h.lower() for h in cells]
     mixed = [s for s in SEPARATORS if s in text and s != sep]
-    return _layout(name, sep, cells, folded, lineno, offset, comments, where, mixed)
+    lay = _layout(name, sep, cells, folded, lineno, offset, comments, where, mixed)
+    lay.origin = origin
+    if lay.epoch and origin is not None:
+        lay.base = epoch_seconds(*origin)
+    return lay
 
 
 def _fits(folded: list) -> bool:
-    pos = ("x" in folded and "y" in folded) or ("lon" in folded and "lat" in folded)
-    return "t" in folded and pos and ("yaw_deg" in folded or "heading_deg" in folded)
+    xy = "x" in folded and "y" in folded
+    pos = xy or ("lon" in folded and "lat" in folded)
+    return ("t" in folded or EPOCH_COLUMN in folded) and pos and (
+        "yaw_deg" in folded or "heading_deg" in folded or not xy)
 
 
 def _separator(text: str, name: str, where: str) -> str:
@@ -168,14 +213,16 @@ def _layout(name, sep, cells, folded, lineno, offset, comments, where, mixed=())
 
     geographic = not (has("x") and has("y")) and has("lon") and has("lat")
     pair = ("lon", "lat") if geographic else ("x", "y")
-    missing = [c for c in ("t",) + pair if not has(c)]
+    epoch = has(EPOCH_COLUMN) and not has("t")
+    missing = [c for c in ("t",) + pair if not has(c) and not (c == "t" and epoch)]
+    if has(EPOCH_COLUMN) and has("t"):
+        raise InputError(name, f"the header has both t and {EPOCH_COLUMN} (seconds since 1970): keep one",
+                         where=where)
     if geographic:
         if has("yaw_deg") and has("heading_deg"):
             raise InputError(name, "the header has both heading_deg (a compass bearing) and yaw_deg (counter-"
                                    "clockwise from east): keep one", where=where)
-        heading = "heading_deg" if has("heading_deg") else "yaw_deg"
-        if not has(heading):
-            missing.append("yaw_deg (or heading_deg)")
+        heading = "heading_deg" if has("heading_deg") else ("yaw_deg" if has("yaw_deg") else None)
     else:
         heading = "yaw_deg"
         if not has("yaw_deg"):
@@ -196,16 +243,19 @@ def _layout(name, sep, cells, folded, lineno, offset, comments, where, mixed=())
     for c in KNOWN:
         if folded.count(c) > 1:
             raise InputError(name, f"column {c} appears twice in the header", where=where)
-    columns = ["t", pair[0], pair[1], heading] + [c for c in OPTIONAL if has(c)]
+    columns = [EPOCH_COLUMN if epoch else "t", pair[0], pair[1], heading or "heading_deg"] + [
+        c for c in OPTIONAL if has(c)]
     colmap = np.full(len(folded), -1, np.int32)
     for j, c in enumerate(columns):
+        if j == 3 and heading is None:
+            continue  # no heading column: the values stay empty (the reader takes them from the track)
         colmap[folded.index(c)] = j
     entity = has("entity")
     if entity:
         colmap[folded.index("entity")] = len(columns)
     return Layout(name=name, sep=sep, header=cells, header_line=lineno, body_start=offset, width=len(folded),
                   columns=columns, colmap=colmap, geographic=geographic, heading=heading, entity=entity,
-                  has_turret=any(has(c) for c in OPTIONAL), comment_lines=comments)
+                  has_turret=any(has(c) for c in OPTIONAL), comment_lines=comments, epoch=epoch)
 
 
 class ByteSource:
@@ -348,6 +398,12 @@ class CsvRows:
         if lay.iso and r:
             s0, n0 = lay.t0
             values[0, :r] = ((isosec[:r] - s0) * 1_000_000_000 + (isons[:r] - n0)) / 1e9
+        elif lay.epoch and r:
+            if lay.base is None:
+                lay.base = float(values[0, 0])
+            values[0, :r] -= lay.base
+        if lay.heading is None and r:
+            values[3, :r] = np.nan  # no heading column: taken from the track by the reader
         if src.eof and src.pos >= src.end:
             self.done = True
         if r == 0 and error is None:
@@ -434,7 +490,7 @@ def _careful(raw: bytes, lineno: int, lay: Layout):
             if lay.iso is None:
                 lay.iso = got is not None or bool(_ISO_START.match(cell))
                 if got is not None:
-                    lay.t0 = got
+                    lay.t0 = lay.origin or got
             if lay.iso:
                 if got is None:
                     text = cell.decode().strip()
@@ -508,5 +564,7 @@ def first_row_time(fh, lay: Layout) -> None:
         got = iso_seconds(cell.strip(b" \t"))
         lay.iso = got is not None or bool(_ISO_START.match(cell))
         if got is not None:
-            lay.t0 = got
+            lay.t0 = lay.origin or got
+        elif lay.epoch and lay.base is None:
+            lay.base = _number(cell)
         return

@@ -131,10 +131,12 @@ def replay_outputs(outputs: ReplayOutputs, entity: bool, metadata: Callable[[], 
         yield poses, events
 
 
-def replay_metadata(world, trajectories, options, hash_trajectories: bool = True) -> dict:
+def replay_metadata(world, trajectories, options, hash_trajectories: bool = True,
+                    time_origin: str | None = None) -> dict:
     """A replay's Parquet metadata (``io.parquet.output_metadata``): the terrain's CRS, the units
     and conventions, tankcd's version, ``tankcd.replay`` (the options: matcher, escalate,
-    tolerance, mode) and ``tankcd.sources``, each with its ``role``:
+    tolerance, mode; ``time_origin``: the UTC instant of t = 0, ISO 8601 ``...Z``, or null where the
+    trajectory's times are relative) and ``tankcd.sources``, each with its ``role``:
 
     - trajectory: each trajectory file with its SHA-256 (without, when ``hash_trajectories`` is
       False: a part of a trajectory, whose whole file the fleet hashes once when it joins them);
@@ -162,7 +164,7 @@ def replay_metadata(world, trajectories, options, hash_trajectories: bool = True
     sources.append(_terrain_source(world))
     how = {"matcher": options.matcher, "escalate": options.escalate, "tolerance": options.tolerance,
            "attitude_tolerance": options.attitude_tolerance,
-           "mode": "continuous" if options.continuous else "discrete"}
+           "mode": "continuous" if options.continuous else "discrete", "time_origin": time_origin}
     return output_metadata(world.crs, sources, replay=how)
 
 

@@ -33,6 +33,8 @@ class MotionChecks:
     named by ``observe_rows``'s ``names``. ``tally`` (ExerciseChecks) limits how many vehicles one
     kind of warning names."""
 
+    where = "line"  # what the rows' numbers count in messages ("trkpt" for GPX points, "packet" for a capture's)
+
     def __init__(self, source: str, name: str | None = None, tally=None):
         self.source = source
         self.name = name
@@ -91,8 +93,9 @@ class MotionChecks:
                                                    dt[j], speed[j]), "speed"))
         for j in _first_per_vehicle(who, (turn >= MAX_TURN) & (dt > 0) & ~self.turn_warned[who]):
             self.turn_warned[who[j]] = True
-            messages.append((who[j], 1, f"{self._who(who[j])}line {line[step[j] + 1]}: the heading turns "
-                                        f"{turn[j]:.1f} deg from line {line[step[j]]} in {dt[j]:g} s; the motion "
+            at = self.where
+            messages.append((who[j], 1, f"{self._who(who[j])}{at} {line[step[j] + 1]}: the heading turns "
+                                        f"{turn[j]:.1f} deg from {at} {line[step[j]]} in {dt[j]:g} s; the motion "
                                         "between them takes the shorter way, a guess at that size (rows closer in "
                                         "time would say which way it turned)", "turn"))
         for _, _, what, kind in sorted(messages, key=lambda m: (m[0], m[1])):
@@ -133,13 +136,14 @@ class MotionChecks:
     def _fast(self, code, line0, line1, t0, dist, dt, speed) -> str:
         who = self._who(code)
         named = bool(who)
+        at = self.where
         if dt == 0:
-            return (f"{who}line {line1}: {dist:.1f} m from line {line0} at the same t ({t0:g} s): no vehicle jumps"
+            return (f"{who}{at} {line1}: {dist:.1f} m from {at} {line0} at the same t ({t0:g} s): no vehicle jumps"
                     + ("" if named else "; are rows of several vehicles interleaved in one file? give each row its "
                        "vehicle in an entity column"))
         hint = ("is t in other units?" if named else "are rows of several vehicles interleaved in one file (an "
                 "entity column), or is t in other units?")
-        return (f"{who}line {line1}: {speed:.1f} m/s from line {line0} ({dist:.1f} m in {dt:g} s), faster than any "
+        return (f"{who}{at} {line1}: {speed:.1f} m/s from {at} {line0} ({dist:.1f} m in {dt:g} s), faster than any "
                 f"vehicle ({MAX_SPEED:g} m/s); {hint}")
 
     def _warn(self, source: str, what: str, kind: str = "motion") -> None:
@@ -160,7 +164,7 @@ class MotionChecks:
             cause = CAUSES[keys[best]] if fits[best] * 2 > moving else (
                 "a compass bearing (from north, clockwise: yaw_deg = 90 - bearing), radians, or a sign")
             self._warn(self.source, f"{self._who(code)}{off:,} of {moving:,} moving rows head more than "
-                                    f"{OFF_COURSE:g} deg away from their direction of travel (first at line "
+                                    f"{OFF_COURSE:g} deg away from their direction of travel (first at {self.where} "
                                     f"{self.first_off_line[code]}): the vehicle would drive sideways; likely {cause}",
                        "heading")
 
@@ -183,6 +187,14 @@ class ExerciseChecks:
         self.source = source
         self.checks = MotionChecks(source, tally=self)
         self.count: dict = {}
+
+    @property
+    def where(self) -> str:
+        return self.checks.where
+
+    @where.setter
+    def where(self, value: str) -> None:
+        self.checks.where = value
 
     def allow(self, kind: str) -> bool:
         self.count[kind] = self.count.get(kind, 0) + 1

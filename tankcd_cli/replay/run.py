@@ -50,7 +50,7 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
 
 
 def _run(world, trajectory, outputs, options, part, progress, observe, sources, start) -> ReplaySummary:
-    from tankcd_cli.io.trajectory import lead_row, read_trajectory
+    from tankcd_cli.io.trajectory import lead_row, read_trajectory, utc_text
     from tankcd_cli.replay.outputs import replay_metadata, replay_outputs
     from tankcd_cli.replay.pipeline import start_run
 
@@ -68,13 +68,17 @@ def _run(world, trajectory, outputs, options, part, progress, observe, sources, 
     if sources is None:
         sources = [trajectory] if isinstance(trajectory, str) else []
 
+    origin = utc_text(first.time_origin) if first is not None else None  # the UTC instant of t = 0, or None
+
     def metadata():
-        return replay_metadata(world, sources, options, hash_trajectories=part is None)
+        return replay_metadata(world, sources, options, hash_trajectories=part is None, time_origin=origin)
 
     with replay_outputs(outputs, entities, metadata) as (poses_out, events_out):
         write_replay(run, stream, poses_out, events_out, counts, source, lead=lead, progress=progress,
                      observe=observe)
-    return summarize(counts, run, time.perf_counter() - start)
+    summary = summarize(counts, run, time.perf_counter() - start)
+    summary.time_origin = origin
+    return summary
 
 
 def _chain(first, rest):
@@ -120,6 +124,7 @@ def _checked(chunks, checks):
     from tankcd_cli.replay.plausibility import ExerciseChecks
 
     for chunk in chunks:
+        checks.where = chunk.where  # what the rows' numbers count in messages: lines, track points, packets
         if isinstance(checks, ExerciseChecks):
             checks.observe(chunk)
         else:

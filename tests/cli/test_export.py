@@ -11,7 +11,7 @@ rasterio = pytest.importorskip("rasterio")
 
 def _rows(path):
     with open(path, newline="") as fh:
-        return list(csv.DictReader(fh))
+        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
 
 
 @pytest.fixture
@@ -88,3 +88,87 @@ def test_bad_input_and_usage(run, tmp_path):
     same = run("export", "gps.csv", "--crs", "EPSG:32632", "-o", "gps.csv")
     assert same.exit_code == 2 and (tmp_path / "gps.csv").read_text().startswith("t,lon,lat")
     assert run("export", "gps.csv", "--crs", "EPSG:32632", "-o", "x.parquet").exit_code == 2
+
+
+def test_no_crs_for_a_geographic_input_writes_nothing_and_names_the_options(run, tmp_path):
+    (tmp_path / "gps.csv").write_text("t,lon,lat,heading_deg\n0,10.0,50.0,0\n")
+    for target in ("-", "out.csv"):
+        lost = run("export", "gps.csv", "-o", target)
+        assert lost.exit_code == 3 and lost.stdout == "", lost.stdout
+        lines = lost.stderr.strip().splitlines()
+        assert len(lines) == 1 and "gps.csv" in lines[0] and "--terrain, --scene or --crs" in lines[0], lines
+        assert "this terrain has none" not in lines[0]
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_export_in_lon_lat_is_the_geographic_csv_the_reader_reads(run, tmp_path, capture):
+    from tankcd_cli.io.trajectory import read_trajectory
+
+    path, rows, _ = capture
+    done = run("export", path, "--crs", "EPSG:4326", "-o", "geo.csv")
+    assert done.exit_code == 0, done.stderr
+    got = _rows(tmp_path / "geo.csv")
+    assert list(got[0]) == ["t", "entity", "lon", "lat", "heading_deg", "turret_deg", "gun_deg"]
+    loc = np.array([r[3]["location"] for r in rows])
+    lon, lat, _ = pyproj.Transformer.from_crs("EPSG:4978", "EPSG:4326", always_xy=True).transform(*loc.T)
+    np.testing.assert_allclose([float(r["lon"]) for r in got], lon, atol=1e-9)
+    np.testing.assert_allclose([float(r["lat"]) for r in got], lat, atol=1e-9)
+    # read back in a CRS: the capture's own conversion, to the export's rounding (the headings through two
+    # measurements of the grid's convergence: within 3e-7 deg)
+    wkt = pyproj.CRS("EPSG:32632").to_wkt()
+    src = [c for c in read_trajectory(path, crs=wkt)]
+    back = [c for c in read_trajectory(str(tmp_path / "geo.csv"), crs=wkt)]
+    for f, tol in (("t", 1e-9), ("x", 2e-5), ("y", 2e-5), ("yaw_deg", 3e-7), ("turret_deg", 1e-9)):
+        a, b = np.concatenate([getattr(c, f) for c in src]), np.concatenate([getattr(c, f) for c in back])
+        d = (a - b + 180) % 360 - 180 if f == "yaw_deg" else a - b
+        assert np.abs(d).max() <= tol, f
+    assert back[0].time_origin == src[0].time_origin
+    # a CSV in metres has no CRS to leave
+    (tmp_path / "m.csv").write_text("t,x,y,yaw_deg\n0,1,2,3\n")
+    metric = run("export", "m.csv", "--crs", "EPSG:4326", "-o", "m_out.csv")
+    assert metric.exit_code == 3 and "x, y in metres" in metric.stderr and not (tmp_path / "m_out.csv").exists()
+
+
+def test_an_export_without_turret_columns_replays_as_its_input(run, tmp_path):
+    import json
+
+    store = tmp_path / "flat.asc"
+    from tests.conftest import write_asc
+
+    write_asc(store, np.full((60, 120), 10.0))
+    (tmp_path / "drive.csv").write_text("t,x,y,yaw_deg\n" + "".join(f"{k},{20 + k},{30},0\n" for k in range(20)))
+    done = run("export", "drive.csv", "--crs", "EPSG:32633", "-o", "drive_out.csv")
+    assert done.exit_code == 0, done.stderr
+    text = (tmp_path / "drive_out.csv").read_text().splitlines()
+    assert text[0] == "t,entity,x,y,yaw_deg" and not text[0].startswith("#")  # no clock, no turret: none written
+    effects = []
+    for source in ("drive.csv", "drive_out.csv"):
+        got = run("-q", "replay", source, "--terrain", "flat.asc", "--poses", "p.csv", "--summary", "-")
+        assert got.exit_code == 0, got.stderr
+        effects.append(json.loads(got.stdout)["effects"])
+    assert effects[0] == effects[1] and effects[0]["internal"] is False
+
+
+def test_an_export_keeps_the_clock_and_replays_together_as_its_source(run, tmp_path):
+    from tankcd_cli.io.trajectory import read_trajectory
+    from tests.replay.test_clocks import _csv_b, _gpx_a
+
+    _gpx_a(tmp_path / "A.gpx")
+    done = run("export", "A.gpx", "--crs", "EPSG:32632", "-o", "A_utm.csv")
+    assert done.exit_code == 0, done.stderr
+    assert (tmp_path / "A_utm.csv").read_text().startswith("# time_origin: 2026-05-04T10:00:00Z\nt,entity,x,y,yaw_deg\n")
+    src = list(read_trajectory(str(tmp_path / "A.gpx"), crs="EPSG:32632"))
+    back = list(read_trajectory(str(tmp_path / "A_utm.csv")))
+    assert back[0].time_origin == src[0].time_origin and back[0].time_origin is not None
+    np.testing.assert_array_equal(np.concatenate([c.t for c in back]), np.concatenate([c.t for c in src]))
+    # together with a file of another clock: the same alignment from the export as from the track
+    _csv_b(tmp_path / "B.csv")
+    for name in ("A.gpx", "A_utm.csv"):
+        for a, b in ((name, "B.csv"), ("B.csv", name)):
+            from tankcd_cli.io.trajectory import merged_trajectories
+
+            merged = list(merged_trajectories([str(tmp_path / a), str(tmp_path / b)], crs="EPSG:32632"))
+            t = np.concatenate([c.t for c in merged])
+            names = np.concatenate([c.names() for c in merged])
+            assert t[names == "B"][0] == 5.0 and t[names == "A"][0] == 0.0
+            assert merged[0].time_origin == src[0].time_origin

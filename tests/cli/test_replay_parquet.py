@@ -155,7 +155,8 @@ def test_metadata_names_the_crs_conventions_version_and_the_sources_by_their_sha
         assert kv["tankcd.units"] == "m, s, deg" and "REP 103" in kv["tankcd.conventions"]
         assert kv["tankcd.crs_wkt"] == ""  # the sample grid names no CRS
         assert json.loads(kv["tankcd.replay"]) == {"matcher": "four_point", "escalate": None, "tolerance": None,
-                                                   "attitude_tolerance": None, "mode": "continuous"}
+                                                   "attitude_tolerance": None, "mode": "continuous",
+                                                   "time_origin": None}  # t in seconds: no absolute clock
         sources = json.loads(kv["tankcd.sources"])
         assert sources == [{"role": "trajectory", "path": str(traj), "sha256": sha256(traj)},
                            # a store is not hashed again: its own record of what it was classified from

@@ -11,7 +11,7 @@ import pytest
 
 from tankcd_cli.errors import InputError
 from tankcd_cli.io import trajectory_csv
-from tankcd_cli.io.trajectory import (TrajectoryChunk, export_trajectory, lead_row, read_trajectory,
+from tankcd_cli.io.trajectory import (TrajectoryChunk, TrajectoryReader, export_trajectory, lead_row, read_trajectory,
                                       split_trajectory, trajectory_info)
 
 FIELDS = ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "line", "entity", "piece_start")
@@ -383,7 +383,6 @@ def test_geographic_ranges_name_the_line(tmp_path, row, fragment):
     ("t,x,y,heading_deg", "lacks the required column yaw_deg (found: t, x, y, heading_deg); heading_deg (a compass "
                           "bearing from true north) goes with lon, lat"),
     ("t,lon,y,yaw_deg", "lacks the required column x (found: t, lon, y, yaw_deg); geographic positions need both"),
-    ("t,lon,lat", "lacks the required column yaw_deg (or heading_deg)"),
 ])
 def test_headers_that_mix_the_frames_are_refused(tmp_path, header, fragment):
     msg, _ = _error(_write(tmp_path, header + "\n"), crs="EPSG:32632")
@@ -431,7 +430,7 @@ def test_gpx_two_tracks_with_segments_as_entities_and_pieces(tmp_path):
     reader = read_trajectory(path, crs="EPSG:32632", chunk_rows=3)
     chunks = list(reader)
     got = _joined(chunks)
-    assert got["names"] == ("Alpha_ 1st", "track2") and reader.where == "line"
+    assert got["names"] == ("Alpha_ 1st", "track2") and reader.where == "trkpt"
     assert got["entity"].tolist() == [0] * 9 + [1] * 2
     assert np.flatnonzero(got["piece_start"]).tolist() == [0, 4, 7, 9]  # each segment's first point
     np.testing.assert_allclose(got["t"], [0, 1, 2, 3, 60, 61, 62, 120, 125, -10, -9])  # from the file's first point
@@ -444,8 +443,8 @@ def test_gpx_two_tracks_with_segments_as_entities_and_pieces(tmp_path):
     want = [30, 30, 120, 120, 250, 250, 250, 250, 250, 0, 0]  # a still piece keeps its track's last heading
     err = (az - np.array(want) + 180) % 360 - 180
     assert np.abs(err).max() < 1e-4
-    text = open(path).read().splitlines()
-    assert all(text[k - 1].startswith("<trkpt") for k in got["line"])
+    assert got["line"].tolist() == list(range(1, 12))  # track points by their number from 1
+    assert all(c.where == "trkpt" for c in chunks)
     assert all(not c.has_turret and c.has_entity for c in chunks)
     assert not got["turret_deg"].any() and not got["gun_deg"].any()
 
@@ -603,7 +602,8 @@ def test_export_writes_the_csv_tankcd_reads_atomically(tmp_path):
     out = str(tmp_path / "out.csv")
     result = export_trajectory(cap, out, crs="EPSG:32632", chunk_rows=5)
     assert result["rows"] == 45 and result["entities"] == 3 and result["skipped"] == {"not_ip": 1}
-    assert open(out).readline() == "t,entity,x,y,yaw_deg,turret_deg,gun_deg\n"
+    assert open(out).read().splitlines()[:2] == ["# time_origin: 2026-05-28T20:26:40.05Z",
+                                                 "t,entity,x,y,yaw_deg,turret_deg,gun_deg"]
     src = _joined(read_trajectory(cap, crs="EPSG:32632"))
     back = _joined(read_trajectory(out))
     assert back["names"] == src["names"] and back["entity"].tolist() == src["entity"].tolist()
@@ -613,8 +613,8 @@ def test_export_writes_the_csv_tankcd_reads_atomically(tmp_path):
     # non-ASCII names take the careful writer; a single-vehicle file is named after its stem
     p = _write(tmp_path, "t,x,y,yaw_deg,entity\n0,1,2,3,Т-72\n", "u.csv")
     export_trajectory(p, str(tmp_path / "u_out.csv"))
-    assert open(tmp_path / "u_out.csv", encoding="utf-8").read().splitlines()[1] == \
-        "0.000000000,Т-72,1.000000,2.000000,3.000000000,0.000000000,0.000000000"
+    assert open(tmp_path / "u_out.csv", encoding="utf-8").read().splitlines() == [
+        "t,entity,x,y,yaw_deg", "0.000000000,Т-72,1.000000,2.000000,3.000000000"]  # no turret, gun: none written
     export_trajectory(_write(tmp_path, "t,x,y,yaw_deg\n0,1,2,3\n", "solo.csv"), str(tmp_path / "s_out.csv"))
     assert open(tmp_path / "s_out.csv").read().splitlines()[1].split(",")[1] == "solo"
     # an error midway leaves nothing at the target
@@ -755,3 +755,150 @@ def test_random_files_read_as_the_plain_rules_say(tmp_path, monkeypatch, seed):
         assert message is None
     else:
         assert message is not None and f"line {error[0]}" in message and error[1] in message, (message, error)
+
+
+# -- absolute times --------------------------------------------------------------------------------------------
+def test_unix_time_and_a_time_origin_comment_give_the_clock(tmp_path):
+    from tankcd_cli.io.trajectory import utc_text
+
+    epoch = _write(tmp_path, "unix_time,x,y,yaw_deg\n1778000000.25,1,2,3\n1778000001.75,1,2,3\n", "e.csv")
+    chunks = list(read_trajectory(epoch))
+    assert chunks[0].time_origin == 1778000000.25 and chunks[0].t.tolist() == [0.0, 1.5]
+    assert utc_text(chunks[0].time_origin) == "2026-05-05T16:53:20.25Z"
+    # a comment names the instant t counts from: numbers as they are, ISO times from it
+    said = _write(tmp_path, "# time_origin: 2026-05-04T12:00:00.5+02:00\nt,x,y,yaw_deg\n2.5,1,2,3\n", "c.csv")
+    got = list(read_trajectory(said))
+    assert utc_text(got[0].time_origin) == "2026-05-04T10:00:00.5Z" and got[0].t.tolist() == [2.5]
+    iso = _write(tmp_path, "# time_origin: 2026-05-04T10:00:00Z\nt,x,y,yaw_deg\n2026-05-04T10:00:03.25Z,1,2,3\n",
+                 "i.csv")
+    got = list(read_trajectory(iso))
+    assert got[0].t.tolist() == [3.25] and utc_text(got[0].time_origin) == "2026-05-04T10:00:00Z"
+    # ISO times alone count from the first row, which is the origin; numbers alone have none
+    alone = list(read_trajectory(_write(tmp_path, "t,x,y,yaw_deg\n2026-05-04T12:00:01+02:00,1,2,3\n", "a.csv")))
+    assert utc_text(alone[0].time_origin) == "2026-05-04T10:00:01Z"
+    assert list(read_trajectory(_write(tmp_path, "t,x,y,yaw_deg\n0,1,2,3\n", "n.csv")))[0].time_origin is None
+    info = trajectory_info(iso)
+    assert info.time_origin == "2026-05-04T10:00:00Z" and info.start == datetime(2026, 5, 4, 10, tzinfo=timezone.utc)
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("# time_origin: yesterday\nt,x,y,yaw_deg\n0,1,2,3\n", "line 1: time_origin 'yesterday' is not an ISO 8601"),
+    ("# time_origin: 2026-05-04T10:00:00Z\n# TIME_ORIGIN: 2026-05-04T10:00:00Z\nt,x,y,yaw_deg\n",
+     "line 2: a second time_origin comment"),
+    ("t,unix_time,x,y,yaw_deg\n0,1,2,3,4\n", "line 1: the header has both t and unix_time"),
+])
+def test_clock_declarations_that_cannot_be_read_are_refused_naming_the_line(tmp_path, text, fragment):
+    msg, _ = _error(_write(tmp_path, text))
+    assert fragment in msg, msg
+
+
+def test_parts_of_a_unix_time_file_count_from_its_first_row(tmp_path):
+    rows = [f"{1778000000 + k * 0.1:.1f},{500_000 + k:.1f},4500000,0" for k in range(2500)]
+    path = _write(tmp_path, "unix_time,x,y,yaw_deg\n" + "\n".join(rows) + "\n")
+    whole = list(read_trajectory(path, chunk_rows=600))
+    parts = split_trajectory(path, 700)
+    got = [c for p in parts for c in read_trajectory(path, chunk_rows=600, part=p)]
+    np.testing.assert_array_equal(np.concatenate([c.t for c in got]), np.concatenate([c.t for c in whole]))
+    assert {c.time_origin for c in got} == {c.time_origin for c in whole} == {1778000000.0}
+
+
+def test_the_origins_text_reads_back_into_the_same_float():
+    from hypothesis import given, settings, strategies as st
+
+    from tankcd_cli.io.trajectory import utc_text
+
+    @settings(max_examples=100, deadline=None)
+    @given(st.floats(min_value=1e8, max_value=4e9))
+    def check(origin):
+        got = trajectory_csv.iso_seconds(utc_text(origin).encode())
+        assert trajectory_csv.epoch_seconds(*got) == origin
+
+    check()
+    for origin in np.random.default_rng(4).uniform(1.7e9, 1.9e9, 2000).tolist():  # today's dates, densely
+        assert trajectory_csv.epoch_seconds(*trajectory_csv.iso_seconds(utc_text(origin).encode())) == origin
+
+
+def test_lon_lat_without_a_heading_heads_along_the_track_as_gpx_does(tmp_path):
+    from tankcd_cli.errors import SetupWarning
+
+    lon, lat = _walk(11.9, 55.0, [30, 30, 120, 0, 250], [10, 10, 0.01, 10, 10])
+    lon2, lat2 = _walk(11.95, 55.01, [200, 200], [10, 10])
+    t = list(range(6))
+    gpx = _write(tmp_path, _gpx_text([("a", [[(b, a, f"2026-05-04T10:00:0{k}Z") for k, (a, b) in
+                                              enumerate(zip(lon, lat))]]),
+                                      ("b", [[(b, a, f"2026-05-04T10:00:0{k}Z") for k, (a, b) in
+                                              enumerate(zip(lon2, lat2))]])]), "t.gpx")
+    rows = sorted([(k, "a", lo, la) for k, lo, la in zip(t, lon, lat)] +
+                  [(k, "b", lo, la) for k, lo, la in zip(t, lon2, lat2)])  # the entities interleaved in time
+    path = _write(tmp_path, "t,entity,lon,lat\n" + "".join(f"{k},{e},{lo!r},{la!r}\n" for k, e, lo, la in rows))
+    with pytest.warns(SetupWarning, match="no heading column .* toward its entity's next row"):
+        got = _joined(read_trajectory(path, crs="EPSG:32632", chunk_rows=3))
+    ref = _joined(read_trajectory(gpx, crs="EPSG:32632"))
+    for name in ("a", "b"):
+        mine = np.array(got["names"])[got["entity"]] == name
+        theirs = np.array(ref["names"])[ref["entity"]] == name
+        np.testing.assert_array_equal(got["yaw_deg"][mine], ref["yaw_deg"][theirs])
+        np.testing.assert_array_equal(got["x"][mine], ref["x"][theirs])
+    # the same in lon, lat: the headings as compass bearings, along the track
+    with pytest.warns(SetupWarning):
+        geo = _joined(TrajectoryReader(path, lonlat=True))
+    assert geo["x"].tolist() == [r[2] for r in rows]
+    a = np.array(geo["names"])[geo["entity"]] == "a"
+    np.testing.assert_allclose((90 - geo["yaw_deg"][a]) % 360, [30, 30, 30, 0, 250, 250], atol=1e-6)
+    solo = _write(tmp_path, "t,lon,lat\n0,10,50\n1,10,50\n", "still.csv")
+    with pytest.warns(SetupWarning, match="the track's next row"):
+        assert _joined(read_trajectory(solo, crs="EPSG:32632"))["yaw_deg"].tolist() == [0.0, 0.0]  # never moves
+
+
+def test_an_export_whose_turret_angles_come_late_gets_their_columns(tmp_path):
+    from tests.io import captures as C
+
+    tur = C.TURRET_AZIMUTH
+    frames = [(1.0 + 0.5 * k, _es(1, 0, [])) for k in range(6)] + [(5.0, _es(1, 0, [(tur, 0.5)]))]  # parts 1.5 s on
+    path = _capture(tmp_path, frames)
+    out = str(tmp_path / "late.csv")
+    export_trajectory(path, out, crs="EPSG:32632", chunk_rows=2)
+    lines = open(out).read().splitlines()
+    assert lines[1] == "t,entity,x,y,yaw_deg,turret_deg,gun_deg" and len(lines) == 9
+    assert float(lines[-1].split(",")[5]) == pytest.approx(np.degrees(-0.5), abs=1e-5)
+    early = str(tmp_path / "early.csv")
+    export_trajectory(_capture(tmp_path, frames[:6], "none.pcap"), early, crs="EPSG:32632", chunk_rows=2)
+    assert open(early).read().splitlines()[1] == "t,entity,x,y,yaw_deg"
+    # to standard output, written as it goes: the columns stay as the header said, and a warning says so
+    from tankcd_cli.errors import SetupWarning
+
+    with pytest.warns(SetupWarning, match="turret and gun angles from packet 7 on"):
+        export_trajectory(path, "-", crs="EPSG:32632", chunk_rows=2)
+
+
+def test_files_merged_on_their_clocks_count_from_the_earliest_whatever_their_zones(tmp_path):
+    from datetime import datetime, timedelta, timezone
+
+    from hypothesis import given, settings, strategies as st
+
+    from tankcd_cli.io.trajectory import merged_trajectories, utc_text
+
+    base = datetime(2026, 5, 4, 10, 0, 0, tzinfo=timezone.utc)
+
+    @settings(max_examples=12, deadline=None)
+    @given(st.lists(st.tuples(st.integers(-50_000, 50_000), st.integers(-14, 14), st.integers(1, 4)),
+                    min_size=1, max_size=3), st.integers(1, 5))
+    def check(files, chunk_rows):
+        paths, truth = [], []
+        for k, (start_ms, zone, n) in enumerate(files):
+            tz = timezone(timedelta(hours=zone))
+            instants = [start_ms / 1000 + 0.25 * j for j in range(n)]
+            text = "t,x,y,yaw_deg\n" + "".join(
+                f"{(base + timedelta(seconds=s)).astimezone(tz).isoformat(timespec='milliseconds')},{j},0,0\n"
+                for j, s in enumerate(instants))
+            paths.append(_write(tmp_path, text, f"f{k}.csv"))
+            truth.append(instants)
+        merged = list(merged_trajectories(paths, chunk_rows=chunk_rows))
+        first = min(v[0] for v in truth)
+        assert {utc_text(c.time_origin) for c in merged} == {utc_text(base.timestamp() + first)}
+        t = np.concatenate([c.t for c in merged])
+        names = np.concatenate([c.names() for c in merged])
+        for k, instants in enumerate(truth):
+            np.testing.assert_allclose(t[names == f"f{k}"], np.array(instants) - first, rtol=0, atol=1e-6)
+
+    check()
