@@ -293,6 +293,11 @@ def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir,
     report.bar(None)
     for failure in fleet.failures:
         click.echo(f"tankcd: error: {failure['error']}", err=True)
+    if report.verbosity >= 1:  # -v: the tracebacks of the internal errors, as the workers formatted them
+        for r in fleet.results:
+            if r.traceback:
+                click.echo(f"{r.trajectory}: the traceback in its worker (pid {r.pid}):\n{r.traceback.rstrip()}",
+                           err=True)
     brief = fleet.as_dict(results=False)
     _write_summary(summary_path, brief)
     if summary_path == SUMMARY_STDERR:

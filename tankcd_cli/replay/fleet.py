@@ -210,7 +210,9 @@ class TaskResult:
     """What one task (a trajectory, or a part of one) did: its outputs, its status (``ok``,
     ``bad_input``, ``internal_error``) and error line, the replay's summary (``ReplaySummary``;
     None where it failed), the first row's line and the first and last times (what joining parts
-    checks), the worker's pid(s), the task's seconds and, for a joined trajectory, its parts."""
+    checks), the worker's pid(s), the task's seconds and, for a joined trajectory, its parts; for an
+    internal error, the worker's formatted traceback (``traceback``: what ``-v`` shows; not in
+    fleet.json)."""
 
     trajectory: str
     poses: str
@@ -224,6 +226,7 @@ class TaskResult:
     pid: object = None
     task_seconds: float = 0.0
     parts: int | None = None
+    traceback: str | None = None
 
     def as_dict(self) -> dict:
         """As a line of fleet.json's ``results``: the summary's fields beside the task's."""
@@ -260,10 +263,11 @@ def run_task(world: FleetWorld, task: Task, kernel_threads: int | None = None) -
         ends = {}
 
         def remember(chunk, poses, events):
-            if "first_line" not in ends and len(chunk):
+            if chunk is None or not len(chunk):  # None: the vehicles' last contacts, after the last chunk
+                return
+            if "first_line" not in ends:
                 ends.update(first_line=int(chunk.line[0]), t_first=float(chunk.t[0]))
-            if len(chunk):
-                ends["t_last"] = float(chunk.t[-1])
+            ends["t_last"] = float(chunk.t[-1])
 
         result.summary = run_replay(loaded, task.trajectory, ReplayOutputs(task.poses, task.events), world.options,
                                     part=task.part, observe=remember)
@@ -274,10 +278,13 @@ def run_task(world: FleetWorld, task: Task, kernel_threads: int | None = None) -
     except InputError as exc:
         result.status, result.error, result.summary = "bad_input", exc.one_line(), None
     except Exception as exc:  # noqa: BLE001 - a bug in one task must not stop the fleet; it is reported
+        import traceback
+
         from tankcd_cli.errors import printable
 
         result.status, result.summary = "internal_error", None
         result.error = printable(f"{type(exc).__name__}: {exc}".splitlines()[0])
+        result.traceback = traceback.format_exc()  # formatted here: a traceback object does not travel
     result.task_seconds = round(time.perf_counter() - start, 3)
     return result
 
@@ -372,7 +379,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
             groups.setdefault(t.whole_poses, []).append(t)
     for target, parts in groups.items():
         rs = [by_poses[t.poses] for t in parts]
-        first, error, status = parts[0], None, "ok"
+        first, error, status, trace = parts[0], None, "ok", None
         for k, r in enumerate(rs):
             prev = rs[k - 1] if k else None
             if prev is not None and prev.status == "ok" and r.status == "ok" and r.t_first is not None \
@@ -383,7 +390,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
                 status = "bad_input"
                 break
             if r.status != "ok":
-                error, status = r.error, r.status
+                error, status, trace = r.error, r.status, r.traceback
                 break
         joined = TaskResult(first.trajectory, target, first.whole_events, parts=len(parts),
                             task_seconds=round(sum(r.task_seconds for r in rs), 3),
@@ -404,7 +411,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
                 joined.summary = _joined_summary([r.summary for r in rs])
                 joined.first_line, joined.t_first, joined.t_last = rs[0].first_line, rs[0].t_first, rs[-1].t_last
             else:
-                joined.status, joined.error = status, error
+                joined.status, joined.error, joined.traceback = status, error, trace
         except InputError as exc:
             joined.status, joined.error = "bad_input", exc.one_line()
         finally:
@@ -492,8 +499,11 @@ def _on_processes(world, tasks, jobs, say, done):
 
 def _lost(task: Task, exc: BaseException) -> TaskResult:
     """The result of a task whose worker died under it."""
+    import traceback
+
     return TaskResult(task.trajectory, task.poses, task.events, status="internal_error",
-                      error=f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300])
+                      error=f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300],
+                      traceback="".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
 
 
 def _worker_threads(threads: int) -> None:
