@@ -266,8 +266,8 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
     if not isinstance(trajectory, str) or trajectory == "-":
         raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
                                           "its own rows), not standard input or arrays")
-    if not window_seconds > 0:
-        raise ValueError(f"window_seconds must be positive, not {window_seconds!r}")
+    if not (np.isfinite(window_seconds) and window_seconds > 0):
+        raise ValueError(f"window_seconds must be a positive finite number, not {window_seconds!r}")
     from tankcd_cli.io.parquet import is_parquet
 
     for out in (poses, events):

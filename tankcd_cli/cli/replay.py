@@ -82,7 +82,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: parallel processes (default: the number of cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
-@click.option("--window-seconds", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
+@click.option("--window-seconds", type=float, default=None, metavar="S",
               help="Replay one exercise by time windows of about S seconds (a whole number of the 2 s contact "
                    "windows), each a task: here one after the other, or on the Dask cluster at --scheduler; the "
                    "poses and events of a run in one piece, byte for byte.")
