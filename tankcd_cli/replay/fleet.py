@@ -20,6 +20,7 @@ import json
 import os
 import threading
 import time
+import dataclasses
 from dataclasses import asdict, dataclass
 from typing import Callable
 
@@ -309,6 +310,7 @@ class FleetSummary:
     world: dict
     failures: list
     results: list
+    warnings: list = dataclasses.field(default_factory=list)  # every trajectory's set-up warnings, each once
 
     @property
     def collided(self) -> bool:
@@ -351,6 +353,12 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
     ok = [r for r in results if r.status == "ok"]
     failed = [r for r in results if r.status != "ok"]
     rows = sum(r.summary.rows for r in ok)
+    warnings = list(dict.fromkeys(w for r in ok for w in r.summary.warnings))
+    if scheduler:  # said on the workers, where no one reads them: here, each once
+        from tankcd_cli.errors import warn
+
+        for line in warnings:
+            warn(None, line)
     seconds = time.perf_counter() - start
     between_kinds = ("obstacle", "internal", "terrain", "off_terrain")
     return FleetSummary(
@@ -361,7 +369,7 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
         vehicle_contacts=sum(r.summary.vehicle_contacts for r in ok), seconds=round(seconds, 3),
         rows_per_second=round(rows / seconds, 1) if seconds > 0 else None, ran_on=how, world=world.describe(),
         failures=[{"trajectory": r.trajectory, "status": r.status, "error": r.error} for r in failed],
-        results=results)
+        results=results, warnings=warnings)
 
 
 def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult]:
@@ -441,9 +449,8 @@ def _whole_trajectory_sources(part_output: str) -> dict:
 
 
 def _joined_summary(summaries: list):
-    """One summary of a trajectory's parts: counts and seconds summed, the rest as the first part's."""
-    import dataclasses
-
+    """One summary of a trajectory's parts: counts and seconds summed, the warnings of all (each
+    once), the rest as the first part's."""
     first = summaries[0]
 
     def summed(name):
@@ -462,7 +469,8 @@ def _joined_summary(summaries: list):
                                seconds=round(sum(s.seconds for s in summaries), 3),
                                seconds_by_effect={k: round(sum(s.seconds_by_effect.get(k, 0.0) for s in summaries), 3)
                                                   for k in first.seconds_by_effect},
-                               between=summed("between"), motion=motion)
+                               between=summed("between"), motion=motion,
+                               warnings=list(dict.fromkeys(w for s in summaries for w in s.warnings)))
 
 
 def _append(target: str, source: str, skip_header: bool) -> None:

@@ -41,7 +41,7 @@ from typing import Callable
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.replay.records import KINDS, ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
+from tankcd_cli.replay.records import ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
 
 DEFAULT_WINDOW_SECONDS = 60.0
 
@@ -159,6 +159,7 @@ class WindowResult:
     crs: str = ""
     pid: int = 0
     task_seconds: float = 0.0
+    warnings: list = field(default_factory=list)
 
 
 @dataclass
@@ -175,6 +176,7 @@ class WindowPlan:
     has_entity: bool
     entities: int
     geographic: bool
+    warnings: list = field(default_factory=list)  # the planning pass's set-up warnings (the motion checks)
 
 
 # --- planning -----------------------------------------------------------------------------------
@@ -196,7 +198,17 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
                  fmt: str | None = None) -> WindowPlan:
     """One pass over ``trajectory`` (times and entities, the local run's chunks) into window tasks of
     ``window_seconds`` (rounded to a whole number of contact windows, at least one). Bad rows are
-    the local run's errors (``InputError``), raised here before any task runs."""
+    the local run's errors (``InputError``), raised here before any task runs; the motion checks'
+    set-up warnings are said here and kept in the plan's ``warnings``."""
+    from tankcd_cli.errors import collected_warnings
+
+    with collected_warnings() as said:
+        plan = _plan(trajectory, options, window_seconds, fmt)
+    plan.warnings = list(said)
+    return plan
+
+
+def _plan(trajectory, options, window_seconds, fmt) -> WindowPlan:
     from tankcd_cli.io.trajectory import TrajectoryReader, split_trajectory, trajectory_format
     from tankcd_cli.replay import vehicles
     from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
@@ -395,7 +407,43 @@ def run_window(world, task: WindowTask, kernel_threads: int | None = None) -> Wi
 
 def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
     """Replay one window of an exercise in a loaded ``world``: its own rows' poses and events, and
-    the vehicle contacts of its contact windows, each event with its place in the local run's order."""
+    the vehicle contacts of its contact windows, each event with its place in the local run's order.
+    Its set-up warnings are recorded in the result, not shown (the task may run in another process
+    or on a cluster: the joining says each once); under an ``error`` filter (``--strict``) one is
+    raised as ever."""
+    with _recorded_warnings() as said:
+        result = _replay_window(world, options, task)
+    result.warnings = list(dict.fromkeys(said))
+    return result
+
+
+def _recorded_warnings():
+    """A block whose set-up warnings are recorded (one-line texts, in order) and not shown; other
+    warnings are shown as before."""
+    import contextlib
+    import warnings
+
+    from tankcd_cli.errors import SetupWarning
+
+    @contextlib.contextmanager
+    def block():
+        seen = []
+        with warnings.catch_warnings():
+            shown = warnings.showwarning
+
+            def record(message, category, filename, lineno, file=None, line=None):
+                if isinstance(message, SetupWarning):
+                    seen.append(message.one_line())
+                else:
+                    shown(message, category, filename, lineno, file, line)
+
+            warnings.showwarning = record
+            yield seen
+
+    return block()
+
+
+def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows
     from tankcd_cli.matching.match import PLACED_BY, STATUS
@@ -433,7 +481,9 @@ def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResu
         for _ in replay_chunks(run, [trailing]):
             pass
     if gathered is not None and gathered.parts:
+        t0 = time.perf_counter()
         found = _contacts(world, options, task, gathered.parts, next_step, chunk_of)
+        run.seconds["vehicles"] += time.perf_counter() - t0  # the local run's time in its vehicle checks
         counts.add(None, None, [e for _, e in found])
         for (k, seq), e in found:
             keys.append((task.windows[k].emit, 1, task.windows[k].index, 0.0, task.index, seq))
@@ -574,22 +624,26 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
     """Write the poses and events of ``plan``'s tasks, joined in the local run's order, from
     ``runner(tasks, consume)`` (which runs every task and gives each result to ``consume``, in any
     order); returns the replay's summary."""
+    from tankcd_cli.errors import collected_warnings
     from tankcd_cli.io.atomic import committed_together, output_text
     from tankcd_cli.io.poses_csv import header
     from tankcd_cli.replay.run import warn_if_beside
 
     start = time.perf_counter()
     join = _Join(plan)
-    with committed_together(), output_text(outputs.poses, ".csv", newline="") as poses_out, \
-            output_text(outputs.events, ".jsonl") as events_out:
-        if poses_out is not None:
-            poses_out.write(header(entity=plan.has_entity))
-        join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
-        runner(plan.tasks, join.take)
-        join.flush_all()
-    if join.extent is not None:
-        warn_if_beside(join.extent, join.counts, trajectory, join.crs)
-    return join.summary(options, time.perf_counter() - start)
+    with collected_warnings() as said:
+        with committed_together(), output_text(outputs.poses, ".csv", newline="") as poses_out, \
+                output_text(outputs.events, ".jsonl") as events_out:
+            if poses_out is not None:
+                poses_out.write(header(entity=plan.has_entity))
+            join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
+            runner(plan.tasks, join.take)
+            join.flush_all()
+        if join.extent is not None:
+            warn_if_beside(join.extent, join.counts, trajectory, join.crs)
+    summary = join.summary(options, time.perf_counter() - start)
+    summary.warnings = list(dict.fromkeys(plan.warnings + list(said)))
+    return summary
 
 
 class _Join:
@@ -614,8 +668,15 @@ class _Join:
         self.extent = None
         self.crs = ""
         self.poses_out = self.events_out = self.progress = None
+        self.said = set(plan.warnings)  # warnings said already: the plan's, then the tasks' as they come
 
     def take(self, result: WindowResult) -> None:
+        from tankcd_cli.errors import warn
+
+        for line in result.warnings:  # each once, whichever task and process raised it
+            if line not in self.said:
+                self.said.add(line)
+                warn(None, line)
         self.waiting[result.index] = result
         while self.next in self.waiting:
             r = self.waiting.pop(self.next)
@@ -688,21 +749,13 @@ class _Join:
             raise RuntimeError(f"{len(self.plan.tasks) - self.next} window tasks gave no result")
 
     def summary(self, options: ReplayOptions, seconds: float) -> ReplaySummary:
-        from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
+        """The summary of the joined counts, built as a run in one piece builds its own."""
+        from tankcd_cli.replay.run import summary_of
 
-        counts = self.counts
         motion = {"intervals": self.intervals, "substeps": self.substeps, **self.resolution} \
             if options.continuous else {}
-        entities = self.plan.entities if options.continuous else (1 if counts.rows else 0)
-        return ReplaySummary(rows=counts.rows, collisions={k: counts.at_rows[k] for k in KINDS},
-                             off_terrain=counts.at_rows["off_terrain"], effects=self.effects,
-                             matchers={**{name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
-                                       **({NO_MATCHER: int(counts.status[OFF])} if counts.status[OFF] else {})},
-                             seconds=round(seconds, 3),
-                             seconds_by_effect={k: round(v, 3) for k, v in self.seconds.items()},
-                             mode="continuous" if options.continuous else "discrete",
-                             between=dict(counts.between) if options.continuous else {}, motion=motion,
-                             vehicle_contacts=counts.vehicle_contacts, entities=entities)
+        entities = self.plan.entities if options.continuous else (1 if self.counts.rows else 0)
+        return summary_of(self.counts, options.continuous, self.effects, self.seconds, seconds, motion, entities)
 
 
 def in_process(world, options: ReplayOptions):

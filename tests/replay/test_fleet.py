@@ -248,6 +248,10 @@ def test_a_fleet_whose_exercise_ends_in_a_contact_finishes(flat_scene, tmp_path,
     assert (first.first_line, first.t_first, first.t_last) == (2, 0.0, 7.0)
     alone = api.replay_to_files(str(ex), str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl"), scene=str(flat_scene))
     assert first.summary.vehicle_contacts == alone.vehicle_contacts == 1
+    # every trajectory's warnings, each once, in fleet.json too
+    assert fleet.warnings == first.summary.warnings + fleet.results[1].summary.warnings
+    assert len(fleet.warnings) == 2 and all("drive sideways" in w for w in fleet.warnings)
+    assert json.loads((tmp_path / "out" / "fleet.json").read_text())["warnings"] == fleet.warnings
     if out_format == "csv":
         assert (tmp_path / "out" / "ex.events.jsonl").read_bytes() == (tmp_path / "e.jsonl").read_bytes()
 

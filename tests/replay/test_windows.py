@@ -359,3 +359,101 @@ def test_pose_rows_cut_and_merged_by_slices_are_the_rows_one_by_one(parts_steps,
     flat = [line for lines, c in zip(lines_of, cut) for line in lines[:c]]
     expect = "".join(flat[i] for i in order)
     assert merged_rows(ready, order) == expect
+
+
+def _ends_in_contact(last_alone=False):
+    """B slides sideways into A, their contact beginning at 6.5 s in the last 2 s window (6 to 8 s),
+    which the local run closes only after its last chunk; with ``last_alone`` a third vehicle's one
+    and only row is the file's last."""
+    rows = []
+    for k in range(15):
+        t = 0.5 * k
+        rows.append((t, "A", 30.0, 20.0, 0.0))
+        rows.append((t, "B", 30.0, round(T72_WIDTH + 20 + 2 * (6.5 - t), 4), 0.0))
+    if last_alone:
+        rows.append((7.0, "Z", 120.0, 60.0, 0.0))
+    return rows
+
+
+@pytest.mark.parametrize("last_alone", [False, True])
+@pytest.mark.parametrize("chunk_rows", [4, 65536])
+def test_a_contact_in_the_last_window_and_a_last_row_at_the_end(world, flat, tmp_path, chunk_rows, last_alone):
+    name = f"ends{int(last_alone)}"
+    _write(flat / f"{name}.csv", _ends_in_contact(last_alone))
+    local = _local(world, flat, name, chunk_rows)
+    events = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
+    assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
+    for seconds in (2.0, 3.0, 6.0, 100.0):
+        out = tmp_path / f"w{seconds}"
+        out.mkdir()
+        plan, summary = _windowed(world, flat, name, chunk_rows, seconds, out)
+        _same_bytes(local, out)
+        assert summary.vehicle_contacts == 1 and summary.rows == len(_ends_in_contact(last_alone))
+    # the map of the run in one piece marks the contact found after the last chunk
+    from tankcd_cli.replay.drawing import ReplayDrawing
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    drawing = ReplayDrawing()
+    run_replay(world, str(flat / f"{name}.csv"), ReplayOutputs(None, None), ReplayOptions(chunk_rows=chunk_rows),
+               observe=drawing.observe)
+    assert drawing.counts.get("vehicle") == 1 and [m[0] for m in drawing.marks] == ["vehicle"]
+
+
+def test_the_command_line_draws_an_exercise_ending_in_a_contact(run, flat, tmp_path):
+    _write(flat / "ends0.csv", _ends_in_contact())
+    result = run("replay", flat / "ends0.csv", "--scene", flat / "scene.toml", "--poses", tmp_path / "p.csv",
+                 "--png", tmp_path / "map.png")
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "map.png").stat().st_size > 0
+
+
+def test_a_windowed_summary_counts_what_the_run_in_one_piece_counts(world, flat, tmp_path):
+    # the vehicles' checks take time (seconds_by_effect "vehicles"), as in one piece; every field but
+    # the seconds is the one-piece summary's, the warnings of the planning pass included
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    _write(flat / "edges.csv", _edges_exercise())
+    whole = run_replay(world, str(flat / "edges.csv"), ReplayOutputs(None, None), ReplayOptions())
+    _, windowed = _windowed(world, flat, "edges", 65536, 2.0, tmp_path)
+    assert set(windowed.seconds_by_effect) == set(whole.seconds_by_effect) >= {"vehicles", "matching", "between"}
+    assert windowed.seconds_by_effect["vehicles"] > 0
+    a, b = whole.as_dict(), windowed.as_dict()
+    for d in (a, b):
+        d.pop("seconds"), d.pop("seconds_by_effect")
+    assert a == b
+    assert any("drive sideways" in w for w in windowed.warnings)
+
+
+def test_the_tasks_warnings_are_said_once_and_kept_in_the_summary(run, flat, tmp_path, monkeypatch):
+    # every task raises the same warning and one of its own: the command says each once, and the
+    # summary lists each once, after the planning pass's
+    from tankcd_cli.errors import warn
+    from tankcd_cli.replay import windows
+
+    real = windows._read_window
+
+    def warning_read(world, task):
+        warn("exercise", "a warning every window raises")
+        warn("exercise", f"the warning of window {task.index}")
+        return real(world, task)
+
+    monkeypatch.setattr(windows, "_read_window", warning_read)
+    _write(flat / "edges.csv", _edges_exercise())
+    result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
+                 "--poses", tmp_path / "p.csv", "--summary")
+    assert result.exit_code == 0, result.stderr
+    said = [line for line in result.stderr.splitlines() if line.startswith("tankcd: warning:")]
+    assert said.count("tankcd: warning: exercise: a warning every window raises") == 1
+    assert len(said) == len(set(said))
+    summary = json.loads(result.stderr.strip().splitlines()[-1])
+    listed = summary["warnings"]
+    assert len(listed) == len(set(listed)) == len(said)
+    assert listed.index("exercise: a warning every window raises") < listed.index("exercise: the warning of window 1")
+    assert [w for w in listed if "window 5" in w] == ["exercise: the warning of window 5"]
+    assert any("drive sideways" in w for w in listed[:2])
+    # --strict: a warning is bad input, and nothing is written
+    result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
+                 "--poses", tmp_path / "q.csv", "--strict")
+    assert result.exit_code == 3 and not (tmp_path / "q.csv").exists()
