@@ -255,7 +255,8 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
     ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
     ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
     lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
-    ``replay.windows``); memory follows the window. Returns the closing summary
+    ``replay.windows``; Parquet for a name ending in ``.parquet``, the same tables and metadata);
+    memory follows the window. Returns the closing summary
     (``replay.records.ReplaySummary``). ``progress(rows)`` as windows are written."""
     import os
 
@@ -268,12 +269,9 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
                                           "its own rows), not standard input or arrays")
     if not (np.isfinite(window_seconds) and window_seconds > 0):
         raise ValueError(f"window_seconds must be a positive finite number, not {window_seconds!r}")
-    from tankcd_cli.io.parquet import is_parquet
+    from tankcd_cli.io.parquet import check_writable
 
-    for out in (poses, events):
-        if is_parquet(out):
-            raise ValueError(f"{out}: a replay by time windows writes the poses CSV and the events JSON Lines "
-                             "(Parquet: replay in one piece, or convert the outputs)")
+    check_writable(poses, events)  # Parquet without pyarrow: before any work
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
     if scheduler:
         from tankcd_cli.replay.fleet import FleetWorld

@@ -163,11 +163,6 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
     if window_seconds is not None:
-        from tankcd_cli.io.parquet import is_parquet
-
-        if is_parquet(poses_path) or is_parquet(events_path):
-            raise click.UsageError("--window-seconds writes the poses CSV and the events JSON Lines: give --poses and "
-                                   "--events names ending in .csv and .jsonl (Parquet: replay in one piece)")
         return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
                         discrete, escalate, (tolerance, attitude_tolerance), window_seconds, scheduler, summary_path,
                         fail_on_collision, allow_off_terrain, step)

@@ -75,6 +75,9 @@ class WindowTask:
         row's step, by code; chunk_starts : each local chunk's first step
     has_turret, has_entity : the input's (as its first chunk says)
     chunk_rows : the local run's chunk; last_step : its last row's step (own or trailing)
+    pose_arrays, event_records : give the poses as arrays (``PoseTable``) and the events as
+        ``Event`` records, for a Parquet output, instead of CSV and JSON Lines text (set by
+        ``run_windows`` from the outputs' names)
     """
 
     index: int
@@ -94,6 +97,8 @@ class WindowTask:
     has_entity: bool
     chunk_rows: int
     last_step: int
+    pose_arrays: bool = False
+    event_records: bool = False
 
 
 @dataclass
@@ -122,6 +127,46 @@ class RowText:
         return RowText(self.text[start:end], self.ends[lo:hi] - start)
 
 
+@dataclass
+class PoseTable:
+    """Pose rows as arrays, for a Parquet output: their times ``t`` (N,), entity codes ``entity``
+    (N,) (the whole input's codes; None without entities) and ``poses`` (``matching.match.Poses``,
+    every field's first axis N)."""
+
+    t: np.ndarray
+    entity: np.ndarray | None
+    poses: object
+
+    @staticmethod
+    def of(parts: list) -> "PoseTable":
+        """The tables of ``parts`` one after the other."""
+        from tankcd_cli.matching.match import Poses
+
+        return PoseTable(np.concatenate([p.t for p in parts]),
+                         None if parts[0].entity is None else np.concatenate([p.entity for p in parts]),
+                         Poses(**{f: np.concatenate([getattr(p.poses, f) for p in parts])
+                                  for f in Poses.__dataclass_fields__}))
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def index(self, idx) -> "PoseTable":
+        """Rows ``idx`` (a slice or an index array)."""
+        from tankcd_cli.matching.match import Poses
+
+        return PoseTable(self.t[idx], None if self.entity is None else self.entity[idx],
+                         Poses(**{f: getattr(self.poses, f)[idx] for f in Poses.__dataclass_fields__}))
+
+    def take(self, lo: int, hi: int) -> "PoseTable":
+        """Rows lo .. hi - 1."""
+        return self.index(slice(lo, hi))
+
+    @staticmethod
+    def merged(parts: list, order: np.ndarray) -> "PoseTable":
+        """The rows of ``parts`` (taken as one table in turn) in ``order``."""
+        return PoseTable.of(parts).index(order)
+
+
 def merged_rows(parts: list, order: np.ndarray) -> str:
     """The rows of ``parts`` (RowText, taken as one table in turn) in ``order``: one slice of the
     joined buffer for each run of rows that follow one another there (tasks own stretches of
@@ -139,14 +184,15 @@ def merged_rows(parts: list, order: np.ndarray) -> str:
 
 @dataclass
 class WindowResult:
-    """What one window's task gives back: its own rows' steps and pose rows (``RowText``), its events (each with
-    its place in the local run's order: ``event_keys``), its counts, and what the summary needs
+    """What one window's task gives back: its own rows' steps and pose rows (``RowText``; a
+    ``PoseTable`` for a Parquet output), its events (JSON Lines text, or ``Event`` records for a
+    Parquet output; each with its place in the local run's order: ``event_keys``), its counts, and what the summary needs
     (intervals and sub-steps of its own intervals, seconds, effects, the resolution between rows,
     the terrain's extent and CRS); the worker's pid and the task's seconds."""
 
     index: int
     steps: np.ndarray
-    pose_rows: RowText
+    pose_rows: object
     event_keys: list
     event_lines: list
     counts: ReplayCounts
@@ -460,22 +506,29 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
         pass
     before = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     counts = ReplayCounts()
-    steps, lines, row_ends, keys, texts = [], [], [], [], []
+    steps, lines, row_ends, tables, keys, texts = [], [], [], [], [], []
     chunk_of = _chunk_of(task.chunk_starts)
     next_step = _next_rows(*fed)
+
+    def record(e):
+        return e if task.event_records else event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra)
+
     for chunk, poses, events in replay_chunks(run, own):
         if chunk is None:
             continue
         entity = chunk.entity if chunk.has_entity else None
-        ends = np.zeros(len(chunk), np.int64)
-        lines.append(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names, ends))
-        row_ends.append(ends)
+        if task.pose_arrays:
+            tables.append(PoseTable(chunk.t, entity, poses))
+        else:
+            ends = np.zeros(len(chunk), np.int64)
+            lines.append(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names, ends))
+            row_ends.append(ends)
         steps.append(chunk.step)
         counts.add(chunk, poses, events)
         for e in events:
             row = next_step(np.array([e.step]))[0] if e.between else e.step
             keys.append((int(chunk_of(np.array([row]))[0]), 0, int(e.step), float(e.t), task.index, len(keys)))
-            texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+            texts.append(record(e))
     after = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     if trailing is not None:
         for _ in replay_chunks(run, [trailing]):
@@ -487,9 +540,10 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
         counts.add(None, None, [e for _, e in found])
         for (k, seq), e in found:
             keys.append((task.windows[k].emit, 1, task.windows[k].index, 0.0, task.index, seq))
-            texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+            texts.append(record(e))
     lo, hi = world.surface.bounds()
-    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), RowText.of(lines, row_ends),
+    rows = (PoseTable.of(tables) if tables else None) if task.pose_arrays else RowText.of(lines, row_ends)
+    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), rows,
                         keys, texts,
                         counts, after[0] - before[0], after[1] - before[1], dict(run.seconds), run.effects.as_dict(),
                         resolution(world.surface) if run.continuous else {},
@@ -623,22 +677,44 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
                 ) -> ReplaySummary:
     """Write the poses and events of ``plan``'s tasks, joined in the local run's order, from
     ``runner(tasks, consume)`` (which runs every task and gives each result to ``consume``, in any
-    order); returns the replay's summary."""
+    order); returns the replay's summary.
+
+    The outputs are a run in one piece's (``replay.outputs.replay_outputs``): CSV and JSON Lines,
+    or Parquet for a name ending in ``.parquet``, whose metadata is ``runner.metadata(trajectory)``
+    (``replay.outputs.replay_metadata`` of the world the tasks run in: ``in_process`` and
+    ``on_dask`` give it)."""
+    import dataclasses
+
     from tankcd_cli.errors import collected_warnings
-    from tankcd_cli.io.atomic import committed_together, output_text
+    from tankcd_cli.io.parquet import is_parquet
     from tankcd_cli.io.poses_csv import header
+    from tankcd_cli.replay.outputs import PosesText, replay_outputs
     from tankcd_cli.replay.run import warn_if_beside
 
     start = time.perf_counter()
     join = _Join(plan)
+    join.chunk_rows = options.chunk_rows
+    arrays, records = is_parquet(outputs.poses), is_parquet(outputs.events)
+    tasks = plan.tasks
+    if arrays or records:
+        if getattr(runner, "metadata", None) is None:
+            raise ValueError("Parquet outputs need the runner's metadata(trajectory) (in_process and on_dask give it)")
+        tasks = [dataclasses.replace(t, pose_arrays=arrays, event_records=records) for t in tasks]
+
+    def metadata():
+        return runner.metadata(trajectory)
+
     with collected_warnings() as said:
-        with committed_together(), output_text(outputs.poses, ".csv", newline="") as poses_out, \
-                output_text(outputs.events, ".jsonl") as events_out:
-            if poses_out is not None:
-                poses_out.write(header(entity=plan.has_entity))
+        with replay_outputs(outputs, plan.has_entity, metadata) as (poses_out, events_out):
+            if isinstance(poses_out, PosesText):
+                poses_out.fh.write(header(entity=plan.has_entity))
+                poses_out.headed = True
             join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
-            runner(plan.tasks, join.take)
+            runner(tasks, join.take)
             join.flush_all()
+            for out in (poses_out, events_out):
+                if out is not None:
+                    out.finish()
         if join.extent is not None:
             warn_if_beside(join.extent, join.counts, trajectory, join.crs)
     summary = join.summary(options, time.perf_counter() - start)
@@ -668,6 +744,7 @@ class _Join:
         self.extent = None
         self.crs = ""
         self.poses_out = self.events_out = self.progress = None
+        self.chunk_rows = 65536  # a Parquet row group's rows (the local run's chunk)
         self.said = set(plan.warnings)  # warnings said already: the plan's, then the tasks' as they come
 
     def take(self, result: WindowResult) -> None:
@@ -722,23 +799,39 @@ class _Join:
                 if cut < len(steps):
                     rest.append((steps[cut:], rows.take(cut, len(steps))))
             self.rows = rest
-            if len(ready_steps) == 1:
-                text = ready_rows[0].text
-            elif ready_steps:
-                order = np.argsort(np.concatenate(ready_steps), kind="stable")
-                text = merged_rows(ready_rows, order)
-            else:
-                text = ""
-            if text and self.poses_out is not None:
-                self.poses_out.write(text)
+            if ready_steps and self.poses_out is not None:
+                steps = np.concatenate(ready_steps)
+                order = np.argsort(steps, kind="stable") if len(ready_steps) > 1 else None
+                if isinstance(ready_rows[0], PoseTable):
+                    table = ready_rows[0] if order is None else PoseTable.merged(ready_rows, order)
+                    self._write_table(steps if order is None else steps[order], table)
+                else:
+                    self.poses_out.fh.write(ready_rows[0].text if order is None else merged_rows(ready_rows, order))
         if self.events:
             self.events.sort(key=lambda kv: kv[0])
             cut = 0
             while cut < len(self.events) and self.events[cut][0][0] < chunk_limit:
                 cut += 1
             if cut and self.events_out is not None:
-                self.events_out.write("".join(line for _, line in self.events[:cut]))
+                ready = [record for _, record in self.events[:cut]]
+                if isinstance(ready[0], str):
+                    self.events_out.fh.write("".join(ready))
+                else:
+                    self.events_out.write(ready)  # Parquet: the writer gathers them into row groups
             del self.events[:cut]
+
+    def _write_table(self, steps: np.ndarray, table: "PoseTable") -> None:
+        """Pose rows as arrays to the Parquet writer (``replay.outputs.PosesParquet``), as the run in
+        one piece hands it a chunk, in row groups of the chunk's size."""
+        from types import SimpleNamespace
+
+        names = self.plan.tasks[0].names if self.plan.tasks else ()
+        size = max(1, self.chunk_rows)
+        for lo in range(0, len(steps), size):
+            part = table.take(lo, lo + size)
+            chunk = SimpleNamespace(step=steps[lo:lo + size], t=part.t, has_entity=self.plan.has_entity,
+                                    entity=part.entity, entity_names=names)
+            self.poses_out.write(chunk, part.poses)
 
     def flush_all(self) -> None:
         big = np.iinfo(np.int64).max
@@ -759,11 +852,28 @@ class _Join:
 
 
 def in_process(world, options: ReplayOptions):
-    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``."""
+    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``;
+    ``runner.metadata(trajectory)`` the Parquet outputs' metadata."""
     def runner(tasks, consume):
         for task in tasks:
             consume(replay_window(world, options, task))
+
+    def metadata(trajectory):
+        from tankcd_cli.replay.outputs import replay_metadata
+
+        return replay_metadata(world, [trajectory], options)
+
+    runner.metadata = metadata
     return runner
+
+
+def window_metadata(world, trajectory: str) -> dict:
+    """The Parquet outputs' metadata, on a worker: ``replay.outputs.replay_metadata`` of the world
+    (a ``replay.fleet.FleetWorld``) loaded once per process, as the tasks load it."""
+    from tankcd_cli.replay.fleet import load_world_once
+    from tankcd_cli.replay.outputs import replay_metadata
+
+    return replay_metadata(load_world_once(world.spec), [trajectory], world.options)
 
 
 def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
@@ -814,4 +924,16 @@ def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
                     state["done"].discard(state["next"])
                     state["next"] += 1
                 submit_up_to()
+
+    def metadata(trajectory):
+        # the world is loaded on the workers only: one of them describes it (and hashes the inputs)
+        try:
+            from distributed import Client
+        except ImportError:
+            raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
+
+        with Client(scheduler, timeout="20s") as client:
+            return client.submit(window_metadata, world, trajectory, pure=False, retries=3).result()
+
+    runner.metadata = metadata
     return runner

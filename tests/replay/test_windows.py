@@ -457,3 +457,70 @@ def test_the_tasks_warnings_are_said_once_and_kept_in_the_summary(run, flat, tmp
     result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
                  "--poses", tmp_path / "q.csv", "--strict")
     assert result.exit_code == 3 and not (tmp_path / "q.csv").exists()
+
+
+def _parquet(path):
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
+    return table.to_pylist(), meta
+
+
+@pytest.mark.parametrize("chunk_rows", [7, 65536])
+@pytest.mark.parametrize("seconds", [2.0, 6.0, 1000.0])
+def test_windows_write_the_parquet_of_the_run_in_one_piece(world, flat, tmp_path, chunk_rows, seconds):
+    # the same writers: the same tables (rows, columns, types, entity names) and the same metadata
+    pytest.importorskip("pyarrow")
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    _write(flat / "edges.csv", _edges_exercise())
+    path = str(flat / "edges.csv")
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    run_replay(world, path, ReplayOutputs(str(whole / "p.parquet"), str(whole / "e.parquet")), options)
+    for poses, events in (("p.parquet", "e.parquet"), ("p.parquet", "e.jsonl"), ("p.csv", "e.parquet")):
+        out = tmp_path / f"w-{poses}-{events}"
+        out.mkdir()
+        plan = plan_windows(path, options, seconds)
+        summary = run_windows(path, ReplayOutputs(str(out / poses), str(out / events)), in_process(world, options),
+                              plan, options)
+        assert summary.vehicle_contacts == 3
+        for name in (poses, events):
+            if name.endswith(".parquet"):
+                got, want = _parquet(out / name), _parquet(whole / name)
+                assert got[0] == want[0], name
+                assert got[1] == want[1], name
+    local = _local(world, flat, "edges", chunk_rows)  # the text outputs beside them: the local run's bytes
+    assert (tmp_path / "w-p.parquet-e.jsonl" / "e.jsonl").read_bytes() == (local / "e.jsonl").read_bytes()
+    assert (tmp_path / "w-p.csv-e.parquet" / "p.csv").read_bytes() == (local / "p.csv").read_bytes()
+    rows, meta = _parquet(whole / "p.parquet")
+    assert len(rows) == len(_edges_exercise()) and {r["entity"] for r in rows} == set("ABCDEFGH")
+    assert meta["tankcd.table"] == "poses" and "sha256" in meta["tankcd.sources"]
+
+
+def test_the_command_line_writes_parquet_by_windows(run, flat, tmp_path):
+    pytest.importorskip("pyarrow")
+    _write(flat / "edges.csv", _edges_exercise())
+    for name, extra in (("w", ("--window-seconds", "4")), ("whole", ())):
+        result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", *extra,
+                     "--poses", tmp_path / f"{name}.p.parquet", "--events", tmp_path / f"{name}.e.parquet")
+        assert result.exit_code == 0, result.stderr
+    for table in ("p", "e"):
+        assert _parquet(tmp_path / f"w.{table}.parquet") == _parquet(tmp_path / f"whole.{table}.parquet")
+
+
+def test_a_worker_describes_the_world_as_the_local_run(world, flat):
+    # on a cluster the world is loaded by the workers only: one of them gives the Parquet metadata
+    from tankcd_cli.replay.fleet import FleetWorld
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.windows import in_process, window_metadata
+    from tankcd_cli.replay.world import WorldSpec
+
+    _write(flat / "edges.csv", _edges_exercise())
+    options = ReplayOptions()
+    remote = window_metadata(FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), options), str(flat / "edges.csv"))
+    assert remote == in_process(world, options).metadata(str(flat / "edges.csv"))
