@@ -287,9 +287,11 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         runner = on_dask(FleetWorld(spec, options), scheduler)
         path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
     else:
-        runner = in_process(_world(world, scene, terrain, vehicle, up, False, None), options)
+        loaded = _world(world, scene, terrain, vehicle, up, False, None)
+        runner = in_process(loaded, options)
         path = trajectory
-    plan = plan_windows(path, options, window_seconds)
+    # here, an input that is no CSV (a capture, GPX) is decoded and converted once for all the windows
+    plan = plan_windows(path, options, window_seconds, crs=None if scheduler else loaded.crs)
     return run_windows(path, ReplayOutputs(poses, events), runner, plan, options, progress=progress)
 
 

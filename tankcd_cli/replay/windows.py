@@ -78,6 +78,9 @@ class WindowTask:
     pose_arrays, event_records : give the poses as arrays (``PoseTable``) and the events as
         ``Event`` records, for a Parquet output, instead of CSV and JSON Lines text (set by
         ``run_windows`` from the outputs' names)
+    spool : (folder, where, first, last) for an input that is no CSV converted once by the planning
+        pass (``_Spool``): its rows are read from the folder's arrays, its own between steps first
+        and last (None: the input is read by ``parts``, or whole)
     """
 
     index: int
@@ -99,6 +102,7 @@ class WindowTask:
     last_step: int
     pose_arrays: bool = False
     event_records: bool = False
+    spool: tuple | None = None
 
 
 @dataclass
@@ -223,6 +227,15 @@ class WindowPlan:
     entities: int
     geographic: bool
     warnings: list = field(default_factory=list)  # the planning pass's set-up warnings (the motion checks)
+    spool: str | None = None  # the folder of the rows converted once (``_Spool``), removed by ``close``
+
+    def close(self) -> None:
+        """Remove the rows converted for the tasks (once they have run)."""
+        if self.spool is not None:
+            import shutil
+
+            shutil.rmtree(self.spool, ignore_errors=True)
+            self.spool = None
 
 
 # --- planning -----------------------------------------------------------------------------------
@@ -241,29 +254,100 @@ class _Grid:
 
 
 def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), window_seconds: float = 60.0,
-                 fmt: str | None = None) -> WindowPlan:
+                 fmt: str | None = None, crs: str | None = None, spool_dir: str | None = None) -> WindowPlan:
     """One pass over ``trajectory`` (times and entities, the local run's chunks) into window tasks of
     ``window_seconds`` (rounded to a whole number of contact windows, at least one). Bad rows are
     the local run's errors (``InputError``), raised here before any task runs; the motion checks'
-    set-up warnings are said here and kept in the plan's ``warnings``."""
+    set-up warnings are said here and kept in the plan's ``warnings``.
+
+    crs : the terrain's CRS (``World.crs``), given when the tasks run on this machine: an input that
+        is no CSV (a capture, GPX) is then decoded and converted to it once, here, into arrays in a
+        temporary folder (under ``spool_dir``; the system's by default) that each task reads by
+        its rows' range, where without it every task decodes the whole input again. ``run_windows``
+        removes the folder (``WindowPlan.close``)."""
     from tankcd_cli.errors import collected_warnings
 
     with collected_warnings() as said:
-        plan = _plan(trajectory, options, window_seconds, fmt)
+        plan = _plan(trajectory, options, window_seconds, fmt, crs, spool_dir)
     plan.warnings = list(said)
     return plan
 
 
-def _plan(trajectory, options, window_seconds, fmt) -> WindowPlan:
-    from tankcd_cli.io.trajectory import TrajectoryReader, split_trajectory, trajectory_format
+class _Spool:
+    """The rows of an input that is no CSV as the reader gives them, converted to the terrain's CRS,
+    written once by the planning pass: one raw array file per field in a temporary folder, appended
+    chunk by chunk (memory: one chunk), read back by the tasks as memory maps (``_spooled``)."""
+
+    FIELDS = (("step", np.int64), ("t", np.float64), ("x", np.float64), ("y", np.float64),
+              ("yaw_deg", np.float64), ("turret_deg", np.float64), ("gun_deg", np.float64), ("line", np.int64),
+              ("piece_start", np.bool_), ("entity", np.int64))
+
+    def __init__(self, folder: str | None):
+        import tempfile
+
+        self.folder = tempfile.mkdtemp(prefix="tankcd-windows-", dir=folder)
+        self.files = {f: open(os.path.join(self.folder, f), "wb") for f, _ in self.FIELDS}
+        self.rows = 0
+
+    def add(self, chunk) -> None:
+        n = len(chunk)
+        for f, dtype in self.FIELDS:
+            value = getattr(chunk, f)
+            if value is None:
+                value = np.zeros(n, dtype)
+            self.files[f].write(np.ascontiguousarray(value, dtype).tobytes())
+        self.rows += n
+
+    def close(self) -> None:
+        for fh in self.files.values():
+            fh.close()
+
+    def remove(self) -> None:
+        import shutil
+
+        self.close()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _spooled(folder: str, steps: np.ndarray) -> dict:
+    """The spooled rows at ``steps`` (sorted, unique: a row's step is its place in the input)."""
+    out = {}
+    for f, dtype in _Spool.FIELDS:
+        path = os.path.join(folder, f)
+        if os.path.getsize(path) == 0 or not len(steps):
+            out[f] = np.zeros(0, dtype)
+            continue
+        out[f] = np.array(np.memmap(path, dtype=dtype, mode="r")[steps])
+    return out
+
+
+def _plan(trajectory, options, window_seconds, fmt, crs=None, spool_dir=None) -> WindowPlan:
+    from tankcd_cli.io.trajectory import TrajectoryReader, trajectory_format
+
+    is_csv = trajectory_format(trajectory, fmt) == "csv"
+    spooled = not is_csv and crs is not None and trajectory != "-"
+    reader = TrajectoryReader(trajectory, options.chunk_rows, crs=crs, fmt=fmt, convert=spooled)
+    spool = _Spool(spool_dir) if spooled else None
+    try:
+        plan = _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool)
+    except BaseException:
+        if spool is not None:
+            spool.remove()
+        raise
+    if spool is not None:
+        spool.close()
+        plan.spool = spool.folder
+    return plan
+
+
+def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) -> WindowPlan:
+    from tankcd_cli.io.trajectory import split_trajectory
     from tankcd_cli.replay import vehicles
     from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
 
     width = vehicles.WINDOW
     per_task = max(1, int(round(window_seconds / width)))
     watch = vehicles.VehicleContacts(None, continuous=options.continuous)
-    reader = TrajectoryReader(trajectory, options.chunk_rows, fmt=fmt, convert=False)
-    is_csv = trajectory_format(trajectory, fmt) == "csv"
     parts = split_trajectory(trajectory, options.chunk_rows) if is_csv and trajectory != "-" else None
     part_steps = np.array([p.step_offset for p in parts], dtype=np.int64) if parts else None
     grid = None
@@ -285,8 +369,10 @@ def _plan(trajectory, options, window_seconds, fmt) -> WindowPlan:
         if grid is None:
             grid = _Grid(float(np.floor(chunk.t.min() / width) * width), width)
             has_turret, has_entity = chunk.has_turret, chunk.has_entity
-            if not reader.geographic:
+            if not reader.geographic or spool is not None:  # positions known (converted, for the spool)
                 checks = ExerciseChecks(trajectory) if has_entity else MotionChecks(trajectory)
+        if spool is not None:
+            spool.add(chunk)
         if checks is not None:
             if has_entity:
                 checks.observe(chunk)
@@ -342,7 +428,8 @@ def _plan(trajectory, options, window_seconds, fmt) -> WindowPlan:
             j, trajectory, fmt, tuple(parts[p] for p in sorted(needed)) if parts is not None else None,
             edges[j * per_task] if j > 0 else -np.inf, edges[(j + 1) * per_task] if j < n_tasks - 1 else np.inf,
             extra_lead, extra_trailing, windows, emits[j * per_task - 1] if j > 0 else -1, names, first_step,
-            starts_arr, has_turret, has_entity, options.chunk_rows, last_step))
+            starts_arr, has_turret, has_entity, options.chunk_rows, last_step,
+            spool=(spool.folder, reader.where, own_min.get(j, 0), own_max.get(j, -1)) if spool is not None else None))
         min_step[j] = own_min.get(j, np.iinfo(np.int64).max)
         first_chunk = int(np.searchsorted(starts_arr, min_step[j], side="right") - 1) if j in own_min else n_chunks
         min_chunk[j] = min([first_chunk] + [w.emit for w in windows])
@@ -582,6 +669,17 @@ def _read_window(world, task: WindowTask):
     own_flags = []
     where = "line"
     sources = [None] if task.parts is None else list(task.parts)
+    if task.spool is not None:  # converted once by the planning pass: its rows by their steps
+        folder, where, first, last = task.spool
+        rows = _spooled(folder, np.union1d(np.arange(first, last + 1, dtype=np.int64), extra.astype(np.int64)))
+        if not task.has_entity:
+            rows["entity"] = np.zeros(len(rows["t"]), np.int64)
+        own = (rows["t"] >= task.t0) & (rows["t"] < task.t1)
+        keep = own | np.isin(rows["step"], extra)
+        for f in fields:
+            got[f].append(rows[f][keep])
+        own_flags.append(own[keep])
+        sources = []
     for part in sources:
         reader = TrajectoryReader(task.trajectory, task.chunk_rows, part, world.crs, task.fmt)
         where = reader.where
@@ -601,7 +699,7 @@ def _read_window(world, task: WindowTask):
             if chunk.step[-1] >= task.last_step:
                 break
         reader.close()
-    if not own_flags:
+    if not own_flags or not sum(map(len, own_flags)):
         got = {f: np.zeros(0, np.int64 if f in ("step", "line", "entity") else np.float64) for f in fields}
         own = np.zeros(0, bool)
     else:
@@ -682,7 +780,14 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
     The outputs are a run in one piece's (``replay.outputs.replay_outputs``): CSV and JSON Lines,
     or Parquet for a name ending in ``.parquet``, whose metadata is ``runner.metadata(trajectory)``
     (``replay.outputs.replay_metadata`` of the world the tasks run in: ``in_process`` and
-    ``on_dask`` give it)."""
+    ``on_dask`` give it). The plan's converted rows (``WindowPlan.close``) are removed after."""
+    try:
+        return _run_windows(trajectory, outputs, runner, plan, options, progress)
+    finally:
+        plan.close()
+
+
+def _run_windows(trajectory, outputs, runner, plan, options, progress) -> ReplaySummary:
     import dataclasses
 
     from tankcd_cli.errors import collected_warnings

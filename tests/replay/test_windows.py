@@ -321,6 +321,12 @@ def test_gpx_tracks_by_windows_as_the_local_run(tmp_path, chunk_rows):
     assert len(plan.tasks) > 3 and all(task.parts is None for task in plan.tasks)
     run_windows(str(tmp_path / "t.gpx"), outputs["windows"], in_process(world, options), plan, options)
     _same_bytes(tmp_path / "local", tmp_path / "windows")
+    # converted once by the planning pass (the terrain's CRS given), read by the tasks by range: the same
+    plan = plan_windows(str(tmp_path / "t.gpx"), options, 4.0, crs=world.crs)
+    assert plan.spool is not None and all(task.spool is not None for task in plan.tasks)
+    run_windows(str(tmp_path / "t.gpx"), outputs["windows"], in_process(world, options), plan, options)
+    _same_bytes(tmp_path / "local", tmp_path / "windows")
+    assert plan.spool is None
     events = [json.loads(line) for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()]
     if chunk_rows == 65536:
         assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
@@ -524,3 +530,91 @@ def test_a_worker_describes_the_world_as_the_local_run(world, flat):
     options = ReplayOptions()
     remote = window_metadata(FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), options), str(flat / "edges.csv"))
     assert remote == in_process(world, options).metadata(str(flat / "edges.csv"))
+
+
+def _utm_ground(tmp_path):
+    rasterio = pytest.importorskip("rasterio")
+    pytest.importorskip("pyproj")
+    from rasterio.transform import from_origin
+
+    x0, yn = 400000.0, 5001000.0
+    with rasterio.open(tmp_path / "flat.tif", "w", driver="GTiff", height=200, width=300, count=1, dtype="float32",
+                       crs="EPSG:32633", transform=from_origin(x0 - 0.5, yn + 0.5, 1.0, 1.0)) as dst:
+        dst.write(np.full((200, 300), GROUND, np.float32), 1)
+    return x0, yn
+
+
+def _capture_exercise(path, x0, yn):
+    """A DIS capture (pcap) of three tanks on UTM 33N ground: A stands, B drives west into it (their
+    hulls meet about 11.4 s in), C crosses far from both from 6 s; 2 Hz each, B's packets a little
+    after A's, and the file's last packets hold the contact's end."""
+    import pyproj
+
+    from tankcd_cli.io.geodesy import enu_basis
+    from tests.io import captures as C
+    from tests.io.test_dis import T0, ecef
+
+    to_geo = pyproj.Transformer.from_crs("EPSG:32633", "EPSG:4326", always_xy=True)
+
+    def pdu(ent, x, y, yaw_deg):
+        lon, lat = to_geo.transform(x, y)
+        yaw = np.radians(yaw_deg)
+        enu = np.array([[np.cos(yaw), np.sin(yaw), 0], [np.sin(yaw), -np.cos(yaw), 0], [0, 0, -1]]).T
+        body = enu_basis([lon], [lat])[0].T @ enu
+        ori = (np.arctan2(body[1, 0], body[0, 0]), -np.arcsin(body[2, 0]), np.arctan2(body[2, 1], body[2, 2]))
+        return C.ethernet(C.ipv4(C.udp(C.es_dis7(1, 1, ent, ecef(lon, lat, 100.0), ori))))
+
+    frames = []
+    for k in range(31):
+        t = 0.5 * k
+        frames.append((T0 + t, pdu(1, x0 + 100, yn - 100, 0.0)))
+        frames.append((T0 + t + 0.1, pdu(2, x0 + 160 - 4 * t, yn - 100, 180.0)))
+        if t >= 6:
+            frames.append((T0 + t + 0.2, pdu(3, x0 + 30 + 3 * (t - 6), yn - 20, 0.0)))
+    path.write_bytes(C.pcap(frames))
+    return path
+
+
+@pytest.mark.parametrize("chunk_rows", [10, 65536])
+def test_a_capture_by_windows_is_decoded_once_and_gives_the_run_in_one_piece(tmp_path, monkeypatch, chunk_rows):
+    from tankcd_cli import api
+    from tankcd_cli.io import dis
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    x0, yn = _utm_ground(tmp_path)
+    path = str(_capture_exercise(tmp_path / "ex.pcap", x0, yn))
+    world = api.load_world(terrain=str(tmp_path / "flat.tif"))
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    for name in ("whole", "w"):
+        (tmp_path / name).mkdir()
+    whole = run_replay(world, path, ReplayOutputs(str(tmp_path / "whole" / "p.csv"), str(tmp_path / "whole" / "e.jsonl")),
+                       options)
+    assert whole.vehicle_contacts == 1 and whole.entities == 3
+    decoded = []
+    real = dis.DisCapture.blocks
+
+    def counted(self, *args, **kwargs):
+        decoded.append(self.path if hasattr(self, "path") else None)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(dis.DisCapture, "blocks", counted)
+    spools = tmp_path / "spools"
+    spools.mkdir()
+    monkeypatch.setattr("tempfile.tempdir", str(spools))
+    for seconds in (2.0, 5.0):
+        decoded.clear()
+        summary = api.replay_windows(path, str(tmp_path / "w" / "p.csv"), str(tmp_path / "w" / "e.jsonl"), world=world,
+                                     window_seconds=seconds) if chunk_rows == 65536 else None
+        if summary is None:  # another chunk size: the runner's own parts
+            from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+            plan = plan_windows(path, options, seconds, crs=world.crs)
+            assert plan.spool is not None and all(t.parts is None and t.spool for t in plan.tasks)
+            summary = run_windows(path, ReplayOutputs(str(tmp_path / "w" / "p.csv"), str(tmp_path / "w" / "e.jsonl")),
+                                  in_process(world, options), plan, options)
+        assert len(decoded) == 1, decoded  # the planning pass alone: no task decodes the capture again
+        _same_bytes(tmp_path / "whole", tmp_path / "w")
+        assert summary.vehicle_contacts == 1 and summary.rows == whole.rows
+        assert summary.warnings == whole.warnings
+        assert not list(spools.iterdir())  # the converted rows removed once the windows have run
