@@ -28,7 +28,14 @@ with the next one's in the file).
 
 The trajectory is read once by the planning pass (times and entities: the watermark and each
 window's rows), and each task reads the parts of the file (CSV lines, ``io.trajectory``) that hold
-its rows; an input that is no CSV (GPX, a capture) is read whole by every task.
+its rows; an input that is no CSV (GPX, a capture) is decoded and converted once by the planning
+pass when the tasks run here (``_Spool``: arrays each task reads by range), else read whole by
+every task (a cluster's workers do not see this machine's temporary folder).
+
+Rows out of time order across vehicles (grouped by vehicle, one silent past the horizon: the
+planning pass plays the order check) close every contact window after the last chunk, as a run in
+one piece that keeps every segment does: each task then runs its windows with every segment they
+need, and the events are those of the same rows in time order.
 """
 
 from __future__ import annotations
