@@ -298,6 +298,8 @@ class _Spool:
 
     def add(self, chunk) -> None:
         n = len(chunk)
+        if n and int(chunk.step[0]) != self.rows:  # a row's step is its place here: what the tasks index by
+            raise RuntimeError(f"spooled rows out of step: {int(chunk.step[0])} after {self.rows} rows")
         for f, dtype in self.FIELDS:
             value = getattr(chunk, f)
             if value is None:
@@ -554,6 +556,9 @@ class _Segments:
 
     def finish(self) -> list:
         return []
+
+    def close(self) -> None:
+        pass
 
 
 def run_window(world, task: WindowTask, kernel_threads: int | None = None) -> WindowResult:

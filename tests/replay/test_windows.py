@@ -646,3 +646,20 @@ def test_a_capture_by_windows_is_decoded_once_and_gives_the_run_in_one_piece(tmp
         assert summary.vehicle_contacts == 1 and summary.rows == whole.rows
         assert summary.warnings == whole.warnings
         assert not list(spools.iterdir())  # the converted rows removed once the windows have run
+
+
+def test_minus_v_shows_the_traceback_of_a_tasks_internal_error(run, flat, tmp_path, monkeypatch):
+    from tankcd_cli.replay import windows
+
+    def broken(world, task):
+        raise ZeroDivisionError(f"in window {task.index}")
+
+    monkeypatch.setattr(windows, "_read_window", broken)
+    _write(flat / "edges.csv", _edges_exercise())
+    for verbose in ((), ("-v",)):
+        result = run(*verbose, "replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
+                     "--poses", tmp_path / "p.csv")
+        assert result.exit_code == 4
+        assert "internal error: ZeroDivisionError: in window 0" in result.stderr
+        assert ("in broken" in result.stderr) == bool(verbose), result.stderr
+        assert not (tmp_path / "p.csv").exists()
