@@ -449,27 +449,26 @@ def _whole_trajectory_sources(part_output: str) -> dict:
 
 
 def _joined_summary(summaries: list):
-    """One summary of a trajectory's parts: counts and seconds summed, the warnings of all (each
-    once), the rest as the first part's."""
+    """One summary of a trajectory's parts, built from their counts summed as a run in one piece
+    builds its own (``replay.run.summary_of``): seconds and the checks between rows summed, the
+    warnings of all (each once), the rest as the first part's."""
+    from tankcd_cli.replay.records import ReplayCounts
+    from tankcd_cli.replay.run import summary_of
+
     first = summaries[0]
-
-    def summed(name):
-        return {k: sum(getattr(s, name).get(k, 0) for s in summaries) for k in getattr(first, name)}
-
-    matchers: dict = {}
+    counts = ReplayCounts()
     for s in summaries:
-        for k, v in s.matchers.items():
-            matchers[k] = matchers.get(k, 0) + v
+        counts.merge(ReplayCounts.of_summary(s))
     motion = dict(first.motion)
     for key in ("intervals", "substeps"):
         if key in motion:
             motion[key] = sum(s.motion.get(key, 0) for s in summaries)
-    return dataclasses.replace(first, rows=sum(s.rows for s in summaries), collisions=summed("collisions"),
-                               off_terrain=sum(s.off_terrain for s in summaries), matchers=matchers,
-                               seconds=round(sum(s.seconds for s in summaries), 3),
-                               seconds_by_effect={k: round(sum(s.seconds_by_effect.get(k, 0.0) for s in summaries), 3)
-                                                  for k in first.seconds_by_effect},
-                               between=summed("between"), motion=motion,
+    by_effect = {k: sum(s.seconds_by_effect.get(k, 0.0) for s in summaries) for k in first.seconds_by_effect}
+    built = summary_of(counts, first.mode == "continuous", first.effects, by_effect,
+                       sum(s.seconds for s in summaries), motion, first.entities)
+    summed = ("rows", "collisions", "off_terrain", "matchers", "seconds", "seconds_by_effect", "between", "motion",
+              "vehicle_contacts")
+    return dataclasses.replace(first, **{k: getattr(built, k) for k in summed},
                                warnings=list(dict.fromkeys(w for s in summaries for w in s.warnings)))
 
 

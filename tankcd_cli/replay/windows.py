@@ -904,16 +904,7 @@ class _Join:
                 self.progress(self.counts.rows)
 
     def _add(self, r: WindowResult) -> None:
-        c, o = self.counts, r.counts
-        c.rows += o.rows
-        c.status += o.status
-        c.matcher += o.matcher
-        c.vehicle_contacts += o.vehicle_contacts
-        for k in c.at_rows:
-            c.at_rows[k] += o.at_rows[k]
-            c.between[k] += o.between[k]
-        c.extent = [min(c.extent[0], o.extent[0]), min(c.extent[1], o.extent[1]),
-                    max(c.extent[2], o.extent[2]), max(c.extent[3], o.extent[3])]
+        self.counts.merge(r.counts)
         self.intervals += r.intervals
         self.substeps += r.substeps
         for k, v in r.seconds.items():

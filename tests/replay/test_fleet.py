@@ -299,3 +299,33 @@ def test_minus_v_shows_the_traceback_of_an_internal_error(flat_scene, tmp_path, 
         assert result.exit_code == 4
         assert "internal error: ZeroDivisionError: deep in the replay" in result.stderr
         assert ("in broken" in result.stderr) == ("-v" in args), result.stderr
+
+
+def test_a_split_trajectorys_summary_is_built_from_its_parts_counts_as_one_run(flat_scene, tmp_path):
+    # a drive that leaves the terrain, cut into parts of 1000 lines: the joined summary's counts are
+    # the run in one piece's (built the same way, from counts), and so is a summary's own round trip
+    import dataclasses
+
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayCounts
+    from tankcd_cli.replay.run import summary_of
+
+    n = 2600
+    t = np.arange(n) * 0.1
+    x = 10 + 0.06 * np.arange(n)  # 10 m to 166 m: the last rows off the 160 m ground
+    with open(tmp_path / "drive.csv", "w") as fh:
+        fh.write("t,x,y,yaw_deg\n")
+        np.savetxt(fh, np.column_stack([t, x, np.full(n, 40.0), np.zeros(n)]), fmt="%.3f", delimiter=",")
+    fleet = api.replay_fleet([str(tmp_path / "drive.csv")], str(tmp_path / "out"), scene=str(flat_scene), jobs=1,
+                             split_lines=1000)
+    joined = fleet.results[0]
+    assert joined.parts == 3 and joined.status == "ok"
+    alone = api.replay_to_files(str(tmp_path / "drive.csv"), None, None, scene=str(flat_scene))
+    assert alone.off_terrain > 0 and alone.between.get("off_terrain", 0) >= 0
+    a, b = dataclasses.asdict(alone), dataclasses.asdict(joined.summary)
+    for d in (a, b):
+        d.pop("seconds"), d.pop("seconds_by_effect")
+    assert a == b
+    rebuilt = summary_of(ReplayCounts.of_summary(alone), True, alone.effects, alone.seconds_by_effect, alone.seconds,
+                         alone.motion, alone.entities)
+    assert dataclasses.replace(rebuilt, warnings=alone.warnings, time_origin=alone.time_origin) == alone
