@@ -260,7 +260,8 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
     ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
     ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
     lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
-    ``replay.windows``); memory follows the window. Returns the closing summary
+    ``replay.windows``; Parquet for a name ending in ``.parquet``, the same tables and metadata);
+    memory follows the window. Returns the closing summary
     (``replay.records.ReplaySummary``). ``progress(rows)`` as windows are written."""
     import os
 
@@ -271,14 +272,11 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
     if not isinstance(trajectory, str) or trajectory == "-":
         raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
                                           "its own rows), not standard input or arrays")
-    if not window_seconds > 0:
-        raise ValueError(f"window_seconds must be positive, not {window_seconds!r}")
-    from tankcd_cli.io.parquet import is_parquet
+    if not (np.isfinite(window_seconds) and window_seconds > 0):
+        raise ValueError(f"window_seconds must be a positive finite number, not {window_seconds!r}")
+    from tankcd_cli.io.parquet import check_writable
 
-    for out in (poses, events):
-        if is_parquet(out):
-            raise ValueError(f"{out}: a replay by time windows writes the poses CSV and the events JSON Lines "
-                             "(Parquet: replay in one piece, or convert the outputs)")
+    check_writable(poses, events)  # Parquet without pyarrow: before any work
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
     if scheduler:
         from tankcd_cli.replay.fleet import FleetWorld
@@ -294,9 +292,11 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         runner = on_dask(FleetWorld(spec, options), scheduler)
         path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
     else:
-        runner = in_process(_world(world, scene, terrain, vehicle, up, False, None), options)
+        loaded = _world(world, scene, terrain, vehicle, up, False, None)
+        runner = in_process(loaded, options)
         path = trajectory
-    plan = plan_windows(path, options, window_seconds)
+    # here, an input that is no CSV (a capture, GPX) is decoded and converted once for all the windows
+    plan = plan_windows(path, options, window_seconds, crs=None if scheduler else loaded.crs)
     return run_windows(path, ReplayOutputs(poses, events), runner, plan, options, progress=progress)
 
 

@@ -166,6 +166,29 @@ class Excludes(NamedTuple):
     why: str
 
 
+class Positive(NamedTuple):
+    """``option``'s value, when given, a positive finite number, else bad input (exit 3, one line
+    naming the option): NaN and infinity pass click's ``FloatRange`` and would reach the work.
+    ``what`` says what the number is."""
+
+    option: str
+    what: str
+
+
+def check_option_values(ctx: click.Context, rules) -> None:
+    """Exit 3 (``InputError``: one line naming the option and the value) at the first ``Positive``
+    rule a given value breaks."""
+    import math
+
+    from tankcd_cli.errors import InputError
+
+    for rule in rules:
+        value = ctx.params.get(rule.option)
+        if isinstance(rule, Positive) and value is not None and not (math.isfinite(value) and value > 0):
+            raise InputError(option_label(ctx, rule.option), f"{value!r} is not {rule.what}: give a positive finite "
+                                                             "number")
+
+
 def given(ctx: click.Context, name: str) -> bool:
     """Whether the user gave parameter ``name`` (on the command line), not left it at its default."""
     from click.core import ParameterSource
@@ -236,6 +259,11 @@ REPLAY_RULES = (
                                    "--out-format parquet)"),
     Excludes("cache", FLEET, "a fleet does not save its terrain beside it (classify it first with tankcd classify)"),
 )
+REPLAY_VALUES = (
+    Positive("window_seconds", "a window's length in seconds"),
+    Positive("tolerance", "a height tolerance in metres"),
+    Positive("attitude_tolerance", "an attitude tolerance in degrees"),
+)
 
 
 def check_replay_options(ctx: click.Context, fleet: bool) -> None:
@@ -247,6 +275,7 @@ def check_replay_options(ctx: click.Context, fleet: bool) -> None:
     escalation = bool(p.get("escalate") or (p.get("escalate") is None and p.get("matcher") == "auto"))
     scheduled = given(ctx, "out_dir") or given(ctx, "window_seconds")
     check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation, SCHEDULED: scheduled})
+    check_option_values(ctx, REPLAY_VALUES)
     if not (given(ctx, "cache") or given(ctx, "up")):
         return
     from tankcd_cli.terrain.store import is_hdf5

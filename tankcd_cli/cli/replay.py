@@ -83,7 +83,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="Fleet mode: parallel processes (default: the number of cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
-@click.option("--window-seconds", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
+@click.option("--window-seconds", type=float, default=None, metavar="S",
               help="Replay one exercise by time windows of about S seconds (a whole number of the 2 s contact "
                    "windows), each a task: here one after the other, or on the Dask cluster at --scheduler; the "
                    "poses and events of a run in one piece, byte for byte.")
@@ -164,11 +164,6 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
     if window_seconds is not None:
-        from tankcd_cli.io.parquet import is_parquet
-
-        if is_parquet(poses_path) or is_parquet(events_path):
-            raise click.UsageError("--window-seconds writes the poses CSV and the events JSON Lines: give --poses and "
-                                   "--events names ending in .csv and .jsonl (Parquet: replay in one piece)")
         return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
                         discrete, escalate, (tolerance, attitude_tolerance), window_seconds, scheduler, summary_path,
                         fail_on_collision, allow_off_terrain, step)
@@ -294,6 +289,11 @@ def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir,
     report.bar(None)
     for failure in fleet.failures:
         click.echo(f"tankcd: error: {failure['error']}", err=True)
+    if report.verbosity >= 1:  # -v: the tracebacks of the internal errors, as the workers formatted them
+        for r in fleet.results:
+            if r.traceback:
+                click.echo(f"{r.trajectory}: the traceback in its worker (pid {r.pid}):\n{r.traceback.rstrip()}",
+                           err=True)
     brief = fleet.as_dict(results=False)
     _write_summary(summary_path, brief)
     if summary_path == SUMMARY_STDERR:

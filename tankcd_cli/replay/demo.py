@@ -47,6 +47,8 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     path, marks = [], []
 
     def draw(chunk, poses, events):
+        if chunk is None:  # the vehicles' last contacts (an exercise's; the patrol has none): no row to mark
+            return
         path.append(poses.position[:, :2])
         for e in events:
             k = e.step - chunk.step[0] if e.step >= chunk.step[0] else 0  # a contact between rows: its row's place

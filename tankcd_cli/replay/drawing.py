@@ -22,6 +22,13 @@ class ReplayDrawing:
         self.counts: dict[str, int] = {}
 
     def observe(self, chunk, poses, events) -> None:
+        if chunk is None:  # the vehicles' last contacts, after the last chunk: marked at their points
+            for e in events:
+                self.counts[e.kind] = self.counts.get(e.kind, 0) + 1
+                point = e.extra.get("point")
+                if point is not None and len(self.marks) < MAX_MARKS:
+                    self.marks.append((e.kind, float(point[0]), float(point[1])))
+            return
         keep = (np.arange(self.seen, self.seen + len(chunk)) % self.stride) == 0
         self.seen += len(chunk)
         self.xy.append(np.column_stack([chunk.x[keep], chunk.y[keep]]))

@@ -20,6 +20,7 @@ import json
 import os
 import threading
 import time
+import dataclasses
 from dataclasses import asdict, dataclass
 from typing import Callable
 
@@ -210,7 +211,9 @@ class TaskResult:
     """What one task (a trajectory, or a part of one) did: its outputs, its status (``ok``,
     ``bad_input``, ``internal_error``) and error line, the replay's summary (``ReplaySummary``;
     None where it failed), the first row's line and the first and last times (what joining parts
-    checks), the worker's pid(s), the task's seconds and, for a joined trajectory, its parts."""
+    checks), the worker's pid(s), the task's seconds and, for a joined trajectory, its parts; for an
+    internal error, the worker's formatted traceback (``traceback``: what ``-v`` shows; not in
+    fleet.json)."""
 
     trajectory: str
     poses: str
@@ -224,6 +227,7 @@ class TaskResult:
     pid: object = None
     task_seconds: float = 0.0
     parts: int | None = None
+    traceback: str | None = None
 
     def as_dict(self) -> dict:
         """As a line of fleet.json's ``results``: the summary's fields beside the task's."""
@@ -260,10 +264,11 @@ def run_task(world: FleetWorld, task: Task, kernel_threads: int | None = None) -
         ends = {}
 
         def remember(chunk, poses, events):
-            if "first_line" not in ends and len(chunk):
+            if chunk is None or not len(chunk):  # None: the vehicles' last contacts, after the last chunk
+                return
+            if "first_line" not in ends:
                 ends.update(first_line=int(chunk.line[0]), t_first=float(chunk.t[0]))
-            if len(chunk):
-                ends["t_last"] = float(chunk.t[-1])
+            ends["t_last"] = float(chunk.t[-1])
 
         result.summary = run_replay(loaded, task.trajectory, ReplayOutputs(task.poses, task.events), world.options,
                                     part=task.part, observe=remember)
@@ -274,10 +279,13 @@ def run_task(world: FleetWorld, task: Task, kernel_threads: int | None = None) -
     except InputError as exc:
         result.status, result.error, result.summary = "bad_input", exc.one_line(), None
     except Exception as exc:  # noqa: BLE001 - a bug in one task must not stop the fleet; it is reported
+        import traceback
+
         from tankcd_cli.errors import printable
 
         result.status, result.summary = "internal_error", None
         result.error = printable(f"{type(exc).__name__}: {exc}".splitlines()[0])
+        result.traceback = traceback.format_exc()  # formatted here: a traceback object does not travel
     result.task_seconds = round(time.perf_counter() - start, 3)
     return result
 
@@ -302,6 +310,7 @@ class FleetSummary:
     world: dict
     failures: list
     results: list
+    warnings: list = dataclasses.field(default_factory=list)  # every trajectory's set-up warnings, each once
 
     @property
     def collided(self) -> bool:
@@ -344,6 +353,12 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
     ok = [r for r in results if r.status == "ok"]
     failed = [r for r in results if r.status != "ok"]
     rows = sum(r.summary.rows for r in ok)
+    warnings = list(dict.fromkeys(w for r in ok for w in r.summary.warnings))
+    if scheduler:  # said on the workers, where no one reads them: here, each once
+        from tankcd_cli.errors import warn
+
+        for line in warnings:
+            warn(None, line)
     seconds = time.perf_counter() - start
     between_kinds = ("obstacle", "internal", "terrain", "off_terrain")
     return FleetSummary(
@@ -354,7 +369,7 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
         vehicle_contacts=sum(r.summary.vehicle_contacts for r in ok), seconds=round(seconds, 3),
         rows_per_second=round(rows / seconds, 1) if seconds > 0 else None, ran_on=how, world=world.describe(),
         failures=[{"trajectory": r.trajectory, "status": r.status, "error": r.error} for r in failed],
-        results=results)
+        results=results, warnings=warnings)
 
 
 def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult]:
@@ -372,7 +387,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
             groups.setdefault(t.whole_poses, []).append(t)
     for target, parts in groups.items():
         rs = [by_poses[t.poses] for t in parts]
-        first, error, status = parts[0], None, "ok"
+        first, error, status, trace = parts[0], None, "ok", None
         for k, r in enumerate(rs):
             prev = rs[k - 1] if k else None
             if prev is not None and prev.status == "ok" and r.status == "ok" and r.t_first is not None \
@@ -383,7 +398,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
                 status = "bad_input"
                 break
             if r.status != "ok":
-                error, status = r.error, r.status
+                error, status, trace = r.error, r.status, r.traceback
                 break
         joined = TaskResult(first.trajectory, target, first.whole_events, parts=len(parts),
                             task_seconds=round(sum(r.task_seconds for r in rs), 3),
@@ -404,7 +419,7 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
                 joined.summary = _joined_summary([r.summary for r in rs])
                 joined.first_line, joined.t_first, joined.t_last = rs[0].first_line, rs[0].t_first, rs[-1].t_last
             else:
-                joined.status, joined.error = status, error
+                joined.status, joined.error, joined.traceback = status, error, trace
         except InputError as exc:
             joined.status, joined.error = "bad_input", exc.one_line()
         finally:
@@ -434,28 +449,27 @@ def _whole_trajectory_sources(part_output: str) -> dict:
 
 
 def _joined_summary(summaries: list):
-    """One summary of a trajectory's parts: counts and seconds summed, the rest as the first part's."""
-    import dataclasses
+    """One summary of a trajectory's parts, built from their counts summed as a run in one piece
+    builds its own (``replay.run.summary_of``): seconds and the checks between rows summed, the
+    warnings of all (each once), the rest as the first part's."""
+    from tankcd_cli.replay.records import ReplayCounts
+    from tankcd_cli.replay.run import summary_of
 
     first = summaries[0]
-
-    def summed(name):
-        return {k: sum(getattr(s, name).get(k, 0) for s in summaries) for k in getattr(first, name)}
-
-    matchers: dict = {}
+    counts = ReplayCounts()
     for s in summaries:
-        for k, v in s.matchers.items():
-            matchers[k] = matchers.get(k, 0) + v
+        counts.merge(ReplayCounts.of_summary(s))
     motion = dict(first.motion)
     for key in ("intervals", "substeps"):
         if key in motion:
             motion[key] = sum(s.motion.get(key, 0) for s in summaries)
-    return dataclasses.replace(first, rows=sum(s.rows for s in summaries), collisions=summed("collisions"),
-                               off_terrain=sum(s.off_terrain for s in summaries), matchers=matchers,
-                               seconds=round(sum(s.seconds for s in summaries), 3),
-                               seconds_by_effect={k: round(sum(s.seconds_by_effect.get(k, 0.0) for s in summaries), 3)
-                                                  for k in first.seconds_by_effect},
-                               between=summed("between"), motion=motion)
+    by_effect = {k: sum(s.seconds_by_effect.get(k, 0.0) for s in summaries) for k in first.seconds_by_effect}
+    built = summary_of(counts, first.mode == "continuous", first.effects, by_effect,
+                       sum(s.seconds for s in summaries), motion, first.entities)
+    summed = ("rows", "collisions", "off_terrain", "matchers", "seconds", "seconds_by_effect", "between", "motion",
+              "vehicle_contacts")
+    return dataclasses.replace(first, **{k: getattr(built, k) for k in summed},
+                               warnings=list(dict.fromkeys(w for s in summaries for w in s.warnings)))
 
 
 def _append(target: str, source: str, skip_header: bool) -> None:
@@ -492,8 +506,11 @@ def _on_processes(world, tasks, jobs, say, done):
 
 def _lost(task: Task, exc: BaseException) -> TaskResult:
     """The result of a task whose worker died under it."""
+    import traceback
+
     return TaskResult(task.trajectory, task.poses, task.events, status="internal_error",
-                      error=f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300])
+                      error=f"{task.trajectory}: its worker was lost: {type(exc).__name__}: {exc}"[:300],
+                      traceback="".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
 
 
 def _worker_threads(threads: int) -> None:

@@ -110,6 +110,38 @@ class ReplayCounts:
                 self.extent[2] = max(self.extent[2], float(np.fmax.reduce(chunk.x)))
                 self.extent[3] = max(self.extent[3], float(np.fmax.reduce(chunk.y)))
 
+    def merge(self, other: "ReplayCounts") -> None:
+        """Add another replay's counts (a window's, a part's) to these."""
+        self.rows += other.rows
+        self.status += other.status
+        self.matcher += other.matcher
+        self.vehicle_contacts += other.vehicle_contacts
+        for k in self.at_rows:
+            self.at_rows[k] += other.at_rows.get(k, 0)
+            self.between[k] += other.between.get(k, 0)
+        e, o = self.extent, other.extent
+        self.extent = [min(e[0], o[0]), min(e[1], o[1]), max(e[2], o[2]), max(e[3], o[3])]
+
+    @staticmethod
+    def of_summary(summary: "ReplaySummary") -> "ReplayCounts":
+        """The counts a summary was made of, as far as ``replay.run.summary_of`` reads them (rows,
+        events at and between rows, contacts between vehicles, rows per matcher and without a pose;
+        not the extent or the partly-off rows, which no summary keeps)."""
+        from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
+
+        counts = ReplayCounts(rows=summary.rows, vehicle_contacts=summary.vehicle_contacts)
+        for k in KINDS:
+            counts.at_rows[k] = summary.collisions.get(k, 0)
+        counts.at_rows["off_terrain"] = summary.off_terrain
+        for k, v in summary.between.items():
+            counts.between[k] = v
+        for name, v in summary.matchers.items():
+            if name == NO_MATCHER:
+                counts.status[OFF] = v
+            elif name in PLACED_BY:
+                counts.matcher[PLACED_BY.index(name)] = v
+        return counts
+
     @property
     def off_terrain_rows(self) -> int:
         """Rows whose pose is not wholly on the terrain (status off or partly off)."""

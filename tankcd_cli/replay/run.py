@@ -158,23 +158,31 @@ def _coordinate(v: float) -> str:
 
 def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySummary:
     """The closing summary of a replay's counts."""
-    from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
-
     motion = {}
     if run.continuous:
         from tankcd_cli.replay.between_rows import resolution
 
         motion = {"intervals": run.between.intervals, "substeps": run.between.substeps, **resolution(run.surface)}
+    return summary_of(counts, run.continuous, run.effects.as_dict(), run.seconds, seconds, motion,
+                      int(run.carry.has.sum()) if run.carry is not None else (1 if counts.rows else 0))
+
+
+def summary_of(counts: ReplayCounts, continuous: bool, effects: dict, seconds_by_effect: dict, seconds: float,
+               motion: dict, entities: int) -> ReplaySummary:
+    """The closing summary of a replay's counts and what its run measured (``summarize``'s, and a
+    replay by time windows' over its tasks): ``effects`` which ran, ``seconds_by_effect`` each
+    stage's seconds, ``motion`` the checks between rows (continuous only), ``entities`` the vehicles."""
+    from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
+
     return ReplaySummary(rows=counts.rows, collisions={k: counts.at_rows[k] for k in KINDS},
-                         off_terrain=counts.at_rows["off_terrain"], effects=run.effects.as_dict(),
+                         off_terrain=counts.at_rows["off_terrain"], effects=effects,
                          matchers={**{name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
                                    **({NO_MATCHER: int(counts.status[OFF])} if counts.status[OFF] else {})},
                          seconds=round(seconds, 3),
-                         seconds_by_effect={k: round(v, 3) for k, v in run.seconds.items()},
-                         mode="continuous" if run.continuous else "discrete",
-                         between=dict(counts.between) if run.continuous else {}, motion=motion,
-                         vehicle_contacts=counts.vehicle_contacts,
-                         entities=int(run.carry.has.sum()) if run.carry is not None else (1 if counts.rows else 0))
+                         seconds_by_effect={k: round(v, 3) for k, v in seconds_by_effect.items()},
+                         mode="continuous" if continuous else "discrete",
+                         between=dict(counts.between) if continuous else {}, motion=motion,
+                         vehicle_contacts=counts.vehicle_contacts, entities=entities)
 
 
 def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions()) -> tuple[dict, list]:

@@ -28,7 +28,14 @@ with the next one's in the file).
 
 The trajectory is read once by the planning pass (times and entities: the watermark and each
 window's rows), and each task reads the parts of the file (CSV lines, ``io.trajectory``) that hold
-its rows; an input that is no CSV (GPX, a capture) is read whole by every task.
+its rows; an input that is no CSV (GPX, a capture) is decoded and converted once by the planning
+pass when the tasks run here (``_Spool``: arrays each task reads by range), else read whole by
+every task (a cluster's workers do not see this machine's temporary folder).
+
+Rows out of time order across vehicles (grouped by vehicle, one silent past the horizon: the
+planning pass plays the order check) close every contact window after the last chunk, as a run in
+one piece that keeps every segment does: each task then runs its windows with every segment they
+need, and the events are those of the same rows in time order.
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ from typing import Callable
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.replay.records import KINDS, ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
+from tankcd_cli.replay.records import ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
 
 DEFAULT_WINDOW_SECONDS = 60.0
 
@@ -75,6 +82,12 @@ class WindowTask:
         row's step, by code; chunk_starts : each local chunk's first step
     has_turret, has_entity : the input's (as its first chunk says)
     chunk_rows : the local run's chunk; last_step : its last row's step (own or trailing)
+    pose_arrays, event_records : give the poses as arrays (``PoseTable``) and the events as
+        ``Event`` records, for a Parquet output, instead of CSV and JSON Lines text (set by
+        ``run_windows`` from the outputs' names)
+    spool : (folder, where, first, last) for an input that is no CSV converted once by the planning
+        pass (``_Spool``): its rows are read from the folder's arrays, its own between steps first
+        and last (None: the input is read by ``parts``, or whole)
     """
 
     index: int
@@ -94,6 +107,9 @@ class WindowTask:
     has_entity: bool
     chunk_rows: int
     last_step: int
+    pose_arrays: bool = False
+    event_records: bool = False
+    spool: tuple | None = None
 
 
 @dataclass
@@ -122,6 +138,46 @@ class RowText:
         return RowText(self.text[start:end], self.ends[lo:hi] - start)
 
 
+@dataclass
+class PoseTable:
+    """Pose rows as arrays, for a Parquet output: their times ``t`` (N,), entity codes ``entity``
+    (N,) (the whole input's codes; None without entities) and ``poses`` (``matching.match.Poses``,
+    every field's first axis N)."""
+
+    t: np.ndarray
+    entity: np.ndarray | None
+    poses: object
+
+    @staticmethod
+    def of(parts: list) -> "PoseTable":
+        """The tables of ``parts`` one after the other."""
+        from tankcd_cli.matching.match import Poses
+
+        return PoseTable(np.concatenate([p.t for p in parts]),
+                         None if parts[0].entity is None else np.concatenate([p.entity for p in parts]),
+                         Poses(**{f: np.concatenate([getattr(p.poses, f) for p in parts])
+                                  for f in Poses.__dataclass_fields__}))
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def index(self, idx) -> "PoseTable":
+        """Rows ``idx`` (a slice or an index array)."""
+        from tankcd_cli.matching.match import Poses
+
+        return PoseTable(self.t[idx], None if self.entity is None else self.entity[idx],
+                         Poses(**{f: getattr(self.poses, f)[idx] for f in Poses.__dataclass_fields__}))
+
+    def take(self, lo: int, hi: int) -> "PoseTable":
+        """Rows lo .. hi - 1."""
+        return self.index(slice(lo, hi))
+
+    @staticmethod
+    def merged(parts: list, order: np.ndarray) -> "PoseTable":
+        """The rows of ``parts`` (taken as one table in turn) in ``order``."""
+        return PoseTable.of(parts).index(order)
+
+
 def merged_rows(parts: list, order: np.ndarray) -> str:
     """The rows of ``parts`` (RowText, taken as one table in turn) in ``order``: one slice of the
     joined buffer for each run of rows that follow one another there (tasks own stretches of
@@ -139,14 +195,15 @@ def merged_rows(parts: list, order: np.ndarray) -> str:
 
 @dataclass
 class WindowResult:
-    """What one window's task gives back: its own rows' steps and pose rows (``RowText``), its events (each with
-    its place in the local run's order: ``event_keys``), its counts, and what the summary needs
+    """What one window's task gives back: its own rows' steps and pose rows (``RowText``; a
+    ``PoseTable`` for a Parquet output), its events (JSON Lines text, or ``Event`` records for a
+    Parquet output; each with its place in the local run's order: ``event_keys``), its counts, and what the summary needs
     (intervals and sub-steps of its own intervals, seconds, effects, the resolution between rows,
     the terrain's extent and CRS); the worker's pid and the task's seconds."""
 
     index: int
     steps: np.ndarray
-    pose_rows: RowText
+    pose_rows: object
     event_keys: list
     event_lines: list
     counts: ReplayCounts
@@ -159,6 +216,7 @@ class WindowResult:
     crs: str = ""
     pid: int = 0
     task_seconds: float = 0.0
+    warnings: list = field(default_factory=list)
 
 
 @dataclass
@@ -175,6 +233,16 @@ class WindowPlan:
     has_entity: bool
     entities: int
     geographic: bool
+    warnings: list = field(default_factory=list)  # the planning pass's set-up warnings (the motion checks)
+    spool: str | None = None  # the folder of the rows converted once (``_Spool``), removed by ``close``
+
+    def close(self) -> None:
+        """Remove the rows converted for the tasks (once they have run)."""
+        if self.spool is not None:
+            import shutil
+
+            shutil.rmtree(self.spool, ignore_errors=True)
+            self.spool = None
 
 
 # --- planning -----------------------------------------------------------------------------------
@@ -193,19 +261,102 @@ class _Grid:
 
 
 def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), window_seconds: float = 60.0,
-                 fmt: str | None = None) -> WindowPlan:
+                 fmt: str | None = None, crs: str | None = None, spool_dir: str | None = None) -> WindowPlan:
     """One pass over ``trajectory`` (times and entities, the local run's chunks) into window tasks of
     ``window_seconds`` (rounded to a whole number of contact windows, at least one). Bad rows are
-    the local run's errors (``InputError``), raised here before any task runs."""
-    from tankcd_cli.io.trajectory import TrajectoryReader, split_trajectory, trajectory_format
+    the local run's errors (``InputError``), raised here before any task runs; the motion checks'
+    set-up warnings are said here and kept in the plan's ``warnings``.
+
+    crs : the terrain's CRS (``World.crs``), given when the tasks run on this machine: an input that
+        is no CSV (a capture, GPX) is then decoded and converted to it once, here, into arrays in a
+        temporary folder (under ``spool_dir``; the system's by default) that each task reads by
+        its rows' range, where without it every task decodes the whole input again. ``run_windows``
+        removes the folder (``WindowPlan.close``)."""
+    from tankcd_cli.errors import collected_warnings
+
+    with collected_warnings() as said:
+        plan = _plan(trajectory, options, window_seconds, fmt, crs, spool_dir)
+    plan.warnings = list(said)
+    return plan
+
+
+class _Spool:
+    """The rows of an input that is no CSV as the reader gives them, converted to the terrain's CRS,
+    written once by the planning pass: one raw array file per field in a temporary folder, appended
+    chunk by chunk (memory: one chunk), read back by the tasks as memory maps (``_spooled``)."""
+
+    FIELDS = (("step", np.int64), ("t", np.float64), ("x", np.float64), ("y", np.float64),
+              ("yaw_deg", np.float64), ("turret_deg", np.float64), ("gun_deg", np.float64), ("line", np.int64),
+              ("piece_start", np.bool_), ("entity", np.int64))
+
+    def __init__(self, folder: str | None):
+        import tempfile
+
+        self.folder = tempfile.mkdtemp(prefix="tankcd-windows-", dir=folder)
+        self.files = {f: open(os.path.join(self.folder, f), "wb") for f, _ in self.FIELDS}
+        self.rows = 0
+
+    def add(self, chunk) -> None:
+        n = len(chunk)
+        if n and int(chunk.step[0]) != self.rows:  # a row's step is its place here: what the tasks index by
+            raise RuntimeError(f"spooled rows out of step: {int(chunk.step[0])} after {self.rows} rows")
+        for f, dtype in self.FIELDS:
+            value = getattr(chunk, f)
+            if value is None:
+                value = np.zeros(n, dtype)
+            self.files[f].write(np.ascontiguousarray(value, dtype).tobytes())
+        self.rows += n
+
+    def close(self) -> None:
+        for fh in self.files.values():
+            fh.close()
+
+    def remove(self) -> None:
+        import shutil
+
+        self.close()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _spooled(folder: str, steps: np.ndarray) -> dict:
+    """The spooled rows at ``steps`` (sorted, unique: a row's step is its place in the input)."""
+    out = {}
+    for f, dtype in _Spool.FIELDS:
+        path = os.path.join(folder, f)
+        if os.path.getsize(path) == 0 or not len(steps):
+            out[f] = np.zeros(0, dtype)
+            continue
+        out[f] = np.array(np.memmap(path, dtype=dtype, mode="r")[steps])
+    return out
+
+
+def _plan(trajectory, options, window_seconds, fmt, crs=None, spool_dir=None) -> WindowPlan:
+    from tankcd_cli.io.trajectory import TrajectoryReader, trajectory_format
+
+    is_csv = trajectory_format(trajectory, fmt) == "csv"
+    spooled = not is_csv and crs is not None and trajectory != "-"
+    reader = TrajectoryReader(trajectory, options.chunk_rows, crs=crs, fmt=fmt, convert=spooled)
+    spool = _Spool(spool_dir) if spooled else None
+    try:
+        plan = _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool)
+    except BaseException:
+        if spool is not None:
+            spool.remove()
+        raise
+    if spool is not None:
+        spool.close()
+        plan.spool = spool.folder
+    return plan
+
+
+def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) -> WindowPlan:
+    from tankcd_cli.io.trajectory import split_trajectory
     from tankcd_cli.replay import vehicles
     from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
 
     width = vehicles.WINDOW
     per_task = max(1, int(round(window_seconds / width)))
     watch = vehicles.VehicleContacts(None, continuous=options.continuous)
-    reader = TrajectoryReader(trajectory, options.chunk_rows, fmt=fmt, convert=False)
-    is_csv = trajectory_format(trajectory, fmt) == "csv"
     parts = split_trajectory(trajectory, options.chunk_rows) if is_csv and trajectory != "-" else None
     part_steps = np.array([p.step_offset for p in parts], dtype=np.int64) if parts else None
     grid = None
@@ -222,19 +373,23 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
     rows = 0
     t_end = -np.inf
     has_turret = has_entity = False
+    ordered = True  # the rows in time order across vehicles, as the streaming checks between them need
     names: tuple = ()
     for c, chunk in enumerate(reader):
         if grid is None:
             grid = _Grid(float(np.floor(chunk.t.min() / width) * width), width)
             has_turret, has_entity = chunk.has_turret, chunk.has_entity
-            if not reader.geographic:
+            if not reader.geographic or spool is not None:  # positions known (converted, for the spool)
                 checks = ExerciseChecks(trajectory) if has_entity else MotionChecks(trajectory)
+        if spool is not None:
+            spool.add(chunk)
         if checks is not None:
             if has_entity:
                 checks.observe(chunk)
             else:
                 checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
         chunk_starts.append(int(chunk.step[0]))
+        mark = watch.watermark() if watch.done_until is not None else -np.inf  # of the chunks before this one
         before = watch.done_until if watch.done_until is not None else grid.edges[0]
         watch.ready(chunk)
         w = before
@@ -251,6 +406,8 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
             first_step = np.r_[first_step, np.full(grow, -1, np.int64)]
             last = np.r_[last, np.full((grow, 2), -1, np.int64)]
             last_t = np.r_[last_t, np.full(grow, -np.inf)]
+        if ordered and has_entity:
+            ordered = _in_time_order(codes, chunk.t, last_t, mark)
         starts = np.asarray(grid.edges[::per_task])
         task = np.maximum(np.searchsorted(starts, chunk.t, side="right") - 1, 0)
         _own(task, chunk.step, part_steps, own_min, own_max, own_parts)
@@ -264,6 +421,11 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
     n_windows = int(np.searchsorted(edges, t_end, side="right"))  # windows starting at or before the end
     n_chunks = len(chunk_starts)
     emits += [n_chunks] * (n_windows - len(emits))
+    if not ordered:
+        # rows out of time order across vehicles (grouped by vehicle, one silent past the horizon):
+        # a run in one piece keeps every segment and checks the windows at the end, with all of them;
+        # so does every task here (each holds every segment its windows need), whatever the order
+        emits = [n_chunks] * n_windows
     n_tasks = (n_windows - 1) // per_task + 1
     lead, trailing = _extra_rows(crossings, n_tasks)
     tasks = []
@@ -284,11 +446,26 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
             j, trajectory, fmt, tuple(parts[p] for p in sorted(needed)) if parts is not None else None,
             edges[j * per_task] if j > 0 else -np.inf, edges[(j + 1) * per_task] if j < n_tasks - 1 else np.inf,
             extra_lead, extra_trailing, windows, emits[j * per_task - 1] if j > 0 else -1, names, first_step,
-            starts_arr, has_turret, has_entity, options.chunk_rows, last_step))
+            starts_arr, has_turret, has_entity, options.chunk_rows, last_step,
+            spool=(spool.folder, reader.where, own_min.get(j, 0), own_max.get(j, -1)) if spool is not None else None))
         min_step[j] = own_min.get(j, np.iinfo(np.int64).max)
         first_chunk = int(np.searchsorted(starts_arr, min_step[j], side="right") - 1) if j in own_min else n_chunks
         min_chunk[j] = min([first_chunk] + [w.emit for w in windows])
     return WindowPlan(tasks, min_step, min_chunk, rows, n_chunks, has_entity, len(names), bool(reader.geographic))
+
+
+def _in_time_order(codes, t, last_t, mark) -> bool:
+    """Whether a chunk's rows keep the exercise in time order for the streaming checks between
+    vehicles: every row after its vehicle's first has the vehicle's previous row (in the chunk, or
+    the last before it: ``last_t`` by code) at or after ``mark``, the watermark of the chunks before
+    (a segment starts at that row and is added with this chunk; the windows closed by then end at
+    or before the mark)."""
+    order = np.argsort(codes, kind="stable")
+    c, ts = codes[order], t[order]
+    first = np.r_[True, c[1:] != c[:-1]]
+    prev = np.where(first, last_t[c], np.r_[-np.inf, ts[:-1]])
+    had = np.isfinite(prev)
+    return not (had.any() and float(prev[had].min()) < mark)
 
 
 def _own(task, steps, part_steps, own_min, own_max, own_parts) -> None:
@@ -380,6 +557,9 @@ class _Segments:
     def finish(self) -> list:
         return []
 
+    def close(self) -> None:
+        pass
+
 
 def run_window(world, task: WindowTask, kernel_threads: int | None = None) -> WindowResult:
     """One window's task on a worker: the world (a ``replay.fleet.FleetWorld``) loaded once per
@@ -395,7 +575,43 @@ def run_window(world, task: WindowTask, kernel_threads: int | None = None) -> Wi
 
 def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
     """Replay one window of an exercise in a loaded ``world``: its own rows' poses and events, and
-    the vehicle contacts of its contact windows, each event with its place in the local run's order."""
+    the vehicle contacts of its contact windows, each event with its place in the local run's order.
+    Its set-up warnings are recorded in the result, not shown (the task may run in another process
+    or on a cluster: the joining says each once); under an ``error`` filter (``--strict``) one is
+    raised as ever."""
+    with _recorded_warnings() as said:
+        result = _replay_window(world, options, task)
+    result.warnings = list(dict.fromkeys(said))
+    return result
+
+
+def _recorded_warnings():
+    """A block whose set-up warnings are recorded (one-line texts, in order) and not shown; other
+    warnings are shown as before."""
+    import contextlib
+    import warnings
+
+    from tankcd_cli.errors import SetupWarning
+
+    @contextlib.contextmanager
+    def block():
+        seen = []
+        with warnings.catch_warnings():
+            shown = warnings.showwarning
+
+            def record(message, category, filename, lineno, file=None, line=None):
+                if isinstance(message, SetupWarning):
+                    seen.append(message.one_line())
+                else:
+                    shown(message, category, filename, lineno, file, line)
+
+            warnings.showwarning = record
+            yield seen
+
+    return block()
+
+
+def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows
     from tankcd_cli.matching.match import PLACED_BY, STATUS
@@ -412,34 +628,44 @@ def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResu
         pass
     before = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     counts = ReplayCounts()
-    steps, lines, row_ends, keys, texts = [], [], [], [], []
+    steps, lines, row_ends, tables, keys, texts = [], [], [], [], [], []
     chunk_of = _chunk_of(task.chunk_starts)
     next_step = _next_rows(*fed)
+
+    def record(e):
+        return e if task.event_records else event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra)
+
     for chunk, poses, events in replay_chunks(run, own):
         if chunk is None:
             continue
         entity = chunk.entity if chunk.has_entity else None
-        ends = np.zeros(len(chunk), np.int64)
-        lines.append(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names, ends))
-        row_ends.append(ends)
+        if task.pose_arrays:
+            tables.append(PoseTable(chunk.t, entity, poses))
+        else:
+            ends = np.zeros(len(chunk), np.int64)
+            lines.append(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names, ends))
+            row_ends.append(ends)
         steps.append(chunk.step)
         counts.add(chunk, poses, events)
         for e in events:
             row = next_step(np.array([e.step]))[0] if e.between else e.step
             keys.append((int(chunk_of(np.array([row]))[0]), 0, int(e.step), float(e.t), task.index, len(keys)))
-            texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+            texts.append(record(e))
     after = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     if trailing is not None:
         for _ in replay_chunks(run, [trailing]):
             pass
     if gathered is not None and gathered.parts:
+        t0 = time.perf_counter()
         found = _contacts(world, options, task, gathered.parts, next_step, chunk_of)
+        run.seconds["vehicles"] += time.perf_counter() - t0  # the local run's time in its vehicle checks
         counts.add(None, None, [e for _, e in found])
         for (k, seq), e in found:
             keys.append((task.windows[k].emit, 1, task.windows[k].index, 0.0, task.index, seq))
-            texts.append(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra))
+            texts.append(record(e))
     lo, hi = world.surface.bounds()
-    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), RowText.of(lines, row_ends),
+    rows = (PoseTable.of(tables) if tables else None) if task.pose_arrays else RowText.of(lines, row_ends)
+    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), rows,
                         keys, texts,
                         counts, after[0] - before[0], after[1] - before[1], dict(run.seconds), run.effects.as_dict(),
                         resolution(world.surface) if run.continuous else {},
@@ -478,6 +704,17 @@ def _read_window(world, task: WindowTask):
     own_flags = []
     where = "line"
     sources = [None] if task.parts is None else list(task.parts)
+    if task.spool is not None:  # converted once by the planning pass: its rows by their steps
+        folder, where, first, last = task.spool
+        rows = _spooled(folder, np.union1d(np.arange(first, last + 1, dtype=np.int64), extra.astype(np.int64)))
+        if not task.has_entity:
+            rows["entity"] = np.zeros(len(rows["t"]), np.int64)
+        own = (rows["t"] >= task.t0) & (rows["t"] < task.t1)
+        keep = own | np.isin(rows["step"], extra)
+        for f in fields:
+            got[f].append(rows[f][keep])
+        own_flags.append(own[keep])
+        sources = []
     for part in sources:
         reader = TrajectoryReader(task.trajectory, task.chunk_rows, part, world.crs, task.fmt)
         where = reader.where
@@ -497,7 +734,7 @@ def _read_window(world, task: WindowTask):
             if chunk.step[-1] >= task.last_step:
                 break
         reader.close()
-    if not own_flags:
+    if not own_flags or not sum(map(len, own_flags)):
         got = {f: np.zeros(0, np.int64 if f in ("step", "line", "entity") else np.float64) for f in fields}
         own = np.zeros(0, bool)
     else:
@@ -573,23 +810,56 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
                 ) -> ReplaySummary:
     """Write the poses and events of ``plan``'s tasks, joined in the local run's order, from
     ``runner(tasks, consume)`` (which runs every task and gives each result to ``consume``, in any
-    order); returns the replay's summary."""
-    from tankcd_cli.io.atomic import committed_together, output_text
+    order); returns the replay's summary.
+
+    The outputs are a run in one piece's (``replay.outputs.replay_outputs``): CSV and JSON Lines,
+    or Parquet for a name ending in ``.parquet``, whose metadata is ``runner.metadata(trajectory)``
+    (``replay.outputs.replay_metadata`` of the world the tasks run in: ``in_process`` and
+    ``on_dask`` give it). The plan's converted rows (``WindowPlan.close``) are removed after."""
+    try:
+        return _run_windows(trajectory, outputs, runner, plan, options, progress)
+    finally:
+        plan.close()
+
+
+def _run_windows(trajectory, outputs, runner, plan, options, progress) -> ReplaySummary:
+    import dataclasses
+
+    from tankcd_cli.errors import collected_warnings
+    from tankcd_cli.io.parquet import is_parquet
     from tankcd_cli.io.poses_csv import header
+    from tankcd_cli.replay.outputs import PosesText, replay_outputs
     from tankcd_cli.replay.run import warn_if_beside
 
     start = time.perf_counter()
     join = _Join(plan)
-    with committed_together(), output_text(outputs.poses, ".csv", newline="") as poses_out, \
-            output_text(outputs.events, ".jsonl") as events_out:
-        if poses_out is not None:
-            poses_out.write(header(entity=plan.has_entity))
-        join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
-        runner(plan.tasks, join.take)
-        join.flush_all()
-    if join.extent is not None:
-        warn_if_beside(join.extent, join.counts, trajectory, join.crs)
-    return join.summary(options, time.perf_counter() - start)
+    join.chunk_rows = options.chunk_rows
+    arrays, records = is_parquet(outputs.poses), is_parquet(outputs.events)
+    tasks = plan.tasks
+    if arrays or records:
+        if getattr(runner, "metadata", None) is None:
+            raise ValueError("Parquet outputs need the runner's metadata(trajectory) (in_process and on_dask give it)")
+        tasks = [dataclasses.replace(t, pose_arrays=arrays, event_records=records) for t in tasks]
+
+    def metadata():
+        return runner.metadata(trajectory)
+
+    with collected_warnings() as said:
+        with replay_outputs(outputs, plan.has_entity, metadata) as (poses_out, events_out):
+            if isinstance(poses_out, PosesText):
+                poses_out.fh.write(header(entity=plan.has_entity))
+                poses_out.headed = True
+            join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
+            runner(tasks, join.take)
+            join.flush_all()
+            for out in (poses_out, events_out):
+                if out is not None:
+                    out.finish()
+        if join.extent is not None:
+            warn_if_beside(join.extent, join.counts, trajectory, join.crs)
+    summary = join.summary(options, time.perf_counter() - start)
+    summary.warnings = list(dict.fromkeys(plan.warnings + list(said)))
+    return summary
 
 
 class _Join:
@@ -614,8 +884,16 @@ class _Join:
         self.extent = None
         self.crs = ""
         self.poses_out = self.events_out = self.progress = None
+        self.chunk_rows = 65536  # a Parquet row group's rows (the local run's chunk)
+        self.said = set(plan.warnings)  # warnings said already: the plan's, then the tasks' as they come
 
     def take(self, result: WindowResult) -> None:
+        from tankcd_cli.errors import warn
+
+        for line in result.warnings:  # each once, whichever task and process raised it
+            if line not in self.said:
+                self.said.add(line)
+                warn(None, line)
         self.waiting[result.index] = result
         while self.next in self.waiting:
             r = self.waiting.pop(self.next)
@@ -626,16 +904,7 @@ class _Join:
                 self.progress(self.counts.rows)
 
     def _add(self, r: WindowResult) -> None:
-        c, o = self.counts, r.counts
-        c.rows += o.rows
-        c.status += o.status
-        c.matcher += o.matcher
-        c.vehicle_contacts += o.vehicle_contacts
-        for k in c.at_rows:
-            c.at_rows[k] += o.at_rows[k]
-            c.between[k] += o.between[k]
-        c.extent = [min(c.extent[0], o.extent[0]), min(c.extent[1], o.extent[1]),
-                    max(c.extent[2], o.extent[2]), max(c.extent[3], o.extent[3])]
+        self.counts.merge(r.counts)
         self.intervals += r.intervals
         self.substeps += r.substeps
         for k, v in r.seconds.items():
@@ -661,23 +930,39 @@ class _Join:
                 if cut < len(steps):
                     rest.append((steps[cut:], rows.take(cut, len(steps))))
             self.rows = rest
-            if len(ready_steps) == 1:
-                text = ready_rows[0].text
-            elif ready_steps:
-                order = np.argsort(np.concatenate(ready_steps), kind="stable")
-                text = merged_rows(ready_rows, order)
-            else:
-                text = ""
-            if text and self.poses_out is not None:
-                self.poses_out.write(text)
+            if ready_steps and self.poses_out is not None:
+                steps = np.concatenate(ready_steps)
+                order = np.argsort(steps, kind="stable") if len(ready_steps) > 1 else None
+                if isinstance(ready_rows[0], PoseTable):
+                    table = ready_rows[0] if order is None else PoseTable.merged(ready_rows, order)
+                    self._write_table(steps if order is None else steps[order], table)
+                else:
+                    self.poses_out.fh.write(ready_rows[0].text if order is None else merged_rows(ready_rows, order))
         if self.events:
             self.events.sort(key=lambda kv: kv[0])
             cut = 0
             while cut < len(self.events) and self.events[cut][0][0] < chunk_limit:
                 cut += 1
             if cut and self.events_out is not None:
-                self.events_out.write("".join(line for _, line in self.events[:cut]))
+                ready = [record for _, record in self.events[:cut]]
+                if isinstance(ready[0], str):
+                    self.events_out.fh.write("".join(ready))
+                else:
+                    self.events_out.write(ready)  # Parquet: the writer gathers them into row groups
             del self.events[:cut]
+
+    def _write_table(self, steps: np.ndarray, table: "PoseTable") -> None:
+        """Pose rows as arrays to the Parquet writer (``replay.outputs.PosesParquet``), as the run in
+        one piece hands it a chunk, in row groups of the chunk's size."""
+        from types import SimpleNamespace
+
+        names = self.plan.tasks[0].names if self.plan.tasks else ()
+        size = max(1, self.chunk_rows)
+        for lo in range(0, len(steps), size):
+            part = table.take(lo, lo + size)
+            chunk = SimpleNamespace(step=steps[lo:lo + size], t=part.t, has_entity=self.plan.has_entity,
+                                    entity=part.entity, entity_names=names)
+            self.poses_out.write(chunk, part.poses)
 
     def flush_all(self) -> None:
         big = np.iinfo(np.int64).max
@@ -688,29 +973,38 @@ class _Join:
             raise RuntimeError(f"{len(self.plan.tasks) - self.next} window tasks gave no result")
 
     def summary(self, options: ReplayOptions, seconds: float) -> ReplaySummary:
-        from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
+        """The summary of the joined counts, built as a run in one piece builds its own."""
+        from tankcd_cli.replay.run import summary_of
 
-        counts = self.counts
         motion = {"intervals": self.intervals, "substeps": self.substeps, **self.resolution} \
             if options.continuous else {}
-        entities = self.plan.entities if options.continuous else (1 if counts.rows else 0)
-        return ReplaySummary(rows=counts.rows, collisions={k: counts.at_rows[k] for k in KINDS},
-                             off_terrain=counts.at_rows["off_terrain"], effects=self.effects,
-                             matchers={**{name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
-                                       **({NO_MATCHER: int(counts.status[OFF])} if counts.status[OFF] else {})},
-                             seconds=round(seconds, 3),
-                             seconds_by_effect={k: round(v, 3) for k, v in self.seconds.items()},
-                             mode="continuous" if options.continuous else "discrete",
-                             between=dict(counts.between) if options.continuous else {}, motion=motion,
-                             vehicle_contacts=counts.vehicle_contacts, entities=entities)
+        entities = self.plan.entities if options.continuous else (1 if self.counts.rows else 0)
+        return summary_of(self.counts, options.continuous, self.effects, self.seconds, seconds, motion, entities)
 
 
 def in_process(world, options: ReplayOptions):
-    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``."""
+    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``;
+    ``runner.metadata(trajectory)`` the Parquet outputs' metadata."""
     def runner(tasks, consume):
         for task in tasks:
             consume(replay_window(world, options, task))
+
+    def metadata(trajectory):
+        from tankcd_cli.replay.outputs import replay_metadata
+
+        return replay_metadata(world, [trajectory], options)
+
+    runner.metadata = metadata
     return runner
+
+
+def window_metadata(world, trajectory: str) -> dict:
+    """The Parquet outputs' metadata, on a worker: ``replay.outputs.replay_metadata`` of the world
+    (a ``replay.fleet.FleetWorld``) loaded once per process, as the tasks load it."""
+    from tankcd_cli.replay.fleet import load_world_once
+    from tankcd_cli.replay.outputs import replay_metadata
+
+    return replay_metadata(load_world_once(world.spec), [trajectory], world.options)
 
 
 def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
@@ -761,4 +1055,16 @@ def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
                     state["done"].discard(state["next"])
                     state["next"] += 1
                 submit_up_to()
+
+    def metadata(trajectory):
+        # the world is loaded on the workers only: one of them describes it (and hashes the inputs)
+        try:
+            from distributed import Client
+        except ImportError:
+            raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
+
+        with Client(scheduler, timeout="20s") as client:
+            return client.submit(window_metadata, world, trajectory, pure=False, retries=3).result()
+
+    runner.metadata = metadata
     return runner

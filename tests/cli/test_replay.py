@@ -195,3 +195,28 @@ def test_a_missing_terrain_store_is_no_such_file(run, tmp_path):
     result = run("replay", "t.csv", "--terrain", "missing.h5")
     assert result.exit_code == 3
     assert result.stderr == "tankcd: error: missing.h5: no such file\n"
+
+
+@pytest.mark.parametrize("option", ["--window-seconds", "--tolerance", "--attitude-tolerance"])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "0", "-2", "1e400"])
+def test_numbers_that_are_no_length_are_bad_input_naming_the_option(run, store, tmp_path, option, value):
+    # NaN and infinity pass click's ranges: once a crash (exit 4) deep in the windows' planning
+    (tmp_path / "t.csv").write_text("t,x,y,yaw_deg\n0,500100,4500100,0\n")
+    result = run("replay", tmp_path / "t.csv", "--terrain", store, option, value, "--poses", tmp_path / "p.csv")
+    if option != "--window-seconds" and value in ("0", "-2", "-inf"):
+        assert result.exit_code == 2  # their range, as before: a usage error
+        return
+    assert result.exit_code == 3, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"tankcd: error: {option}: ") and "positive finite" in lines[0]
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_the_api_refuses_windows_of_no_length(store, tmp_path):
+    from tankcd_cli import api
+
+    (tmp_path / "t.csv").write_text("t,x,y,yaw_deg\n0,500100,4500100,0\n")
+    for value in (float("nan"), float("inf"), 0.0, -1.0):
+        with pytest.raises(ValueError, match="positive finite"):
+            api.replay_windows(str(tmp_path / "t.csv"), str(tmp_path / "p.csv"), terrain=str(store),
+                               window_seconds=value)

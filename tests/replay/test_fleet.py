@@ -206,3 +206,126 @@ def test_outputs_are_never_inputs_a_second_fleet_run_skips_them(run, tmp_path):
 
     summary = json.loads(second.stderr.strip().splitlines()[-1])
     assert summary["trajectories"] == 2 and summary["rows"] == 24
+
+
+def _ends_in_contact(path):
+    """Two vehicles, B sliding sideways into A until the file's last rows: their contact begins at
+    6.5 s, in the last 2 s window (6 to 8 s), which closes only after the last chunk."""
+    rows = []
+    for k in range(15):
+        t = 0.5 * k
+        rows.append((t, "A", 30.0, 20.0, 0.0))
+        rows.append((t, "B", 30.0, round(3.46 + 20 + 2 * (6.5 - t), 4), 0.0))
+    path.write_text("t,entity,x,y,yaw_deg\n" + "".join(f"{t},{e},{x},{y},{yaw}\n" for t, e, x, y, yaw in sorted(rows)))
+    return path
+
+
+@pytest.fixture
+def flat_scene(tmp_path):
+    from tests.conftest import write_asc
+
+    write_asc(tmp_path / "flat.asc", np.full((80, 160), 100.0))
+    (tmp_path / "scene.toml").write_text('[terrain]\npath = "flat.asc"\n\n[vehicle]\npreset = "t72"\n'
+                                         'fuel_drums = false\n')
+    return tmp_path / "scene.toml"
+
+
+@pytest.mark.filterwarnings("ignore:.*would drive sideways")
+@pytest.mark.parametrize("out_format", ["csv", "parquet"])
+def test_a_fleet_whose_exercise_ends_in_a_contact_finishes(flat_scene, tmp_path, out_format):
+    # the vehicles' last contact comes after the last chunk (the pipeline yields it without one):
+    # the fleet's task once took its length and failed (exit 4, TypeError)
+    if out_format == "parquet":
+        pytest.importorskip("pyarrow")
+    from tankcd_cli import api
+
+    ex = _ends_in_contact(tmp_path / "ex.csv")
+    other = _ends_in_contact(tmp_path / "other.csv")
+    fleet = api.replay_fleet([str(ex), str(other)], str(tmp_path / "out"), scene=str(flat_scene), jobs=1,
+                             out_format=out_format)
+    assert fleet.failed == 0 and fleet.ok == 2 and fleet.vehicle_contacts == 2, fleet.failures
+    first = fleet.results[0]
+    assert (first.first_line, first.t_first, first.t_last) == (2, 0.0, 7.0)
+    alone = api.replay_to_files(str(ex), str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl"), scene=str(flat_scene))
+    assert first.summary.vehicle_contacts == alone.vehicle_contacts == 1
+    # every trajectory's warnings, each once, in fleet.json too
+    assert fleet.warnings == first.summary.warnings + fleet.results[1].summary.warnings
+    assert len(fleet.warnings) == 2 and all("drive sideways" in w for w in fleet.warnings)
+    assert json.loads((tmp_path / "out" / "fleet.json").read_text())["warnings"] == fleet.warnings
+    if out_format == "csv":
+        assert (tmp_path / "out" / "ex.events.jsonl").read_bytes() == (tmp_path / "e.jsonl").read_bytes()
+
+
+@pytest.mark.filterwarnings("ignore:.*would drive sideways")
+def test_minus_v_shows_the_traceback_a_fleet_worker_formatted(flat_scene, tmp_path, monkeypatch):
+    # an internal error inside forked workers: exit 4, the one-line error, and under -v the worker's
+    # own traceback (formatted there: the frames that raised); without -v none
+    from click.testing import CliRunner
+
+    from tankcd_cli.cli.main import cli
+    from tankcd_cli.replay import run as run_module
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("deep in the replay")
+
+    monkeypatch.setattr(run_module, "run_replay", broken)
+    paths = [_ends_in_contact(tmp_path / f"{name}.csv") for name in ("a", "b")]
+    for verbose in ([], ["-v"]):
+        result = CliRunner().invoke(cli, [*verbose, "replay", *map(str, paths), "--scene", str(flat_scene),
+                                          "--out-dir", str(tmp_path / "out"), "--jobs", "2"], catch_exceptions=False)
+        assert result.exit_code == 4, result.stderr
+        assert "tankcd: error: ZeroDivisionError: deep in the replay" in result.stderr
+        shown = "Traceback (most recent call last)" in result.stderr
+        assert shown == bool(verbose), result.stderr
+        if verbose:
+            assert "in broken" in result.stderr and result.stderr.count("Traceback") == 2
+            assert "the traceback in its worker (pid" in result.stderr
+
+
+def test_minus_v_shows_the_traceback_of_an_internal_error(flat_scene, tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from tankcd_cli.cli.main import cli
+    from tankcd_cli.replay import run as run_module
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("deep in the replay")
+
+    monkeypatch.setattr(run_module, "run_replay", broken)
+    path = _ends_in_contact(tmp_path / "a.csv")
+    for args in (["-v", "replay", str(path)], ["replay", str(path), "-v"], ["replay", str(path)]):
+        result = CliRunner().invoke(cli, [*args, "--scene", str(flat_scene), "--poses", str(tmp_path / "p.csv")],
+                                    catch_exceptions=False)
+        assert result.exit_code == 4
+        assert "internal error: ZeroDivisionError: deep in the replay" in result.stderr
+        assert ("in broken" in result.stderr) == ("-v" in args), result.stderr
+
+
+def test_a_split_trajectorys_summary_is_built_from_its_parts_counts_as_one_run(flat_scene, tmp_path):
+    # a drive that leaves the terrain, cut into parts of 1000 lines: the joined summary's counts are
+    # the run in one piece's (built the same way, from counts), and so is a summary's own round trip
+    import dataclasses
+
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayCounts
+    from tankcd_cli.replay.run import summary_of
+
+    n = 2600
+    t = np.arange(n) * 0.1
+    x = 10 + 0.06 * np.arange(n)  # 10 m to 166 m: the last rows off the 160 m ground
+    with open(tmp_path / "drive.csv", "w") as fh:
+        fh.write("t,x,y,yaw_deg\n")
+        np.savetxt(fh, np.column_stack([t, x, np.full(n, 40.0), np.zeros(n)]), fmt="%.3f", delimiter=",")
+    fleet = api.replay_fleet([str(tmp_path / "drive.csv")], str(tmp_path / "out"), scene=str(flat_scene), jobs=1,
+                             split_lines=1000)
+    joined = fleet.results[0]
+    assert joined.parts == 3 and joined.status == "ok"
+    alone = api.replay_to_files(str(tmp_path / "drive.csv"), None, None, scene=str(flat_scene))
+    assert alone.off_terrain > 0 and alone.between.get("off_terrain", 0) >= 0
+    a, b = dataclasses.asdict(alone), dataclasses.asdict(joined.summary)
+    for d in (a, b):
+        d.pop("seconds"), d.pop("seconds_by_effect")
+    assert a == b
+    rebuilt = summary_of(ReplayCounts.of_summary(alone), True, alone.effects, alone.seconds_by_effect, alone.seconds,
+                         alone.motion, alone.entities)
+    assert dataclasses.replace(rebuilt, warnings=alone.warnings, time_origin=alone.time_origin) == alone

@@ -254,25 +254,53 @@ def test_obstacles_drums_and_terrain_across_windows_as_the_local_run(tmp_path, e
     assert {"obstacle", "internal", "terrain"} <= kinds, kinds
 
 
+def _events_by_content(path):
+    """An events file's events, without their order (rows of another order: another place)."""
+    return sorted(json.dumps(json.loads(line), sort_keys=True) for line in path.read_text().splitlines())
+
+
 @pytest.mark.parametrize("chunk_rows", [10, 65536])
-def test_a_vehicle_silent_past_the_horizon_gives_what_the_local_run_gives(world, flat, tmp_path, chunk_rows):
+def test_a_vehicle_silent_past_the_horizon_is_checked_against_the_others(world, flat, tmp_path, chunk_rows):
     # A sends a row at 0 s and the next at 60 s, driving through B's path at 30 s: silent longer than
-    # the 30 s after which it no longer holds the contact windows back. In chunks of 10 rows the local
-    # run has closed the windows of 30 s by the time A's second row comes, and checks A's gap only
-    # against what it still holds; in one chunk it holds everything. The windows give the same.
+    # the 30 s after which it no longer holds the streaming contact windows back. The planning pass
+    # finds its gap out of time order, and every task checks its windows with every segment it
+    # needs: the contact is found whatever the chunks, as in one chunk holding everything.
     rows = [(0.0, "A", 80.0, 65.0, -90.0), (60.0, "A", 80.0, 5.0, -90.0)]
     rows += [(float(t), "B", 20.0 + 2 * t, 30.0, 0.0) for t in range(61)]
     rows += [(float(t), "C", 140.0, 70.0, 0.0) for t in range(61)]
     _write(flat / "silent.csv", rows)
+    whole = _local(world, flat, "silent", 65536)
     local = _local(world, flat, "silent", chunk_rows)
     for seconds in (2.0, 10.0):
         out = tmp_path / f"w{seconds}"
         out.mkdir()
         _windowed(world, flat, "silent", chunk_rows, seconds, out)
-        _same_bytes(local, out)
-    found = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
-    pairs = [(e["a"], e["b"]) for e in found if e["kind"] == "vehicle"]
-    assert pairs == ([] if chunk_rows == 10 else [("A", "B")])  # the local run's own limit, kept as it is
+        assert (out / "p.csv").read_bytes() == (local / "p.csv").read_bytes()
+        assert _events_by_content(out / "e.jsonl") == _events_by_content(whole / "e.jsonl")
+        found = [json.loads(line) for line in (out / "e.jsonl").read_text().splitlines()]
+        assert [(e["a"], e["b"]) for e in found if e["kind"] == "vehicle"] == [("A", "B")]
+
+
+@pytest.mark.parametrize("chunk_rows", [13, 65536])
+@pytest.mark.parametrize("seconds", [2.0, 6.0])
+def test_an_exercise_grouped_by_vehicle_by_windows_gives_its_time_ordered_twins_events(world, flat, tmp_path,
+                                                                                      chunk_rows, seconds):
+    # each vehicle's rows together (as per-vehicle loggers write them), across many chunks: the
+    # windows find the contacts of the same rows in time order, each once
+    rows = _edges_exercise() + [(t, e, x, y + 25, yaw) for t, e, x, y, yaw in _wander(np.random.default_rng(7), 8, 20.0)]
+    _write(flat / "twin.csv", rows)
+    (flat / "grouped.csv").write_text("t,entity,x,y,yaw_deg\n" + "".join(
+        f"{t},{e},{x},{y},{yaw}\n" for t, e, x, y, yaw in sorted(rows, key=lambda r: (r[1], r[0]))))
+    twin = _local(world, flat, "twin", chunk_rows)
+    _, summary = _windowed(world, flat, "grouped", chunk_rows, seconds, tmp_path)
+
+    def content(path):  # the steps are the rows' places in their file: compare the rest
+        return sorted((e["t"], e["kind"], e["a"], e["b"], e.get("entity"), e.get("point"))
+                      for e in map(json.loads, path.read_text().splitlines()))
+
+    assert content(tmp_path / "e.jsonl") == content(twin / "e.jsonl")
+    assert summary.vehicle_contacts == sum('"kind":"vehicle"' in line for line in (twin / "e.jsonl").open()) >= 3
+    assert summary.rows == len(rows)
 
 
 @pytest.mark.parametrize("chunk_rows", [9, 65536])
@@ -321,6 +349,12 @@ def test_gpx_tracks_by_windows_as_the_local_run(tmp_path, chunk_rows):
     assert len(plan.tasks) > 3 and all(task.parts is None for task in plan.tasks)
     run_windows(str(tmp_path / "t.gpx"), outputs["windows"], in_process(world, options), plan, options)
     _same_bytes(tmp_path / "local", tmp_path / "windows")
+    # converted once by the planning pass (the terrain's CRS given), read by the tasks by range: the same
+    plan = plan_windows(str(tmp_path / "t.gpx"), options, 4.0, crs=world.crs)
+    assert plan.spool is not None and all(task.spool is not None for task in plan.tasks)
+    run_windows(str(tmp_path / "t.gpx"), outputs["windows"], in_process(world, options), plan, options)
+    _same_bytes(tmp_path / "local", tmp_path / "windows")
+    assert plan.spool is None
     events = [json.loads(line) for line in (tmp_path / "local" / "e.jsonl").read_text().splitlines()]
     if chunk_rows == 65536:
         assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
@@ -359,3 +393,274 @@ def test_pose_rows_cut_and_merged_by_slices_are_the_rows_one_by_one(parts_steps,
     flat = [line for lines, c in zip(lines_of, cut) for line in lines[:c]]
     expect = "".join(flat[i] for i in order)
     assert merged_rows(ready, order) == expect
+
+
+def _ends_in_contact(last_alone=False):
+    """B slides sideways into A, their contact beginning at 6.5 s in the last 2 s window (6 to 8 s),
+    which the local run closes only after its last chunk; with ``last_alone`` a third vehicle's one
+    and only row is the file's last."""
+    rows = []
+    for k in range(15):
+        t = 0.5 * k
+        rows.append((t, "A", 30.0, 20.0, 0.0))
+        rows.append((t, "B", 30.0, round(T72_WIDTH + 20 + 2 * (6.5 - t), 4), 0.0))
+    if last_alone:
+        rows.append((7.0, "Z", 120.0, 60.0, 0.0))
+    return rows
+
+
+@pytest.mark.parametrize("last_alone", [False, True])
+@pytest.mark.parametrize("chunk_rows", [4, 65536])
+def test_a_contact_in_the_last_window_and_a_last_row_at_the_end(world, flat, tmp_path, chunk_rows, last_alone):
+    name = f"ends{int(last_alone)}"
+    _write(flat / f"{name}.csv", _ends_in_contact(last_alone))
+    local = _local(world, flat, name, chunk_rows)
+    events = [json.loads(line) for line in (local / "e.jsonl").read_text().splitlines()]
+    assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
+    for seconds in (2.0, 3.0, 6.0, 100.0):
+        out = tmp_path / f"w{seconds}"
+        out.mkdir()
+        plan, summary = _windowed(world, flat, name, chunk_rows, seconds, out)
+        _same_bytes(local, out)
+        assert summary.vehicle_contacts == 1 and summary.rows == len(_ends_in_contact(last_alone))
+    # the map of the run in one piece marks the contact found after the last chunk
+    from tankcd_cli.replay.drawing import ReplayDrawing
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    drawing = ReplayDrawing()
+    run_replay(world, str(flat / f"{name}.csv"), ReplayOutputs(None, None), ReplayOptions(chunk_rows=chunk_rows),
+               observe=drawing.observe)
+    assert drawing.counts.get("vehicle") == 1 and [m[0] for m in drawing.marks] == ["vehicle"]
+
+
+def test_the_command_line_draws_an_exercise_ending_in_a_contact(run, flat, tmp_path):
+    _write(flat / "ends0.csv", _ends_in_contact())
+    result = run("replay", flat / "ends0.csv", "--scene", flat / "scene.toml", "--poses", tmp_path / "p.csv",
+                 "--png", tmp_path / "map.png")
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "map.png").stat().st_size > 0
+
+
+def test_a_windowed_summary_counts_what_the_run_in_one_piece_counts(world, flat, tmp_path):
+    # the vehicles' checks take time (seconds_by_effect "vehicles"), as in one piece; every field but
+    # the seconds is the one-piece summary's, the warnings of the planning pass included
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    _write(flat / "edges.csv", _edges_exercise())
+    whole = run_replay(world, str(flat / "edges.csv"), ReplayOutputs(None, None), ReplayOptions())
+    _, windowed = _windowed(world, flat, "edges", 65536, 2.0, tmp_path)
+    assert set(windowed.seconds_by_effect) == set(whole.seconds_by_effect) >= {"vehicles", "matching", "between"}
+    assert windowed.seconds_by_effect["vehicles"] > 0
+    a, b = whole.as_dict(), windowed.as_dict()
+    for d in (a, b):
+        d.pop("seconds"), d.pop("seconds_by_effect")
+    assert a == b
+    assert any("drive sideways" in w for w in windowed.warnings)
+
+
+def test_the_tasks_warnings_are_said_once_and_kept_in_the_summary(run, flat, tmp_path, monkeypatch):
+    # every task raises the same warning and one of its own: the command says each once, and the
+    # summary lists each once, after the planning pass's
+    from tankcd_cli.errors import warn
+    from tankcd_cli.replay import windows
+
+    real = windows._read_window
+
+    def warning_read(world, task):
+        warn("exercise", "a warning every window raises")
+        warn("exercise", f"the warning of window {task.index}")
+        return real(world, task)
+
+    monkeypatch.setattr(windows, "_read_window", warning_read)
+    _write(flat / "edges.csv", _edges_exercise())
+    result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
+                 "--poses", tmp_path / "p.csv", "--summary")
+    assert result.exit_code == 0, result.stderr
+    said = [line for line in result.stderr.splitlines() if line.startswith("tankcd: warning:")]
+    assert said.count("tankcd: warning: exercise: a warning every window raises") == 1
+    assert len(said) == len(set(said))
+    summary = json.loads(result.stderr.strip().splitlines()[-1])
+    listed = summary["warnings"]
+    assert len(listed) == len(set(listed)) == len(said)
+    assert listed.index("exercise: a warning every window raises") < listed.index("exercise: the warning of window 1")
+    assert [w for w in listed if "window 5" in w] == ["exercise: the warning of window 5"]
+    assert any("drive sideways" in w for w in listed[:2])
+    # --strict: a warning is bad input, and nothing is written
+    result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
+                 "--poses", tmp_path / "q.csv", "--strict")
+    assert result.exit_code == 3 and not (tmp_path / "q.csv").exists()
+
+
+def _parquet(path):
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
+    return table.to_pylist(), meta
+
+
+@pytest.mark.parametrize("chunk_rows,seconds", [(7, 2.0), (65536, 6.0), (65536, 1000.0)])
+def test_windows_write_the_parquet_of_the_run_in_one_piece(world, flat, tmp_path, chunk_rows, seconds):
+    # the same writers: the same tables (rows, columns, types, entity names) and the same metadata
+    pytest.importorskip("pyarrow")
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+    from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+    _write(flat / "edges.csv", _edges_exercise())
+    path = str(flat / "edges.csv")
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    run_replay(world, path, ReplayOutputs(str(whole / "p.parquet"), str(whole / "e.parquet")), options)
+    mixed = (("p.parquet", "e.jsonl"), ("p.csv", "e.parquet")) if seconds == 6.0 else ()
+    for poses, events in (("p.parquet", "e.parquet"),) + mixed:
+        out = tmp_path / f"w-{poses}-{events}"
+        out.mkdir()
+        plan = plan_windows(path, options, seconds)
+        summary = run_windows(path, ReplayOutputs(str(out / poses), str(out / events)), in_process(world, options),
+                              plan, options)
+        assert summary.vehicle_contacts == 3
+        for name in (poses, events):
+            if name.endswith(".parquet"):
+                got, want = _parquet(out / name), _parquet(whole / name)
+                assert got[0] == want[0], name
+                assert got[1] == want[1], name
+    if mixed:  # the text outputs beside them: the local run's bytes
+        local = _local(world, flat, "edges", chunk_rows)
+        assert (tmp_path / "w-p.parquet-e.jsonl" / "e.jsonl").read_bytes() == (local / "e.jsonl").read_bytes()
+        assert (tmp_path / "w-p.csv-e.parquet" / "p.csv").read_bytes() == (local / "p.csv").read_bytes()
+    rows, meta = _parquet(whole / "p.parquet")
+    assert len(rows) == len(_edges_exercise()) and {r["entity"] for r in rows} == set("ABCDEFGH")
+    assert meta["tankcd.table"] == "poses" and "sha256" in meta["tankcd.sources"]
+
+
+def test_the_command_line_writes_parquet_by_windows(run, flat, tmp_path):
+    pytest.importorskip("pyarrow")
+    _write(flat / "edges.csv", _edges_exercise())
+    for name, extra in (("w", ("--window-seconds", "4")), ("whole", ())):
+        result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", *extra,
+                     "--poses", tmp_path / f"{name}.p.parquet", "--events", tmp_path / f"{name}.e.parquet")
+        assert result.exit_code == 0, result.stderr
+    for table in ("p", "e"):
+        assert _parquet(tmp_path / f"w.{table}.parquet") == _parquet(tmp_path / f"whole.{table}.parquet")
+
+
+def test_a_worker_describes_the_world_as_the_local_run(world, flat):
+    # on a cluster the world is loaded by the workers only: one of them gives the Parquet metadata
+    from tankcd_cli.replay.fleet import FleetWorld
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.windows import in_process, window_metadata
+    from tankcd_cli.replay.world import WorldSpec
+
+    _write(flat / "edges.csv", _edges_exercise())
+    options = ReplayOptions()
+    remote = window_metadata(FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), options), str(flat / "edges.csv"))
+    assert remote == in_process(world, options).metadata(str(flat / "edges.csv"))
+
+
+def _utm_ground(tmp_path):
+    rasterio = pytest.importorskip("rasterio")
+    pytest.importorskip("pyproj")
+    from rasterio.transform import from_origin
+
+    x0, yn = 400000.0, 5001000.0
+    with rasterio.open(tmp_path / "flat.tif", "w", driver="GTiff", height=200, width=300, count=1, dtype="float32",
+                       crs="EPSG:32633", transform=from_origin(x0 - 0.5, yn + 0.5, 1.0, 1.0)) as dst:
+        dst.write(np.full((200, 300), GROUND, np.float32), 1)
+    return x0, yn
+
+
+def _capture_exercise(path, x0, yn):
+    """A DIS capture (pcap) of three tanks on UTM 33N ground: A stands, B drives west into it (their
+    hulls meet about 11.4 s in), C crosses far from both from 6 s; 2 Hz each, B's packets a little
+    after A's, and the file's last packets hold the contact's end."""
+    import pyproj
+
+    from tankcd_cli.io.geodesy import enu_basis
+    from tests.io import captures as C
+    from tests.io.test_dis import T0, ecef
+
+    to_geo = pyproj.Transformer.from_crs("EPSG:32633", "EPSG:4326", always_xy=True)
+
+    def pdu(ent, x, y, yaw_deg):
+        lon, lat = to_geo.transform(x, y)
+        yaw = np.radians(yaw_deg)
+        enu = np.array([[np.cos(yaw), np.sin(yaw), 0], [np.sin(yaw), -np.cos(yaw), 0], [0, 0, -1]]).T
+        body = enu_basis([lon], [lat])[0].T @ enu
+        ori = (np.arctan2(body[1, 0], body[0, 0]), -np.arcsin(body[2, 0]), np.arctan2(body[2, 1], body[2, 2]))
+        return C.ethernet(C.ipv4(C.udp(C.es_dis7(1, 1, ent, ecef(lon, lat, 100.0), ori))))
+
+    frames = []
+    for k in range(31):
+        t = 0.5 * k
+        frames.append((T0 + t, pdu(1, x0 + 100, yn - 100, 0.0)))
+        frames.append((T0 + t + 0.1, pdu(2, x0 + 160 - 4 * t, yn - 100, 180.0)))
+        if t >= 6:
+            frames.append((T0 + t + 0.2, pdu(3, x0 + 30 + 3 * (t - 6), yn - 20, 0.0)))
+    path.write_bytes(C.pcap(frames))
+    return path
+
+
+@pytest.mark.parametrize("chunk_rows", [10, 65536])
+def test_a_capture_by_windows_is_decoded_once_and_gives_the_run_in_one_piece(tmp_path, monkeypatch, chunk_rows):
+    from tankcd_cli import api
+    from tankcd_cli.io import dis
+    from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
+    from tankcd_cli.replay.run import run_replay
+
+    x0, yn = _utm_ground(tmp_path)
+    path = str(_capture_exercise(tmp_path / "ex.pcap", x0, yn))
+    world = api.load_world(terrain=str(tmp_path / "flat.tif"))
+    options = ReplayOptions(chunk_rows=chunk_rows)
+    for name in ("whole", "w"):
+        (tmp_path / name).mkdir()
+    whole = run_replay(world, path, ReplayOutputs(str(tmp_path / "whole" / "p.csv"), str(tmp_path / "whole" / "e.jsonl")),
+                       options)
+    assert whole.vehicle_contacts == 1 and whole.entities == 3
+    decoded = []
+    real = dis.DisCapture.blocks
+
+    def counted(self, *args, **kwargs):
+        decoded.append(self.path if hasattr(self, "path") else None)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(dis.DisCapture, "blocks", counted)
+    spools = tmp_path / "spools"
+    spools.mkdir()
+    monkeypatch.setattr("tempfile.tempdir", str(spools))
+    for seconds in (2.0, 5.0):
+        decoded.clear()
+        summary = api.replay_windows(path, str(tmp_path / "w" / "p.csv"), str(tmp_path / "w" / "e.jsonl"), world=world,
+                                     window_seconds=seconds) if chunk_rows == 65536 else None
+        if summary is None:  # another chunk size: the runner's own parts
+            from tankcd_cli.replay.windows import in_process, plan_windows, run_windows
+
+            plan = plan_windows(path, options, seconds, crs=world.crs)
+            assert plan.spool is not None and all(t.parts is None and t.spool for t in plan.tasks)
+            summary = run_windows(path, ReplayOutputs(str(tmp_path / "w" / "p.csv"), str(tmp_path / "w" / "e.jsonl")),
+                                  in_process(world, options), plan, options)
+        assert len(decoded) == 1, decoded  # the planning pass alone: no task decodes the capture again
+        _same_bytes(tmp_path / "whole", tmp_path / "w")
+        assert summary.vehicle_contacts == 1 and summary.rows == whole.rows
+        assert summary.warnings == whole.warnings
+        assert not list(spools.iterdir())  # the converted rows removed once the windows have run
+
+
+def test_minus_v_shows_the_traceback_of_a_tasks_internal_error(run, flat, tmp_path, monkeypatch):
+    from tankcd_cli.replay import windows
+
+    def broken(world, task):
+        raise ZeroDivisionError(f"in window {task.index}")
+
+    monkeypatch.setattr(windows, "_read_window", broken)
+    _write(flat / "edges.csv", _edges_exercise())
+    for verbose in ((), ("-v",)):
+        result = run(*verbose, "replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "4",
+                     "--poses", tmp_path / "p.csv")
+        assert result.exit_code == 4
+        assert "internal error: ZeroDivisionError: in window 0" in result.stderr
+        assert ("in broken" in result.stderr) == bool(verbose), result.stderr
+        assert not (tmp_path / "p.csv").exists()
