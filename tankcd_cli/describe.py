@@ -34,7 +34,8 @@ def describe_store(path: str, scene: str | None = None) -> dict:
     import h5py
 
     from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.store import is_hdf5, read_attrs
+    from tankcd_cli.io.h5 import is_hdf5
+    from tankcd_cli.terrain.store import read_attrs
 
     if not os.path.exists(path):
         raise InputError(path, "no such file")
@@ -364,7 +365,7 @@ def _scene_terrain(sc) -> dict:
     """The kind and extent of a scene's terrain, read as replay reads it (a store's attributes,
     a DEM's grid, a mesh's vertices)."""
     path = sc.terrain_path
-    from tankcd_cli.terrain.store import is_hdf5
+    from tankcd_cli.io.h5 import is_hdf5
 
     if is_hdf5(path):
         d = describe_store(path)

@@ -404,10 +404,11 @@ def _heightmap(terrain: dict, terrain_path: str, path: str):
 
 def _is_dem_raster(terrain_path: str) -> bool:
     """Whether the terrain is a DEM raster (GDAL's, an ESRI grid), which --crs and --band apply to."""
-    from tankcd_cli.terrain.open import terrain_kind
+    from tankcd_cli.io.h5 import is_hdf5
+    from tankcd_cli.io.terrain_files import file_terrain_kind
 
     try:
-        return terrain_kind(terrain_path) in ("raster", "esri_ascii")
+        return not is_hdf5(terrain_path) and file_terrain_kind(terrain_path) in ("raster", "esri_ascii")
     except InputError:
         return False
 

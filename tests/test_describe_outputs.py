@@ -65,7 +65,7 @@ def test_parquet_events_say_the_same_counts_and_their_metadata(replayed):
                 "obstacles", "parts", "entities"):
         assert facts[key] == pytest.approx(text[key]) if isinstance(text[key], float) else facts[key] == text[key], key
     assert facts["replay"] == {"matcher": "auto", "escalate": None, "tolerance": None, "attitude_tolerance": None,
-                               "mode": "continuous"}
+                               "mode": "continuous", "time_origin": None}
     trajectory = [s for s in facts["sources"] if s["role"] == "trajectory"]
     assert trajectory == [{"role": "trajectory", "path": str(TRAJECTORY),
                            "sha256": hashlib.sha256(TRAJECTORY.read_bytes()).hexdigest()}]

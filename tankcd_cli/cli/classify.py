@@ -181,7 +181,7 @@ def _refuse_clashes(terrain, output, png, explicit):
     -o names it (the new store is written beside it and replaces it when complete)."""
     from tankcd_cli.cli.options import refuse_clashes
     from tankcd_cli.io.files import same_path
-    from tankcd_cli.terrain.store import is_hdf5
+    from tankcd_cli.io.h5 import is_hdf5
 
     in_place = terrain != "-" and same_path(output, terrain)
     if in_place and not (explicit and is_hdf5(terrain)):

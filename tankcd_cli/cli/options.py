@@ -278,7 +278,7 @@ def check_replay_options(ctx: click.Context, fleet: bool) -> None:
     check_option_values(ctx, REPLAY_VALUES)
     if not (given(ctx, "cache") or given(ctx, "up")):
         return
-    from tankcd_cli.terrain.store import is_hdf5
+    from tankcd_cli.io.h5 import is_hdf5
 
     terrain, label = p.get("terrain"), "--terrain"
     if terrain is None and p.get("scene") and os.path.exists(p["scene"]):

@@ -54,3 +54,12 @@ def check_indices(path: str, what: str, index, size: int, name: str) -> None:
     index = np.asarray(index)
     if index.size and (index.min() < -1 or index.max() >= size):
         raise InputError(path, f"damaged {what}: {name} indices outside 0..{size - 1}")
+
+
+def is_hdf5(path: str) -> bool:
+    """True when ``path`` is an HDF5 file (by its signature): a store, or a tree (``bvh``)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+    except OSError:
+        return False

@@ -195,3 +195,4 @@ def _check_arrays(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
     if out.any():
         i = int(np.flatnonzero(out.any(axis=1))[0])
         raise InputError(name, f"vertex index out of range (the file has {len(vertices)} vertices)", where=f"face {i + 1}")
+

@@ -51,30 +51,14 @@ def terrain_kind(path: str, fmt: str | None = None) -> str:
     A store is recognised by its signature and its root attribute ``layout``; an HDF5 file
     that is not a terrain store is an InputError.
     """
-    from tankcd_cli.terrain.store import is_hdf5, store_layout
+    from tankcd_cli.io.terrain_files import file_terrain_kind
+    from tankcd_cli.io.h5 import is_hdf5
+    from tankcd_cli.terrain.store import store_layout
 
     f = (fmt or "").lower()
     if f == "h5" or (not f and path != "-" and is_hdf5(path)):  # first: a store imports nothing more
         return "grid_store" if store_layout(path) == "grid" else "mesh_store"
-    from tankcd_cli.io.esri_ascii import SUFFIXES as ASC_SUFFIXES
-    from tankcd_cli.io.heightmap import HEIGHTMAP_SUFFIXES, is_heightmap
-    from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
-
-    if f in ASC_SUFFIXES:
-        return "esri_ascii"
-    if f in HEIGHTMAP_SUFFIXES:
-        return "heightmap"
-    if f:
-        return "raster" if f in RASTER_SUFFIXES else "mesh"
-    if path == "-":
-        return "mesh"
-    if os.path.splitext(path)[1].lower().lstrip(".") in ASC_SUFFIXES:
-        return "esri_ascii"
-    if is_heightmap(path):
-        return "heightmap"
-    if os.path.isdir(path) or is_raster(path):
-        return "raster"
-    return "mesh"
+    return file_terrain_kind(path, f)
 
 
 def heightmap_of(path: str, heightmap=None):
@@ -174,7 +158,8 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
         return _open_dem(open_source(kind, path, fmt=fmt, crs=crs, band=band, heightmap=heightmap), path,
                          cached if cache else None, vehicle, say)
     from tankcd_cli.terrain.mesh.classify import classify_mesh, read_mesh
-    from tankcd_cli.terrain.store import is_hdf5, read_attrs
+    from tankcd_cli.io.h5 import is_hdf5
+    from tankcd_cli.terrain.store import read_attrs
 
     raw = read_mesh(path, up=up, fmt=fmt)
     if cache and os.path.exists(cached) and is_hdf5(cached):
@@ -201,7 +186,8 @@ def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain
 
     from tankcd_cli.terrain.grid.classify import classify_dem
     from tankcd_cli.terrain.grid.store import open_grid
-    from tankcd_cli.terrain.store import is_hdf5, read_attrs
+    from tankcd_cli.io.h5 import is_hdf5
+    from tankcd_cli.terrain.store import read_attrs
     from tankcd_cli.vehicle import vehicle_preset
 
     with dem:

@@ -2,7 +2,7 @@
 attribute ``layout`` that names the layout (``mesh``: ``mesh/store.py``; ``grid``:
 ``grid/store.py``), and reading the root attributes without any array.
 
-A file is told to be HDF5 by its signature (``is_hdf5``); ``open_store`` opens it as a terrain
+A file is told to be HDF5 by its signature (``io.h5.is_hdf5``); ``open_store`` opens it as a terrain
 store, refusing another format or an older version with a one-line "run classify again".
 """
 
@@ -13,15 +13,6 @@ import numpy as np
 FORMAT = "tankcd-terrain"
 FORMAT_VERSION = 2  # 2: a root attribute ``layout`` (mesh | grid); DEMs in the grid layout (grid/store.py)
 WHAT = "tankcd terrain store"  # how messages name a store
-
-
-def is_hdf5(path: str) -> bool:
-    """True when ``path`` is an HDF5 file (by its signature): a store, or a tree (``bvh``)."""
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(8) == b"\x89HDF\r\n\x1a\n"
-    except OSError:
-        return False
 
 
 def open_store(path: str, **kwargs):

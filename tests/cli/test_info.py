@@ -156,7 +156,8 @@ def test_events_jsonl_text_and_json(run, outputs):
 def test_parquet_poses_and_events_text_and_json(run, outputs):
     lines = _text(run, outputs / "fleet" / "patrol.events.parquet")
     assert lines["kind"] == "events (Parquet)" and lines["by kind"] == "obstacle 19, internal 33, terrain 16"
-    assert lines["replay"] == "matcher auto, escalate none, tolerance none, attitude tolerance none, mode continuous"
+    assert (lines["matcher"], lines["escalate"], lines["attitude tolerance"], lines["mode"], lines["time origin"]) \
+        == ("auto", "none", "none", "continuous", "none (relative times)")
     assert lines["crs"] == "local grid (no CRS)"
     text = run("info", outputs / "fleet" / "patrol.events.parquet").stdout
     assert f"\n  wall:\n    role:             obstacle\n    path:             {SAMPLE / 'wall.obj'}\n" in text
