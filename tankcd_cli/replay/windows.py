@@ -235,6 +235,7 @@ class WindowPlan:
     geographic: bool
     warnings: list = field(default_factory=list)  # the planning pass's set-up warnings (the motion checks)
     spool: str | None = None  # the folder of the rows converted once (``_Spool``), removed by ``close``
+    time_origin: float | None = None  # the UTC instant of t = 0, epoch seconds (None: relative times)
 
     def close(self) -> None:
         """Remove the rows converted for the tasks (once they have run)."""
@@ -375,10 +376,12 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
     has_turret = has_entity = False
     ordered = True  # the rows in time order across vehicles, as the streaming checks between them need
     names: tuple = ()
+    time_origin = None
     for c, chunk in enumerate(reader):
         if grid is None:
             grid = _Grid(float(np.floor(chunk.t.min() / width) * width), width)
             has_turret, has_entity = chunk.has_turret, chunk.has_entity
+            time_origin = chunk.time_origin
             if not reader.geographic or spool is not None:  # positions known (converted, for the spool)
                 checks = ExerciseChecks(trajectory) if has_entity else MotionChecks(trajectory)
         if spool is not None:
@@ -451,7 +454,8 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
         min_step[j] = own_min.get(j, np.iinfo(np.int64).max)
         first_chunk = int(np.searchsorted(starts_arr, min_step[j], side="right") - 1) if j in own_min else n_chunks
         min_chunk[j] = min([first_chunk] + [w.emit for w in windows])
-    return WindowPlan(tasks, min_step, min_chunk, rows, n_chunks, has_entity, len(names), bool(reader.geographic))
+    return WindowPlan(tasks, min_step, min_chunk, rows, n_chunks, has_entity, len(names), bool(reader.geographic),
+                      time_origin=time_origin)
 
 
 def _in_time_order(codes, t, last_t, mark) -> bool:
@@ -813,8 +817,8 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
     order); returns the replay's summary.
 
     The outputs are a run in one piece's (``replay.outputs.replay_outputs``): CSV and JSON Lines,
-    or Parquet for a name ending in ``.parquet``, whose metadata is ``runner.metadata(trajectory)``
-    (``replay.outputs.replay_metadata`` of the world the tasks run in: ``in_process`` and
+    or Parquet for a name ending in ``.parquet``, whose metadata is ``runner.metadata(trajectory,
+    time_origin)`` (``replay.outputs.replay_metadata`` of the world the tasks run in: ``in_process`` and
     ``on_dask`` give it). The plan's converted rows (``WindowPlan.close``) are removed after."""
     try:
         return _run_windows(trajectory, outputs, runner, plan, options, progress)
@@ -828,6 +832,7 @@ def _run_windows(trajectory, outputs, runner, plan, options, progress) -> Replay
     from tankcd_cli.errors import collected_warnings
     from tankcd_cli.io.parquet import is_parquet
     from tankcd_cli.io.poses_csv import header
+    from tankcd_cli.io.trajectory import utc_text
     from tankcd_cli.replay.outputs import PosesText, replay_outputs
     from tankcd_cli.replay.run import warn_if_beside
 
@@ -841,8 +846,10 @@ def _run_windows(trajectory, outputs, runner, plan, options, progress) -> Replay
             raise ValueError("Parquet outputs need the runner's metadata(trajectory) (in_process and on_dask give it)")
         tasks = [dataclasses.replace(t, pose_arrays=arrays, event_records=records) for t in tasks]
 
+    origin = utc_text(plan.time_origin) if plan.time_origin is not None else None
+
     def metadata():
-        return runner.metadata(trajectory)
+        return runner.metadata(trajectory, origin)
 
     with collected_warnings() as said:
         with replay_outputs(outputs, plan.has_entity, metadata) as (poses_out, events_out):
@@ -859,6 +866,7 @@ def _run_windows(trajectory, outputs, runner, plan, options, progress) -> Replay
             warn_if_beside(join.extent, join.counts, trajectory, join.crs)
     summary = join.summary(options, time.perf_counter() - start)
     summary.warnings = list(dict.fromkeys(plan.warnings + list(said)))
+    summary.time_origin = origin
     return summary
 
 
@@ -984,27 +992,27 @@ class _Join:
 
 def in_process(world, options: ReplayOptions):
     """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``;
-    ``runner.metadata(trajectory)`` the Parquet outputs' metadata."""
+    ``runner.metadata(trajectory, time_origin)`` the Parquet outputs' metadata."""
     def runner(tasks, consume):
         for task in tasks:
             consume(replay_window(world, options, task))
 
-    def metadata(trajectory):
+    def metadata(trajectory, time_origin=None):
         from tankcd_cli.replay.outputs import replay_metadata
 
-        return replay_metadata(world, [trajectory], options)
+        return replay_metadata(world, [trajectory], options, time_origin=time_origin)
 
     runner.metadata = metadata
     return runner
 
 
-def window_metadata(world, trajectory: str) -> dict:
+def window_metadata(world, trajectory: str, time_origin: str | None = None) -> dict:
     """The Parquet outputs' metadata, on a worker: ``replay.outputs.replay_metadata`` of the world
     (a ``replay.fleet.FleetWorld``) loaded once per process, as the tasks load it."""
     from tankcd_cli.replay.fleet import load_world_once
     from tankcd_cli.replay.outputs import replay_metadata
 
-    return replay_metadata(load_world_once(world.spec), [trajectory], world.options)
+    return replay_metadata(load_world_once(world.spec), [trajectory], world.options, time_origin=time_origin)
 
 
 def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
@@ -1056,7 +1064,7 @@ def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
                     state["next"] += 1
                 submit_up_to()
 
-    def metadata(trajectory):
+    def metadata(trajectory, time_origin=None):
         # the world is loaded on the workers only: one of them describes it (and hashes the inputs)
         try:
             from distributed import Client
@@ -1064,7 +1072,7 @@ def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
             raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
 
         with Client(scheduler, timeout="20s") as client:
-            return client.submit(window_metadata, world, trajectory, pure=False, retries=3).result()
+            return client.submit(window_metadata, world, trajectory, time_origin, pure=False, retries=3).result()
 
     runner.metadata = metadata
     return runner

@@ -193,3 +193,23 @@ def test_api_replay_takes_lon_lat_arrays_as_the_geographic_csv(ground):
     for key in ("x", "y", "z", "yaw_deg", "pitch_deg"):
         np.testing.assert_array_equal(poses[key], want[key], err_msg=key)
     np.testing.assert_allclose(poses["x"], WEST + 10 + 8 * seconds, atol=1e-6)
+
+
+
+def test_a_windowed_run_gives_the_origin_as_a_run_in_one_piece(ground):
+    """--window-seconds keeps the clock: the summary's time_origin and the Parquet metadata's are the
+    one-piece run's."""
+    import pyarrow.parquet as pq
+
+    from tankcd_cli import api
+
+    path = ground / "iso.csv"
+    path.write_text("t,entity,x,y,yaw_deg\n" + "".join(
+        f"2026-05-04T12:00:{s:02d}+02:00,{e},{WEST + 20 + s + 60 * k},{Y},0\n" for s in range(6) for k, e in enumerate("AB")))
+    scene = str(ground / "scene.toml")
+    whole = api.replay_to_files(str(path), poses=str(ground / "p.parquet"), events=None, scene=scene)
+    windows = api.replay_windows(str(path), poses=str(ground / "w.parquet"), events=None, scene=scene,
+                                 window_seconds=2.0)
+    assert whole.time_origin == windows.time_origin == "2026-05-04T10:00:00Z"
+    meta = [json.loads(pq.read_schema(ground / f).metadata[b"tankcd.replay"]) for f in ("p.parquet", "w.parquet")]
+    assert meta[0]["time_origin"] == meta[1]["time_origin"] == "2026-05-04T10:00:00Z"
