@@ -147,31 +147,19 @@ def _raster_facts(path, ds, Window, crs_name) -> dict:
 
 
 def _point_scale(crs, bounds: tuple[float, float, float, float]) -> dict | None:
-    """A projected CRS's point scale (its metres over ground metres, pyproj's factors) over the
-    posts' ``bounds`` (west, south, east, north): ``centre`` (the square root of the areal scale at
-    the centre), ``range`` (the least and greatest meridional or parallel scale at the centre, the
+    """A projected CRS's point scale over the posts' ``bounds`` (west, south, east, north; the
+    reader's own ``io.rasters.point_scale``): ``centre`` (the square root of the areal scale at the
+    centre), ``range`` (the least and greatest meridional or parallel scale at the centre, the
     corners and the edges' midpoints), ``ground_metres_per_crs_metre`` (1 / centre). 1 for a true
     metric grid; about 2 for Web Mercator at 60 deg. None where pyproj cannot say. The same
     figures a store records of its source (``source_point_scale``, docs/formats.md)."""
-    try:
-        from pyproj import CRS, Proj, Transformer
+    from tankcd_cli.io.rasters import point_scale
 
-        src = CRS.from_wkt(crs.to_wkt())
-        west, south, east, north = bounds
-        mx, my = (west + east) / 2, (south + north) / 2
-        xs = np.array([mx, west, east, east, west, mx, east, mx, west])
-        ys = np.array([my, south, south, north, north, south, my, north, my])
-        lon, lat = Transformer.from_crs(src, src.geodetic_crs, always_xy=True).transform(xs, ys)
-        f = Proj(src).get_factors(np.asarray(lon, dtype=float), np.asarray(lat, dtype=float))
-        both = np.concatenate([np.asarray(f.meridional_scale, dtype=float), np.asarray(f.parallel_scale, dtype=float)])
-        areal = float(np.asarray(f.areal_scale, dtype=float)[0])
-    except Exception:  # noqa: BLE001 - pyproj's errors vary by version: the fact is left out
+    scale = point_scale(crs, bounds)
+    if scale is None:
         return None
-    if not (np.isfinite(both).all() and (both > 0).all() and math.isfinite(areal) and areal > 0):
-        return None
-    centre = math.sqrt(areal)
-    return {"centre": round(centre, 6), "range": [round(float(both.min()), 6), round(float(both.max()), 6)],
-            "ground_metres_per_crs_metre": round(1 / centre, 6)}
+    return {"centre": round(scale.centre, 6), "range": [round(scale.low, 6), round(scale.high, 6)],
+            "ground_metres_per_crs_metre": round(1 / scale.centre, 6)}
 
 
 # --- a heightmap ----------------------------------------------------------------------------------
