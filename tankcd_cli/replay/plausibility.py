@@ -47,6 +47,7 @@ class MotionChecks:
         self.off = np.zeros(0, dtype=np.int64)
         self.fits = np.zeros((len(FITS), 0), dtype=np.int64)
         self.first_off_line = np.zeros(0, dtype=np.int64)  # -1: none yet
+        self.where = "line"  # what a row's line counts: "line", or "packet" for a capture
 
     def observe(self, t, x, y, yaw_deg, line) -> None:
         """The next rows (N,) of the lone vehicle, in order."""
@@ -91,8 +92,9 @@ class MotionChecks:
                                                    dt[j], speed[j]), "speed"))
         for j in _first_per_vehicle(who, (turn >= MAX_TURN) & (dt > 0) & ~self.turn_warned[who]):
             self.turn_warned[who[j]] = True
-            messages.append((who[j], 1, f"{self._who(who[j])}line {line[step[j] + 1]}: the heading turns "
-                                        f"{turn[j]:.1f} deg from line {line[step[j]]} in {dt[j]:g} s; the motion "
+            w = self.where
+            messages.append((who[j], 1, f"{self._who(who[j])}{w} {line[step[j] + 1]}: the heading turns "
+                                        f"{turn[j]:.1f} deg from {w} {line[step[j]]} in {dt[j]:g} s; the motion "
                                         "between them takes the shorter way, a guess at that size (rows closer in "
                                         "time would say which way it turned)", "turn"))
         for _, _, what, kind in sorted(messages, key=lambda m: (m[0], m[1])):
@@ -131,15 +133,15 @@ class MotionChecks:
         return f"entity {name!r}: " if name else ""
 
     def _fast(self, code, line0, line1, t0, dist, dt, speed) -> str:
-        who = self._who(code)
+        who, w = self._who(code), self.where
         named = bool(who)
         if dt == 0:
-            return (f"{who}line {line1}: {dist:.1f} m from line {line0} at the same t ({t0:g} s): no vehicle jumps"
+            return (f"{who}{w} {line1}: {dist:.1f} m from {w} {line0} at the same t ({t0:g} s): no vehicle jumps"
                     + ("" if named else "; are rows of several vehicles interleaved in one file? give each row its "
                        "vehicle in an entity column"))
         hint = ("is t in other units?" if named else "are rows of several vehicles interleaved in one file (an "
                 "entity column), or is t in other units?")
-        return (f"{who}line {line1}: {speed:.1f} m/s from line {line0} ({dist:.1f} m in {dt:g} s), faster than any "
+        return (f"{who}{w} {line1}: {speed:.1f} m/s from {w} {line0} ({dist:.1f} m in {dt:g} s), faster than any "
                 f"vehicle ({MAX_SPEED:g} m/s); {hint}")
 
     def _warn(self, source: str, what: str, kind: str = "motion") -> None:
@@ -160,7 +162,7 @@ class MotionChecks:
             cause = CAUSES[keys[best]] if fits[best] * 2 > moving else (
                 "a compass bearing (from north, clockwise: yaw_deg = 90 - bearing), radians, or a sign")
             self._warn(self.source, f"{self._who(code)}{off:,} of {moving:,} moving rows head more than "
-                                    f"{OFF_COURSE:g} deg away from their direction of travel (first at line "
+                                    f"{OFF_COURSE:g} deg away from their direction of travel (first at {self.where} "
                                     f"{self.first_off_line[code]}): the vehicle would drive sideways; likely {cause}",
                        "heading")
 
@@ -189,6 +191,7 @@ class ExerciseChecks:
         return self.count[kind] <= self.LIMIT
 
     def observe(self, chunk) -> None:
+        self.checks.where = chunk.where
         self.checks.observe_rows(chunk.entity, chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line,
                                  chunk.entity_names)
 
