@@ -493,6 +493,8 @@ class _CaptureState:
         gun as decoded; NaN equal to NaN), counted; None for none."""
         codes, state = block["code"], block["state"]
         n = len(codes)
+        if n == 0:
+            return None
         order = np.argsort(codes, kind="stable")  # each entity's rows together, in order
         c = codes[order]
         first = np.r_[True, c[1:] != c[:-1]]
@@ -501,7 +503,7 @@ class _CaptureState:
         prev[first] = self.last_state[c[first]]
         cur = state[order]
         same = ((cur == prev) | (np.isnan(cur) & np.isnan(prev))).all(axis=1)
-        last = np.r_[c[1:] != c[:-1], True] if n else np.zeros(0, bool)
+        last = np.r_[c[1:] != c[:-1], True]
         self.last_state[c[last]] = cur[last]
         if not same.any():
             return None
