@@ -160,6 +160,7 @@ def contact_centres(body_a: VehicleBody, motion_a: SpanMotion, body_b: VehicleBo
             each.append(np.matmul(g.tree.triangles.reshape(1, -1, 3), np.transpose(R, (0, 2, 1))) + t[:, None, :])
         placed.append(np.concatenate(each, axis=1).reshape(len(span), -1, 3, 3))  # (K, m, 3, 3) world, at s
     reach = 2 * CONTACT_BAND + 1e-3  # the sweep's pair lies within 1 mm; the band's pairs within 1 mm of it
+    batch = []
     for i in range(len(span)):
         A, B = placed[0][i], placed[1][i]
         alo, ahi, blo, bhi = A.min(axis=1), A.max(axis=1), B.min(axis=1), B.max(axis=1)
@@ -175,15 +176,27 @@ def contact_centres(body_a: VehicleBody, motion_a: SpanMotion, body_b: VehicleBo
                  & (ahi[near_a, None] >= blo[None, near_b] - reach)).all(axis=2)
         ia, ib = np.nonzero(close)
         ia, ib = _plane_separated(A[near_a[ia]], B[near_b[ib]], reach, ia, ib)
-        if not len(ia):
-            continue
-        d, cp, cq = triangle_pair_features(A[near_a[ia]], B[near_b[ib]])
-        if not np.isfinite(d).any():
-            continue
-        # every feature pair within the band (a segment's two ends, a patch's corners), each point once
-        keep = d <= np.nanmin(d) + CONTACT_BAND
-        mids = np.unique(np.round(0.5 * (cp[keep] + cq[keep]), 6), axis=0)
-        out[i] = mids.mean(axis=0)
+        if len(ia):
+            batch.append((i, A[near_a[ia]], B[near_b[ib]]))
+    if not batch:
+        return out
+    # every hit's pairs at once (the features' numpy work once, not once a hit)
+    owner = np.concatenate([np.full(len(P), i) for i, P, _ in batch])
+    d, cp, cq = triangle_pair_features(np.concatenate([b[1] for b in batch]), np.concatenate([b[2] for b in batch]))
+    d = np.where(np.isfinite(d), d, np.inf)
+    least = np.full(len(span), np.inf)
+    np.minimum.at(least, owner, d.min(axis=1))
+    # every feature pair within the band (a segment's two ends, a patch's corners), each point once
+    keep = d <= (least[owner] + CONTACT_BAND)[:, None]
+    rows = np.nonzero(keep)
+    who = owner[rows[0]]
+    mids = np.round(0.5 * (cp[rows] + cq[rows]), 6)
+    key = np.unique(np.column_stack([who, mids]), axis=0)  # per hit, each point once
+    hit = key[:, 0].astype(np.int64)
+    count = np.bincount(hit, minlength=len(span))
+    total = np.stack([np.bincount(hit, weights=key[:, 1 + c], minlength=len(span)) for c in range(3)], axis=1)
+    done = count > 0
+    out[done] = total[done] / count[done, None]
     return out
 
 
