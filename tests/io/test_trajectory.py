@@ -550,9 +550,9 @@ def test_packets_a_little_out_of_time_order_are_put_in_order_and_far_out_refused
     path = _capture(tmp_path, frames, "far.pcap")
     msg, got = _error(path, crs="EPSG:32632", chunk_rows=1)
     # entity 1:1:2 at 10.5 s is far behind but its own first row: fine; 1:1:1 at 10.6 after 12.0: refused
-    assert msg == (f"{path}: packet 5: entity '1:1:1': capture time goes back 1.400000 s (t 0.6 after 2.0 at packet 2): "
-                   "the packet is 3.400000 s behind the capture's latest time (packet 3), more than the 1 s this reader "
-                   "puts back in order; sort the capture by time first (Wireshark's reordercap does)")
+    assert msg == (f"{path}: packet 5: entity '1:1:1': capture time goes back 1.400000 s (t 0.6 after 2.0 at "
+                   "packet 2): the packet is 3.400000 s behind the capture's latest time (packet 3), more than the 1 s "
+                   "this reader puts back in order; sort the capture by time first (Wireshark's reordercap does)")
 
 
 def _capture_order_reference(t, entity):
