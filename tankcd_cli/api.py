@@ -162,7 +162,7 @@ def _options(matcher, escalate, tolerance, discrete, attitude_tolerance=None):
 def replay(trajectory, scene: str | None = None, terrain: str | None = None, vehicle: str = "t72",
            matcher: str = "auto", discrete: bool = False, escalate: bool | None = None,
            tolerance: float | None = None, world=None, up: str | None = None, cache: bool = False,
-           attitude_tolerance: float | None = None):
+           attitude_tolerance: float | None = None, fmt: str | None = None):
     """Replay a trajectory and keep the results in memory: (poses, events).
 
     trajectory : a path (a trajectory CSV, a geographic CSV, GPX or a DIS capture: the command
@@ -181,14 +181,27 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
         (m; None: half the footprint's shorter side times tan 1 deg) and its attitude tolerance
         (deg; None: 0.5): a key-point pose farther than either from a plane the certificate
         finds is escalated
+    fmt : the path's (or paths') format, csv, gpx, pcap or pcapng, where neither name nor content says
     Returns poses, a dict of arrays keyed by the poses CSV's columns, and events, a list of dicts
     as the events JSON Lines' lines (``between``: a contact that began between rows).
     """
     from tankcd_cli.replay.run import replay_rows
 
+    trajectory = _with_format(trajectory, fmt)
     w = _world(world, scene, terrain, vehicle, up, cache, None)
     return replay_rows(w, _chunks(trajectory, w),
                        _options(matcher, escalate, tolerance, discrete, attitude_tolerance))
+
+
+def _with_format(trajectory, fmt: str | None):
+    """A path, or each of several, carrying the format given (``io.input_formats.TrajectoryPath``)."""
+    from tankcd_cli.io.input_formats import with_format
+
+    if fmt is None or not isinstance(trajectory, (str, list, tuple)):
+        return trajectory
+    if isinstance(trajectory, str):
+        return with_format(trajectory, fmt)
+    return [with_format(str(p), fmt) for p in trajectory]
 
 
 def _chunks(trajectory, world):
@@ -199,7 +212,7 @@ def _chunks(trajectory, world):
     if isinstance(trajectory, (list, tuple)):
         from tankcd_cli.io.trajectory import merged_trajectories
 
-        return merged_trajectories([str(p) for p in trajectory], crs=world.crs)
+        return merged_trajectories([p if isinstance(p, str) else str(p) for p in trajectory], crs=world.crs)
     return trajectory_chunks(trajectory, crs=world.crs)
 
 
@@ -208,19 +221,22 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
                     discrete: bool = False, escalate: bool | None = None, tolerance: float | None = None,
                     world=None, up: str | None = None, cache: bool = False,
                     progress: Callable[[int], None] | None = None, observe: Callable | None = None,
-                    attitude_tolerance: float | None = None):
+                    attitude_tolerance: float | None = None, fmt: str | None = None):
     """Replay a trajectory streamed to files, as ``tankcd replay`` does: the poses CSV (``-``
     standard output, None: none) and the events JSON Lines (None: only counted), or Parquet for a
     name ending in ``.parquet`` (typed columns, the CRS, conventions and sources' SHA-256 in the
     file's metadata; pyarrow is the ``parquet`` extra, its absence an InputError before any work);
     written under temporary names and renamed together when complete; memory bounded by the chunk
     whatever the trajectory's length. Returns the closing summary (``replay.records.ReplaySummary``).
-    ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk."""
+    ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk.
+    ``fmt``: the inputs' format (csv, gpx, pcap, pcapng) where neither name nor content says
+    (docs/formats.md, "Trajectory inputs: formats")."""
     from tankcd_cli.io.parquet import check_writable
     from tankcd_cli.replay.records import ReplayOutputs
     from tankcd_cli.replay.run import run_replay
 
     check_writable(poses, events)  # before the world is loaded
+    trajectory = _with_format(trajectory, fmt)
     w = _world(world, scene, terrain, vehicle, up, cache, None)
     sources = [str(p) for p in trajectory] if isinstance(trajectory, (list, tuple)) else None
     return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
@@ -432,7 +448,7 @@ def _geographic_columns(columns: dict, crs: str | None) -> dict:
     ``y``, ``yaw_deg`` in ``crs``, as the geographic CSV's rows are converted (docs/formats.md)."""
     from tankcd_cli.errors import InputError, warn
     from tankcd_cli.io.gpx import track_headings
-    from tankcd_cli.io.trajectory import _check_crs, _geographic
+    from tankcd_cli.io.trajectory import check_crs, geographic_to_crs
 
     if "heading_deg" in columns and "yaw_deg" in columns:
         raise InputError("trajectory", "both heading_deg (a compass bearing) and yaw_deg (counter-clockwise from "
@@ -445,7 +461,7 @@ def _geographic_columns(columns: dict, crs: str | None) -> dict:
         k = int(bad[0])
         raise InputError("trajectory", f"lon {lon[k]!r}, lat {lat[k]!r} is out of range (-180 to 180, -90 to 90 "
                                        "degrees)", where=f"row {k}")
-    _check_crs(crs, "trajectory")
+    check_crs(crs, "trajectory")
     compass = "yaw_deg" not in columns
     if "heading_deg" in columns or "yaw_deg" in columns:
         h = np.atleast_1d(np.asarray(columns["heading_deg" if compass else "yaw_deg"], dtype=float))
@@ -468,7 +484,7 @@ def _geographic_columns(columns: dict, crs: str | None) -> dict:
             warn("trajectory", "no heading (heading_deg or yaw_deg) beside lon, lat: each row heads toward its "
                                "vehicle's next row, as a GPX track's points do")
     still = np.isnan(h)  # a vehicle that never moves: yaw 0
-    x, y, yaw, bad = _geographic(lon, lat, np.where(still, 0.0, h), compass, crs, "trajectory")
+    x, y, yaw, bad = geographic_to_crs(lon, lat, np.where(still, 0.0, h), compass, crs, "trajectory")
     yaw[still] = 0.0
     if bad >= 0:
         raise InputError("trajectory", f"lon {lon[bad]!r}, lat {lat[bad]!r} has no place in the terrain's CRS",

@@ -5,9 +5,8 @@ from __future__ import annotations
 import click
 
 from tankcd_cli.cli.options import no_parquet, no_stdin, refuse_clashes, verbosity_options
+from tankcd_cli.io.input_formats import FORMAT_NAMES
 from tankcd_cli.names import UP_AXES
-
-FORMATS = ("csv", "gpx", "pcap", "pcapng")
 
 
 @click.command(short_help="Write a trajectory (CSV, GPX, DIS capture) as the CSV replay reads.")
@@ -20,8 +19,8 @@ FORMATS = ("csv", "gpx", "pcap", "pcapng")
               help="Convert to the CRS of this terrain (a store is read in place; other inputs are classified).")
 @click.option("--crs", default=None, metavar="CRS",
               help="Convert to this CRS (EPSG:32633, WKT) instead of a terrain's; EPSG:4326: lon, lat, heading_deg.")
-@click.option("--format", "fmt", type=click.Choice(FORMATS), default=None,
-              help="The input's format when its suffix does not say (default: by suffix).")
+@click.option("--format", "fmt", type=click.Choice(FORMAT_NAMES, case_sensitive=False), default=None,
+              help="The input's format when its suffix does not say (default: the suffix, else the first bytes).")
 @click.option("--up", type=click.Choice(UP_AXES), default=None, help="Up axis of a terrain mesh given by --terrain.")
 @verbosity_options
 @click.pass_obj

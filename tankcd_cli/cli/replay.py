@@ -13,6 +13,7 @@ from tankcd_cli.cli.options import (
     vehicle_option,
     verbosity_options,
 )
+from tankcd_cli.io.input_formats import FORMAT_NAMES
 from tankcd_cli.names import (
     EXIT_BAD_INPUT,
     EXIT_COLLISION,
@@ -50,6 +51,9 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               default=None, metavar="DEG",
               help="With escalation: the certificate's attitude tolerance, degrees: a key-point pose tilted more "
                    "than this from a plane the certificate finds is escalated (default: 0.5).")
+@click.option("--format", "fmt", type=click.Choice(FORMAT_NAMES, case_sensitive=False), default=None,
+              help="The trajectory's format where neither its name nor its first bytes say (standard input, any "
+                   "suffix): csv, gpx, pcap or pcapng; gzip-compressed inputs are read as they are.")
 @click.option("--together", is_flag=True,
               help="Several trajectories as one exercise: their rows merged in time into one world (each file an "
                    "entity named after its stem, or its own entities), one poses and one events output, every "
@@ -92,7 +96,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @verbosity_options
 @click.pass_obj
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance,
-           attitude_tolerance, together,
+           attitude_tolerance, fmt, together,
            discrete, vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
            split_lines, window_seconds):
@@ -131,6 +135,13 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         raise click.UsageError("--vehicle does not apply with --scene: the scene's [vehicle] table decides the "
                                "vehicle (set its preset there)")
     check_replay_options(ctx, fleet_mode)
+    if fmt is not None:
+        if fleet_mode:
+            raise click.UsageError("--format names one input's format (or --together's inputs'): a fleet's files "
+                                   "are each told by their name and first bytes")
+        from tankcd_cli.io.input_formats import with_format
+
+        trajectories = tuple(with_format(t, fmt) for t in trajectories)
     if fleet_mode:
         if png:
             raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")

@@ -23,6 +23,7 @@ cdef enum:
     C_MALFORMED = 12
     C_LINK_UNKNOWN = 13
     C_NO_TIME = 14
+    C_TRUNCATED = 15
 
 # statuses (dis.py names them)
 cdef enum:
@@ -32,6 +33,7 @@ cdef enum:
     S_BLOCK = 3     # pcapng: a block that is not a packet block starts here (the caller reads it)
     S_CORRUPT = 4   # a record or block header that cannot be (err: packet, value)
     S_INTERFACE = 5 # pcapng: a packet on an interface no IDB described (err: packet, interface)
+    S_TRAILER = 6   # pcapng: a block's trailing length is not its leading one (err: packet, leading, trailing)
 
 MAX_RECORD = 1 << 22  # 4 MiB: a bigger record is a corrupt header (the outputs need room for its PDUs)
 cdef int64_t _MAX_RECORD = MAX_RECORD
@@ -68,19 +70,25 @@ cdef inline bint _ipv6_extension(uint32_t nh) noexcept nogil:
 
 cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int64_t sec, double frac,
                  int64_t base, int64_t* out_off, int64_t* out_pkt, int64_t* out_sec, double* out_frac,
-                 int64_t* n_out, int64_t* counts, int64_t* types, int64_t* err) noexcept nogil:
-    """One captured packet ``d[:caplen]`` (at ``base`` in the buffer): count it, note its ES PDUs."""
+                 int64_t* n_out, int64_t* counts, int64_t* types, int64_t* err, bint cut) noexcept nogil:
+    """One captured packet ``d[:caplen]`` (at ``base`` in the buffer): count it, note its ES PDUs.
+    ``cut``: the capture holds less of it than was sent (its snap length): counted as truncated, and
+    where its captured bytes end before a header or a PDU's head, nothing else is said of it (its
+    whole PDUs before that are decoded)."""
     cdef int64_t off = 0, ihl, total, ip_end, l4, ulen, declared, data_end, p, remd, L, need
     cdef uint32_t etype = 0, fam, frag, nh
     cdef int ipver = 0, ver, typ, pfam, nart
     cdef bint first_fragment = False, is_dis = False, es
     cdef const uint8_t* ip
     cdef const uint8_t* h
+    if cut:
+        counts[C_TRUNCATED] += 1
     # the link layer
     if link == 1 or link == 113:  # Ethernet (802.1Q/802.1ad tags), Linux cooked (SLL)
         off = 14 if link == 1 else 16
         if caplen < off:
-            counts[C_MALFORMED] += 1
+            if not cut:
+                counts[C_MALFORMED] += 1
             return S_OK
         etype = be16(d + off - 2)
         while _vlan(etype) and off + 4 <= caplen:
@@ -93,7 +101,8 @@ cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int
     elif link == 276:  # Linux cooked v2 (SLL2): the protocol first
         off = 20
         if caplen < off:
-            counts[C_MALFORMED] += 1
+            if not cut:
+                counts[C_MALFORMED] += 1
             return S_OK
         etype = be16(d)
         if etype == 0x0800:
@@ -106,7 +115,8 @@ cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int
     elif link == 0 or link == 108:  # BSD loopback: the address family, host order (0) or network order (108)
         off = 4
         if caplen < off:
-            counts[C_MALFORMED] += 1
+            if not cut:
+                counts[C_MALFORMED] += 1
             return S_OK
         fam = be32(d) if link == 108 else le32(d)
         if fam > 0xffff:  # written on a host of the other byte order
@@ -119,18 +129,21 @@ cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int
         counts[C_LINK_UNKNOWN] += 1
         return S_OK
     if ipver != 4 and ipver != 6:
-        counts[C_NOT_IP] += 1
+        if not (cut and caplen <= off):
+            counts[C_NOT_IP] += 1
         return S_OK
     # the network layer
     ip = d + off
     if ipver == 4:
         if caplen - off < 20 or (ip[0] >> 4) != 4:
-            counts[C_MALFORMED] += 1
+            if not (cut and caplen - off < 20):
+                counts[C_MALFORMED] += 1
             return S_OK
         ihl = (ip[0] & 15) * 4
         total = be16(ip + 2)
         if ihl < 20 or caplen - off < ihl or total < ihl:
-            counts[C_MALFORMED] += 1
+            if not (cut and ihl >= 20 and total >= ihl):
+                counts[C_MALFORMED] += 1
             return S_OK
         frag = be16(ip + 6)
         if (frag & 0x1fff) != 0:  # not the first fragment: no UDP header here
@@ -144,7 +157,8 @@ cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int
         ip_end = off + total
     else:
         if caplen - off < 40 or (ip[0] >> 4) != 6:
-            counts[C_MALFORMED] += 1
+            if not (cut and caplen - off < 40):
+                counts[C_MALFORMED] += 1
             return S_OK
         nh = ip[6]
         if nh != 17:
@@ -157,7 +171,8 @@ cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int
         ip_end = l4 + be16(ip + 4)
     # UDP
     if l4 + 8 > caplen or l4 + 8 > ip_end:
-        counts[C_MALFORMED] += 1
+        if not (cut and l4 + 8 > caplen and l4 + 8 <= ip_end):
+            counts[C_MALFORMED] += 1
         return S_OK
     ulen = be16(d + l4 + 4)
     if ulen == 0 and ipver == 6:  # a jumbogram: the IP payload length says
@@ -183,7 +198,7 @@ cdef int _packet(const uint8_t* d, int64_t caplen, int link, int64_t packet, int
                     counts[C_UDP_NOT_DIS] += 1
             break
         if p + 20 > data_end:
-            if is_dis:
+            if is_dis or (cut and data_end == caplen):  # a PDU's head cut by the snap length
                 counts[C_PDUS_CUT] += 1
             else:
                 counts[C_UDP_NOT_DIS] += 1
@@ -277,7 +292,7 @@ def walk_pcap(const uint8_t[::1] buf, Py_ssize_t pos, bint big, bint nanos, int 
                 first_frac[0] = rd32(d + pos + 4, big) * scale
             status = _packet(d + pos + 16, caplen, link, packet, sec, rd32(d + pos + 4, big) * scale, pos + 16,
                              &out_off[0], &out_pkt[0], &out_sec[0], &out_frac[0], &n_out, &counts[0], &types[0],
-                             &err[0])
+                             &err[0], caplen < rd32(d + pos + 12, big))
             if status != S_OK:
                 break
             pos += 16 + caplen
@@ -298,6 +313,7 @@ def walk_pcapng(const uint8_t[::1] buf, Py_ssize_t pos, bint big, int64_t packet
     ``first_sec``/``first_frac`` the first (set by the call that meets it; ``first_sec[0] < 0`` before).
     Returns (pos, packet, n_out, status)."""
     cdef int64_t n = buf.shape[0], cap = out_off.shape[0], n_out = 0, blen, caplen, sec, room, n_if = if_link.shape[0]
+    cdef int64_t origlen
     cdef uint32_t btype, ifid
     cdef uint64_t ticks, units
     cdef double frac
@@ -320,6 +336,12 @@ def walk_pcapng(const uint8_t[::1] buf, Py_ssize_t pos, bint big, int64_t packet
             room = blen // 144 + 1
             if pos + blen > n or (n_out > 0 and n_out + room > limit) or n_out + room > cap:
                 break
+            if <int64_t>rd32(b + blen - 4, big) != blen:  # a block cut short, or bytes that are no block
+                err[0] = packet + 1
+                err[1] = blen
+                err[2] = rd32(b + blen - 4, big)
+                status = S_TRAILER
+                break
             if btype == 3:  # simple packet block: interface 0, no timestamp
                 if blen < 16 or n_if == 0:
                     err[0] = packet + 1
@@ -328,6 +350,7 @@ def walk_pcapng(const uint8_t[::1] buf, Py_ssize_t pos, bint big, int64_t packet
                     break
                 ifid = 0
                 caplen = rd32(b + 8, big)
+                origlen = caplen
                 if caplen > blen - 16:
                     caplen = blen - 16
                 if if_snap[0] > 0 and caplen > if_snap[0]:
@@ -345,6 +368,7 @@ def walk_pcapng(const uint8_t[::1] buf, Py_ssize_t pos, bint big, int64_t packet
                     break
                 ifid = rd32(b + 8, big) if btype == 6 else rd16(b + 8, big)
                 caplen = rd32(b + 20, big)
+                origlen = rd32(b + 24, big)
                 if 28 + caplen + 4 > blen:
                     err[0] = packet + 1
                     err[1] = caplen
@@ -369,7 +393,7 @@ def walk_pcapng(const uint8_t[::1] buf, Py_ssize_t pos, bint big, int64_t packet
             counts[C_PACKETS] += 1
             status = _packet(b + data, caplen, <int>if_link[ifid], packet, sec, frac, pos + data,
                              &out_off[0], &out_pkt[0], &out_sec[0], &out_frac[0], &n_out, &counts[0], &types[0],
-                             &err[0])
+                             &err[0], caplen < origlen)
             if status != S_OK:
                 break
             pos += blen

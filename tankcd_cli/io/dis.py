@@ -45,6 +45,7 @@ from typing import Iterator
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.input_formats import PCAP_MAGIC, PCAPNG_SHB, open_trajectory_input
 
 # the fixed part of an Entity State PDU (IEEE 1278.1 5.3.2 / 7.2.2): big-endian, 144 bytes
 ES_DTYPE = np.dtype([
@@ -72,11 +73,11 @@ EARTH_RADIUS_RANGE = (6.2e6, 6.5e6)  # m: |ECEF| of a place on the Earth's surfa
 # the framing pass's counters, in its order
 COUNT_NAMES = ("packets", "not_ip", "not_udp", "ipv6_extension", "fragments", "first_fragments", "udp_not_dis",
                "dis_packets", "pdus_cut", "trailing_bytes", "entity_states", "entity_states_v4", "malformed",
-               "link_unknown", "no_timestamp")
-
-PCAP_MAGIC = {b"\xd4\xc3\xb2\xa1": (False, False), b"\xa1\xb2\xc3\xd4": (True, False),   # microseconds
-              b"\x4d\x3c\xb2\xa1": (False, True), b"\xa1\xb2\x3c\x4d": (True, True)}     # nanoseconds
-PCAPNG_SHB = b"\x0a\x0d\x0d\x0a"
+               "link_unknown", "no_timestamp", "truncated")
+# counted by the trajectory reader (rows it drops), not by the framing pass
+ROW_COUNT_NAMES = ("duplicates",)
+# |angle| beyond this (rad) is no orientation: float32's spacing there passes 2^-12 rad (docs/formats.md)
+MAX_ANGLE = 1e3 * np.pi
 MAX_BLOCK = 1 << 26  # bytes: a pcapng block that is not a packet (a section header, interface, name or statistics)
 
 
@@ -93,7 +94,11 @@ class CaptureCounts:
     DIS payloads ending in bytes that are no PDU; ``entity_states`` ES PDUs decoded;
     ``entity_states_v4`` ES PDUs of protocol version 4 (skipped); ``malformed`` frames too short
     for their headers; ``link_unknown`` packets of a link type not read; ``no_timestamp`` simple
-    packet blocks before any timestamp (given t = 0); ``pdu_types``: other DIS PDUs by type number.
+    packet blocks before any timestamp (given t = 0); ``truncated`` packets captured shorter than
+    they were sent (a snap length: their whole PDUs are decoded, the rest counted in ``pdus_cut``);
+    ``duplicates`` Entity State PDUs that repeat their entity's row before them exactly (same
+    capture time, location, orientation, turret and gun: the trajectory reader drops them);
+    ``pdu_types``: other DIS PDUs by type number.
     """
 
     packets: int = 0
@@ -111,6 +116,8 @@ class CaptureCounts:
     malformed: int = 0
     link_unknown: int = 0
     no_timestamp: int = 0
+    truncated: int = 0
+    duplicates: int = 0
     pdu_types: dict = field(default_factory=dict)
 
     def _load(self, counts: np.ndarray, types: np.ndarray) -> None:
@@ -120,7 +127,7 @@ class CaptureCounts:
 
     def skipped(self) -> dict:
         """The non-zero counts of what was not decoded, by name (``pdu_type_N`` for other PDUs)."""
-        out = {name: getattr(self, name) for name in COUNT_NAMES
+        out = {name: getattr(self, name) for name in COUNT_NAMES + ROW_COUNT_NAMES
                if name not in ("packets", "dis_packets", "entity_states", "first_fragments") and getattr(self, name)}
         out.update({f"pdu_type_{k}": v for k, v in sorted(self.pdu_types.items())})
         return out
@@ -233,6 +240,8 @@ def _decode(buf, offsets, packet, t, float64_senders, source) -> EntityStates:
             as64 = old & np.isin(sender, np.fromiter(float64_senders, np.int64, len(float64_senders)))
             value[as64] = raw[as64].view(PART_DTYPE64).reshape(-1)["value64"]
         articulated = parts["record_type"] == 0
+        ours = np.flatnonzero(articulated & np.isin(parts["parameter_type"], (TURRET_AZIMUTH, GUN_ELEVATION)))
+        _check_parts(value[ours], owner[ours], packet, source)
         for out, ptype in ((turret, TURRET_AZIMUTH), (gun, GUN_ELEVATION)):
             k = np.flatnonzero(articulated & (parts["parameter_type"] == ptype))[::-1]
             out[owner[k]] = value[k]  # reversed: a PDU with two such records keeps the first
@@ -266,6 +275,23 @@ def _check_states(location, orientation, packet, source) -> None:
         k = bad[0]
         raise InputError(source, f"Entity State PDU has a non-finite orientation {_triple(orientation[k])}",
                          where=f"packet {packet[k]}")
+    bad = np.flatnonzero((np.abs(orientation) > MAX_ANGLE).any(axis=1))
+    if len(bad):
+        k = bad[0]
+        raise InputError(source, f"Entity State PDU's orientation {_triple(orientation[k])} rad is no angle "
+                                 f"(beyond +-{MAX_ANGLE:.0f} rad = 1000 pi; DIS angles lie within +-pi)",
+                         where=f"packet {packet[k]}")
+
+
+def _check_parts(values, owner, packet, source) -> None:
+    """An articulated turret or gun value that is not finite or beyond ``MAX_ANGLE``: InputError naming the
+    packet (a NaN would read as no value at all)."""
+    bad = np.flatnonzero(~(np.abs(values) <= MAX_ANGLE))
+    if len(bad):
+        k = bad[0]
+        raise InputError(source, f"Entity State PDU's articulated turret or gun angle {values[k]:.6g} rad is no "
+                                 f"angle (non-finite or beyond +-{MAX_ANGLE:.0f} rad)",
+                         where=f"packet {packet[owner[k]]}")
 
 
 def _triple(v) -> str:
@@ -278,13 +304,15 @@ class DisCapture:
     ``for states in DisCapture(path).blocks(): ...`` yields :class:`EntityStates` of
     ``block_pdus`` PDUs (the last fewer), reading ``chunk_bytes`` of the file at a time: memory is
     bounded by those two, whatever the capture's size. ``counts`` (a :class:`CaptureCounts`) is
-    complete once the blocks are exhausted; ``format`` is ``pcap`` or ``pcapng``. Raises
+    complete once the blocks are exhausted; ``format`` is ``pcap`` or ``pcapng``. ``path``: a file, or
+    '-' for standard input; gzip-compressed or not (``io.input_formats``). Raises
     InputError for a file that is not a capture, a capture cut inside a packet, a PDU whose
     length lies, a bad location, and (at the end) a capture without any Entity State PDU.
     """
 
     def __init__(self, path: str, block_pdus: int = 65536, chunk_bytes: int = 1 << 23):
         self.path = path
+        self.name = "<stdin>" if path == "-" else path  # for messages
         self.block_pdus = max(1, int(block_pdus))
         self.chunk_bytes = max(1 << 12, int(chunk_bytes))
         self.counts = CaptureCounts()
@@ -297,10 +325,7 @@ class DisCapture:
         self._outs = None
 
     def blocks(self) -> Iterator[EntityStates]:
-        try:
-            fh = open(self.path, "rb")
-        except OSError as exc:
-            raise InputError(self.path, f"cannot read: {exc.strerror or exc}") from None
+        _, fh = open_trajectory_input(self.path)
         with fh:
             buf = _Buffer(fh, self.chunk_bytes)
             buf.refill(0, 24)
@@ -310,7 +335,7 @@ class DisCapture:
             elif head == PCAPNG_SHB:
                 self.format, walker = "pcapng", self._pcapng(buf)
             else:
-                raise InputError(self.path, "not a pcap or pcapng capture (it starts with bytes "
+                raise InputError(self.name, "not a pcap or pcapng capture (it starts with bytes "
                                             f"{head.hex(' ') or 'nothing'}; a capture starts with a pcap magic "
                                             "a1b2c3d4 or a1b23c4d in either byte order, or a pcapng section header "
                                             "0a0d0d0a)")
@@ -320,7 +345,7 @@ class DisCapture:
             self.counts._load(self._counts, self._types)
         if self.counts.entity_states == 0:
             skipped = ", ".join(f"{k} {v}" for k, v in self.counts.skipped().items()) or "nothing else"
-            raise InputError(self.path, f"no DIS Entity State PDU in {self.counts.packets} packets ({skipped})")
+            raise InputError(self.name, f"no DIS Entity State PDU in {self.counts.packets} packets ({skipped})")
 
     def read(self) -> EntityStates:
         """Every Entity State PDU of the capture in one record (memory grows with the capture)."""
@@ -340,21 +365,25 @@ class DisCapture:
         sec0 = max(int(self._first_sec[0]), 0)
         t = (sec - sec0).astype(np.float64) + (frac - self._first_frac[0])
         t[sec < 0] = 0.0  # simple packet blocks before any timestamp
-        return _decode(arr, off, pkt.copy(), t, self._float64_senders, self.path)
+        return _decode(arr, off, pkt.copy(), t, self._float64_senders, self.name)
 
     def _fail(self, status: int):
         e = self._err.tolist()
         where = f"packet {e[0]}"
         if status == 1:
-            raise InputError(self.path, f"Entity State PDU's length field says {e[1]} bytes, but the UDP payload holds "
+            raise InputError(self.name, f"Entity State PDU's length field says {e[1]} bytes, but the UDP payload holds "
                                         f"only {e[2]} from its start", where=where)
         if status == 2:
-            raise InputError(self.path, f"Entity State PDU's length field says {e[1]} bytes, shorter than its layout "
+            raise InputError(self.name, f"Entity State PDU's length field says {e[1]} bytes, shorter than its layout "
                                         f"with {e[3]} articulation records ({e[2]} bytes)", where=where)
         if status == 4:
-            raise InputError(self.path, f"corrupt capture: the header of packet {e[0]} says {e[1]} bytes", where=where)
+            raise InputError(self.name, f"corrupt capture: the header of packet {e[0]} says {e[1]} bytes", where=where)
+        if status == 6:
+            raise InputError(self.name, f"corrupt pcapng: the block of packet {e[0]} says {e[1]} bytes at its start "
+                                        f"but {e[2]} at its end (a block cut short, or bytes that are no block)",
+                         where=where)
         if status == 5:
-            raise InputError(self.path, "corrupt capture: a packet on an interface no interface description block "
+            raise InputError(self.name, "corrupt capture: a packet on an interface no interface description block "
                                         f"describes (interface {max(e[1], 0)})", where=where)
         raise AssertionError(status)
 
@@ -363,7 +392,7 @@ class DisCapture:
 
         u32 = struct.Struct(">I" if big else "<I").unpack_from
         if buf.end < 24:
-            raise InputError(self.path, f"capture ends inside its file header ({buf.end} of 24 bytes)")
+            raise InputError(self.name, f"capture ends inside its file header ({buf.end} of 24 bytes)")
         link = u32(buf.arr, 20)[0] & 0xffff  # the upper bits may say the FCS length
         outs = self._outputs()
         pos, packet = 24, 0
@@ -383,9 +412,9 @@ class DisCapture:
                 if buf.end == 0:
                     return
                 if buf.end < 16:
-                    raise InputError(self.path, f"capture ends inside the record header of packet {packet + 1} "
+                    raise InputError(self.name, f"capture ends inside the record header of packet {packet + 1} "
                                                 f"({buf.end} of 16 bytes)", where=f"packet {packet + 1}")
-                raise InputError(self.path, f"capture ends inside packet {packet + 1} (its record says "
+                raise InputError(self.name, f"capture ends inside packet {packet + 1} (its record says "
                                             f"{u32(buf.arr, 8)[0]} bytes, {buf.end - 16} are there)",
                                  where=f"packet {packet + 1}")
             pos = 0
@@ -419,14 +448,19 @@ class DisCapture:
                 if btype == PCAPNG_SHB:
                     bom = bytes(arr[pos + 8:pos + 12])
                     if bom not in (b"\x1a\x2b\x3c\x4d", b"\x4d\x3c\x2b\x1a"):
-                        raise InputError(self.path, f"corrupt pcapng: a section header with byte-order magic "
+                        raise InputError(self.name, f"corrupt pcapng: a section header with byte-order magic "
                                                     f"{bom.hex()}", where=f"byte {at}")
                     section_big = bom == b"\x1a\x2b\x3c\x4d"
                 fmt = ">I" if section_big else "<I"
                 blen = struct.unpack_from(fmt, arr, pos + 4)[0]
                 if blen < 12 or blen % 4 or blen > MAX_BLOCK:
-                    raise InputError(self.path, f"corrupt pcapng: a block of length {blen}", where=f"byte {at}")
+                    raise InputError(self.name, f"corrupt pcapng: a block of length {blen}", where=f"byte {at}")
                 if have >= blen:
+                    trailer = struct.unpack_from(fmt, arr, pos + blen - 4)[0]
+                    if trailer != blen:
+                        raise InputError(self.name, f"corrupt pcapng: a block that says {blen} bytes at its start but "
+                                                    f"{trailer} at its end (a block cut short, or bytes that are no "
+                                                    "block)", where=f"byte {at}")
                     code = struct.unpack(fmt, btype)[0]
                     if btype == PCAPNG_SHB:
                         big, interfaces = section_big, []
@@ -446,7 +480,7 @@ class DisCapture:
             if not buf.refill(pos, max(need, 1)):
                 if buf.end == 0:
                     return
-                raise InputError(self.path, f"capture ends inside a block ({buf.end} bytes of it are there; it would "
+                raise InputError(self.name, f"capture ends inside a block ({buf.end} bytes of it are there; it would "
                                             f"be packet {packet + 1} if it is a packet)", where=f"packet {packet + 1}")
             pos = 0
 
@@ -464,7 +498,7 @@ class DisCapture:
                 v = value[0]
                 exp = v & 0x7f
                 if exp > (63 if v & 0x80 else 19):
-                    raise InputError(self.path, f"pcapng interface timestamp resolution {v:#x} is finer than this "
+                    raise InputError(self.name, f"pcapng interface timestamp resolution {v:#x} is finer than this "
                                                 "reader takes (2^-63 or 10^-19 s)", where=f"byte {at}")
                 units = (1 << exp) if v & 0x80 else 10 ** exp
             elif code == 14 and size >= 8:  # if_tsoffset, s

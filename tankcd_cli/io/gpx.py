@@ -112,8 +112,11 @@ def read_gpx(path: str) -> GpxTrack:
     parser.StartElementHandler = points.start
     parser.EndElementHandler = points.end
     parser.CharacterDataHandler = points.text
+    from tankcd_cli.io.input_formats import open_trajectory_input
+
     try:
-        with open(path, "rb") as fh:
+        name, fh = open_trajectory_input(path)  # '-' standard input; gzip decompressed as it is read
+        with fh:
             parser.ParseFile(fh)
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None

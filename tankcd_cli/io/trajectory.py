@@ -28,11 +28,11 @@ from typing import Iterator
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.io.files import open_input
+from tankcd_cli.io.input_formats import FORMAT_NAMES, open_trajectory_input, trajectory_input
 
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
-FORMATS = ("csv", "gpx", "pcap", "pcapng")
+FORMATS = FORMAT_NAMES
 EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")  # turret, gun: where the input has them
 REORDER_WINDOW = 1.0  # s: a capture's packets this much out of time order are put back in order
 _EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
@@ -147,14 +147,9 @@ class _Order:
 
 
 def trajectory_format(path: str, fmt: str | None = None) -> str:
-    """``csv``, ``gpx``, ``pcap`` or ``pcapng``: ``fmt`` if given, else by the file's suffix (a CSV otherwise)."""
-    if fmt is not None:
-        fmt = fmt.lower()
-        if fmt not in FORMATS:
-            raise ValueError(f"unknown trajectory format {fmt!r} (one of {', '.join(FORMATS)})")
-        return fmt
-    ext = os.path.splitext(path)[1].lower()
-    return {".gpx": "gpx", ".pcap": "pcap", ".pcapng": "pcapng"}.get(ext, "csv")
+    """``csv``, ``gpx``, ``pcap`` or ``pcapng``: ``fmt`` if given, else by the suffix (``.gz`` passed
+    over), else by the first bytes (``io.input_formats``: the one place formats are told)."""
+    return trajectory_input(path, fmt).format
 
 
 class TrajectoryReader:
@@ -220,13 +215,13 @@ class TrajectoryReader:
     def _csv(self) -> Iterator[TrajectoryChunk]:
         from tankcd_cli.io.trajectory_csv import ByteSource, CsvRows, first_row_time, read_layout, stem_name
 
-        name, fh = open_input(self.path, text=False)
+        name, fh = open_trajectory_input(self.path)
         try:
             lay = read_layout(fh, name)
             self.geographic = lay.geographic
             self.columns = tuple(lay.header)
             if lay.geographic and self.convert:
-                _check_crs(self.crs, name)
+                check_crs(self.crs, name)
             part = self.part
             if part is not None:
                 first_row_time(fh, lay)
@@ -295,7 +290,7 @@ class TrajectoryReader:
         if lay.geographic and self.lonlat:
             yaw = np.where(still, 0.0, 90.0 - h[:k]) if compass else h[:k]
         if lay.geographic and self.convert and k:
-            x, y, yaw, bad = _geographic(a[:k], b[:k], np.where(still, 0.0, h[:k]), compass, self.crs, lay.name)
+            x, y, yaw, bad = geographic_to_crs(a[:k], b[:k], np.where(still, 0.0, h[:k]), compass, self.crs, lay.name)
             yaw[still] = 0.0
             if bad >= 0:
                 k = bad
@@ -333,10 +328,8 @@ class TrajectoryReader:
     def _gpx(self) -> Iterator[TrajectoryChunk]:
         from tankcd_cli.io.gpx import read_gpx
 
-        if self.path == "-":
-            raise InputError("<stdin>", "a GPX file is read from a file, not from standard input")
         if self.convert:
-            _check_crs(self.crs, self.path)
+            check_crs(self.crs, self.path)
         g = read_gpx(self.path)
         self.start = g.start
         self.time_origin = g.origin
@@ -383,43 +376,75 @@ class TrajectoryReader:
     def _capture(self) -> Iterator[TrajectoryChunk]:
         from tankcd_cli.io.dis import DisCapture
 
-        if self.path == "-":
-            raise InputError("<stdin>", "a capture is read from a file, not from standard input")
-        if self.convert:
-            _check_crs(self.crs, self.path)
         cap = DisCapture(self.path, block_pdus=self.chunk_rows)
+        if self.convert:
+            check_crs(self.crs, cap.name)
         self.counts = cap.counts
-        state = _CaptureState()
+        state = _CaptureState(cap.name)
         step = 0
         for states in cap.blocks():
             if self.start is None and cap._first_sec[0] >= 0:
                 self.start = _EPOCH + timedelta(seconds=int(cap._first_sec[0]), microseconds=round(
                     float(cap._first_frac[0]) * 1e6))
                 self.time_origin = float(cap._first_sec[0]) + float(cap._first_frac[0])
+            cap.counts.duplicates = state.duplicates
             self.skipped = cap.counts.skipped()
             for chunk in state.take(self, states, step):
                 step += len(chunk)
                 yield chunk
-        self.counts = cap.counts
-        self.skipped = cap.counts.skipped()
         for chunk in state.flush(self, step):
             step += len(chunk)
             yield chunk
+        cap.counts.duplicates = state.duplicates
+        self.counts = cap.counts
+        self.skipped = cap.counts.skipped()
+        _warn_capture(cap.name, cap.counts, state)
+
+
+def _warn_capture(name: str, counts, state: "_CaptureState") -> None:
+    """The set-up warnings of a capture read to its end: packets its snap length cut, duplicates dropped."""
+    from tankcd_cli.errors import warn
+
+    if counts.truncated:
+        lost = f"; {counts.pdus_cut:,} PDUs in them cut short and not read" if counts.pdus_cut else \
+            "; every Entity State PDU in them was whole and is read"
+        warn(name, f"{counts.truncated:,} packets were captured shorter than they were sent (the capture's snap "
+                   f"length){lost}")
+    if state.duplicates:
+        warn(name, f"{state.duplicates:,} duplicate Entity State PDUs dropped (each repeats its entity's row before "
+                   f"it exactly: the same capture time, location, orientation, turret and gun; first at packet "
+                   f"{state.first_duplicate}): a capture taken on two interfaces, or merged with itself?")
 
 
 class _CaptureState:
-    """A capture's rows on their way out: held back ``REORDER_WINDOW`` s to put packets slightly out of
-    time order back in order, then checked (each entity's time), the turret and gun carried where a PDU
-    has none, and cut into chunks."""
+    """A capture's rows on their way out, in an order that does not depend on how the capture is cut
+    into blocks (docs/formats.md, "DIS captures"):
 
-    def __init__(self):
+    each packet P gets the key k_P = max(t_P, L_P - W), L_P the latest capture time of the packets up
+    to P (in capture order), W = ``REORDER_WINDOW``; the rows go out stably sorted by k. A packet at
+    most W behind the latest before it keeps k = t (put back in time order); one further behind goes
+    where the window had reached (k = L_P - W), and its entity's time going back there is the error.
+
+    Proof that streaming gives that order: every packet Q after the ones read so far has k_Q >= L_Q -
+    W >= L - W (L the latest so far; L is non-decreasing), and goes after every earlier packet of
+    equal k (the sort is stable); so the rows read with k < L - W are a prefix of the whole capture's
+    order, whatever the blocks. Then the rows go through each entity's time check, the duplicates
+    (a row equal to its entity's row before it in time, position, orientation, turret and gun) are
+    dropped and counted, the turret and gun carried where a PDU has none, and the rows cut into chunks."""
+
+    def __init__(self, name: str = ""):
+        self.name = name
         self.names = _Names()
         self.interner = None
         self.order = _Order()
         self.pending: dict | None = None
         self.latest = -np.inf
+        self.latest_packet = 0
         self.last_turret = np.zeros(16)
         self.last_gun = np.zeros(16)
+        self.last_state = np.full((16, 9), np.nan)  # each entity's last row: t, location, orientation, parts
+        self.duplicates = 0
+        self.first_duplicate = 0
         self.has_turret = False
 
     def _codes(self, ids: np.ndarray) -> np.ndarray:
@@ -444,7 +469,7 @@ class _CaptureState:
         if reader.convert:
             from tankcd_cli.io.dis import trajectory_columns
 
-            cols = trajectory_columns(states, reader.crs, source=reader.path)
+            cols = trajectory_columns(states, reader.crs, source=self.name)
             block = {"t": states.t, "x": cols["x"], "y": cols["y"], "yaw_deg": cols["yaw_deg"],
                      "turret_deg": cols["turret_deg"], "gun_deg": cols["gun_deg"]}
         elif reader.lonlat:
@@ -466,15 +491,25 @@ class _CaptureState:
                      "gun_deg": np.degrees(gun)}
         block["packet"] = states.packet
         block["code"] = self._codes(states.entity_id)
+        block["state"] = np.column_stack([states.t, states.location, states.orientation, states.turret_azimuth,
+                                          states.gun_elevation])
+        # the latest capture time up to each packet (and that packet, for messages), across blocks
+        t = states.t
+        latest = np.maximum.accumulate(np.r_[self.latest, t])[1:]
+        new_max = np.r_[self.latest, latest[:-1]] < t
+        at = np.maximum.accumulate(np.where(new_max, np.arange(1, n + 1), 0))
+        block["latest"] = latest
+        block["latest_packet"] = np.where(at > 0, states.packet[np.maximum(at - 1, 0)], self.latest_packet)
+        block["key"] = np.maximum(t, latest - REORDER_WINDOW)
+        self.latest, self.latest_packet = float(latest[-1]), int(block["latest_packet"][-1])
         if self.pending is not None:
             block = {k: np.concatenate([self.pending[k], v]) for k, v in block.items()}
-        t = block["t"]
-        if np.any(t[1:] < t[:-1]):
-            idx = np.argsort(t, kind="stable")
+        key = block["key"]
+        if np.any(key[1:] < key[:-1]):
+            idx = np.argsort(key, kind="stable")
             block = {k: v[idx] for k, v in block.items()}
-            t = block["t"]
-        self.latest = max(self.latest, float(states.t.max()))
-        cut = int(np.searchsorted(t, self.latest - REORDER_WINDOW, side="left"))
+            key = block["key"]
+        cut = int(np.searchsorted(key, self.latest - REORDER_WINDOW, side="left"))
         self.pending = {k: v[cut:] for k, v in block.items()}
         yield from self._emit(reader, {k: v[:cut] for k, v in block.items()}, step)
 
@@ -483,22 +518,62 @@ class _CaptureState:
             block, self.pending = self.pending, None
             yield from self._emit(reader, block, step)
 
+    def _grow(self, ncodes: int) -> None:
+        if len(self.last_turret) < ncodes:
+            grow = max(ncodes, 2 * len(self.last_turret)) - len(self.last_turret)
+            self.last_turret = np.r_[self.last_turret, np.zeros(grow)]
+            self.last_gun = np.r_[self.last_gun, np.zeros(grow)]
+            self.last_state = np.vstack([self.last_state, np.full((grow, 9), np.nan)])
+
+    def _duplicates(self, block: dict) -> np.ndarray | None:
+        """(N,) bool the rows equal to their entity's row before them (t, location, orientation, turret and
+        gun as decoded; NaN equal to NaN), counted; None for none."""
+        codes, state = block["code"], block["state"]
+        n = len(codes)
+        if n == 0:
+            return None
+        order = np.argsort(codes, kind="stable")  # each entity's rows together, in order
+        c = codes[order]
+        first = np.r_[True, c[1:] != c[:-1]]
+        prev = np.empty_like(state)
+        prev[1:] = state[order[:-1]]
+        prev[first] = self.last_state[c[first]]
+        cur = state[order]
+        same = ((cur == prev) | (np.isnan(cur) & np.isnan(prev))).all(axis=1)
+        last = np.r_[c[1:] != c[:-1], True]
+        self.last_state[c[last]] = cur[last]
+        if not same.any():
+            return None
+        drop = np.zeros(n, bool)
+        drop[order[same]] = True
+        if not self.duplicates:
+            self.first_duplicate = int(block["packet"][np.flatnonzero(drop)[0]])
+        self.duplicates += int(drop.sum())
+        return drop
+
     def _emit(self, reader: TrajectoryReader, block: dict, step: int):
         n = len(block["t"])
         if not n:
             return
         codes = block["code"]
         ncodes = len(self.names.list)
+        self._grow(ncodes)
         piece, bad = self.order.check(codes, block["t"], block["packet"], ncodes)
         k = n if bad < 0 else bad
-        if len(self.last_turret) < ncodes:
-            grow = ncodes - len(self.last_turret)
-            self.last_turret = np.r_[self.last_turret, np.zeros(grow)]
-            self.last_gun = np.r_[self.last_gun, np.zeros(grow)]
-        self.has_turret = self.has_turret or bool(np.isfinite(block["turret_deg"][:k]).any()
-                                                  or np.isfinite(block["gun_deg"][:k]).any())
-        turret = _carry(block["turret_deg"][:k], codes[:k], self.last_turret)
-        gun = _carry(block["gun_deg"][:k], codes[:k], self.last_gun)
+        error = self._order_error(block, bad) if bad >= 0 else None
+        if bad >= 0:
+            block = {key: v[:k] for key, v in block.items()}
+            piece = piece[:k]
+        drop = self._duplicates(block)
+        if drop is not None:  # a duplicate is never its entity's first row: the pieces stay as they are
+            block = {key: v[~drop] for key, v in block.items()}
+            piece = piece[~drop]
+        codes = block["code"]
+        k = len(codes)
+        self.has_turret = self.has_turret or bool(np.isfinite(block["turret_deg"]).any()
+                                                  or np.isfinite(block["gun_deg"]).any())
+        turret = _carry(block["turret_deg"], codes, self.last_turret)
+        gun = _carry(block["gun_deg"], codes, self.last_gun)
         names = self.names.tuple()
         for lo in range(0, k, reader.chunk_rows):
             hi = min(lo + reader.chunk_rows, k)
@@ -506,15 +581,21 @@ class _CaptureState:
                                   block["x"][lo:hi], block["y"][lo:hi], block["yaw_deg"][lo:hi], turret[lo:hi],
                                   gun[lo:hi], self.has_turret, block["packet"][lo:hi], codes[lo:hi], names,
                                   piece[lo:hi], True, "packet", reader.time_origin)
-        if bad >= 0:
-            code = int(codes[bad])
-            prev = float(self.order.last_t[code])
-            raise InputError(reader.path, f"entity {self.names.list[code]!r}: capture time goes back "
-                                          f"{prev - float(block['t'][bad]):.6f} s (t {float(block['t'][bad])!r} after "
-                                          f"{prev!r} at packet {int(self.order.last_line[code])}), more than the "
-                                          f"{REORDER_WINDOW:g} s this reader puts back in order; sort the capture by "
-                                          "time first (Wireshark's reordercap does)",
-                             where=f"packet {int(block['packet'][bad])}")
+        if error is not None:
+            raise error
+
+    def _order_error(self, block: dict, bad: int) -> InputError:
+        code = int(block["code"][bad])
+        prev = float(self.order.last_t[code])
+        t = float(block["t"][bad])
+        behind = float(block["latest"][bad]) - t
+        return InputError(self.name, f"entity {self.names.list[code]!r}: capture time goes back {prev - t:.6f} s (t "
+                                     f"{t!r} after {prev!r} at packet {int(self.order.last_line[code])}): the packet "
+                                     f"is {behind:.6f} s behind the capture's latest time (packet "
+                                     f"{int(block['latest_packet'][bad])}), more than the {REORDER_WINDOW:g} s this "
+                                     "reader puts back in order; sort the capture by time first (Wireshark's "
+                                     "reordercap does)",
+                          where=f"packet {int(block['packet'][bad])}")
 
 
 def _headed_from_track(rows, lay, path: str):
@@ -600,7 +681,7 @@ def _track_names(raw: list) -> list:
     return names
 
 
-def _check_crs(crs: str | None, source: str) -> None:
+def check_crs(crs: str | None, source: str) -> None:
     """Refuse (InputError naming ``source``) a terrain without a CRS, or with one pyproj cannot read or that is
     not projected, before any row is read."""
     from tankcd_cli.io.geodesy import project
@@ -608,7 +689,7 @@ def _check_crs(crs: str | None, source: str) -> None:
     project(np.zeros(0), np.zeros(0), crs or "", source=source)
 
 
-def _geographic(lon, lat, heading_deg, compass: bool, crs: str, source: str):
+def geographic_to_crs(lon, lat, heading_deg, compass: bool, crs: str, source: str):
     """lon, lat, heading (deg) -> x, y, yaw_deg in the terrain's CRS, and the first row that has no place
     there (-1 for none)."""
     from tankcd_cli.io.geodesy import to_terrain_crs
@@ -636,7 +717,7 @@ def read_trajectory(path: str, chunk_rows: int = 65536, part: TrajectoryPart | N
 def _csv_layout(path: str):
     from tankcd_cli.io.trajectory_csv import read_layout
 
-    name, fh = open_input(path, text=False)
+    name, fh = open_trajectory_input(path)
     with fh:
         return read_layout(fh, name)
 
@@ -665,7 +746,7 @@ def lead_row(path: str, part: TrajectoryPart, crs: str | None = None) -> Traject
     lay = _csv_layout(path)
     if lay.entity:
         return _lead_rows_by_entity(path, part, lay, crs)
-    name, fh = open_input(path, text=False)
+    name, fh = open_trajectory_input(path)
     try:
         body_start = lay.body_start
         back = 4096
@@ -734,7 +815,7 @@ def split_trajectory(path: str, lines_per_part: int, block: int = 1 << 22) -> li
         lay = _csv_layout(path)
     except InputError:
         return []
-    name, fh = open_input(path, text=False)
+    name, fh = open_trajectory_input(path)
     with fh:
         fh.seek(lay.body_start)
         offset, lines = lay.body_start, lay.header_line

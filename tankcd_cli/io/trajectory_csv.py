@@ -81,10 +81,14 @@ def epoch_seconds(seconds: int, ns: int) -> float:
 
 def stem_name(path: str) -> str:
     """The entity name of a file without an entity column: its stem ('stdin' for '-'), without the
-    characters an entity id may not hold (commas, quotes, control characters: '_' instead)."""
+    characters an entity id may not hold (commas, quotes, control characters: '_' instead); a
+    compressed file's without its ``.gz`` too (``run.csv.gz``: ``run``)."""
     if path == "-":
         return "stdin"
-    stem = os.path.splitext(os.path.basename(path))[0] or "trajectory"
+    base = os.path.basename(path)
+    if base.lower().endswith(".gz"):
+        base = base[:-3]
+    stem = os.path.splitext(base)[0] or "trajectory"
     return re.sub(r"[,\"'\x00-\x1f\x7f]", "_", stem)
 
 

@@ -123,3 +123,38 @@ def test_against_the_dense_oracle_on_random_pairs_of_articulated_vehicles():
         if np.isfinite(dense[k]):  # never missed; never after the oracle's first sample in contact (but half a leaf)
             assert k in found and found[k] <= dense[k] + LEAF_BOUND / rate[k] + 1e-12
     assert len(set(found) - set(np.flatnonzero(np.isfinite(dense)).tolist())) <= 1  # passes within 1 mm only
+
+
+def test_the_point_of_a_first_contact_along_a_segment_or_a_face_is_its_centre_whatever_a_micrometre_changes():
+    """Two box hulls: b's vertical front-left edge meets a's flat left side (the contact a vertical segment,
+    0.49 to 2.19 m high), and two fronts meet flat (a face, offset 1 m sideways). The sweep meets any
+    triangle pair of the segment or face first; the point reported is the centre of all the pairs within
+    1 mm: on the segment near its middle (z = 1.34) and in the overlap near its centre, the same to 1 cm
+    whatever the micrometres."""
+    body = _body(boxy=True)
+    rng = np.random.default_rng(4)
+    points = []
+    for trial in range(12):
+        e = rng.uniform(-1e-6, 1e-6, 6)
+        # b, turned 45 deg, drives north onto a's left side (y = +1.73) with its right-front corner first
+        a = _motion([0, 0, 0], [0, e[0], 0])
+        b = _motion([1.0 + e[1], 8.0 + e[2], 0], [1.0 + e[1], 2.0 + e[2], 0], yaw0=-135.0 + e[3])
+        hits = first_vehicle_contacts(body, a, body, b)
+        assert hits.span.tolist() == [0]
+        points.append(hits.point[0])
+    points = np.array(points)
+    assert np.ptp(points, axis=0).max() < 0.01
+    # on the segment, near its middle (the mean of the ends and of where the triangles' diagonals cross it)
+    assert points[:, 2].mean() == pytest.approx((0.49 + 2.19) / 2, abs=0.05)
+    assert points[:, 1].mean() == pytest.approx(1.73, abs=0.01)
+    faces = []
+    for trial in range(12):
+        e = rng.uniform(-1e-6, 1e-6, 4)
+        a = _motion([0, 0, 0], [4 + e[0], 0, 0])
+        b = _motion([12, 1.0 + e[1], 0], [8 + e[2], 1.0 + e[1], 0], yaw0=180.0 + e[3])
+        hits = first_vehicle_contacts(body, a, body, b)
+        faces.append(hits.point[0])
+    faces = np.array(faces)
+    assert np.ptp(faces, axis=0).max() < 0.01
+    # the fronts' overlap: y from 1.0 - 1.73 to 1.73, z from 0.49 to 2.19: its centre
+    assert faces[0, 1] == pytest.approx(0.5, abs=0.1) and faces[0, 2] == pytest.approx(1.34, abs=0.1)

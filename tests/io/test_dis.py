@@ -210,7 +210,65 @@ def test_a_snap_length_cut_is_counted_not_an_error(tmp_path):
     struct.pack_into("<I", data, 24 + 8, cut)  # incl_len < orig_len, as tcpdump -s writes
     path = _write(tmp_path, bytes(data[:24 + 16 + cut]))
     states, counts = read_capture(path)
-    assert states.entity.tolist() == ["1:1:1"] and counts.pdus_cut == 1
+    assert states.entity.tolist() == ["1:1:1"] and counts.pdus_cut == 1 and counts.truncated == 1
+
+
+def _snapped(frame, keep, ng=False):
+    """One packet captured to its first ``keep`` bytes (incl_len < orig_len), as pcap or a pcapng EPB."""
+    if ng:
+        data = C.pcapng([(1, None, 0)], [(0, T0 * 10**6, frame[:keep])])
+        body_at = len(data) - (32 + len(frame[:keep]) + (-keep % 4))
+        data = bytearray(data)
+        struct.pack_into("<I", data, body_at + 24, len(frame))  # the original length
+        return bytes(data)
+    data = bytearray(C.pcap([(T0, frame)]))
+    struct.pack_into("<I", data, 24 + 8, keep)
+    return bytes(data[:24 + 16 + keep])
+
+
+@pytest.mark.parametrize("ng", [False, True])
+def test_a_snap_length_cut_anywhere_is_truncated_never_not_dis_and_whole_pdus_decode(tmp_path, ng):
+    loc = ecef(10, 50)
+    es = C.es_dis7(1, 1, 1, loc, (0, 0, 0))
+    frame = C.ethernet(C.ipv4(C.udp(es + C.other_pdu(2, 2, 96))))
+    head = 14 + 20 + 8  # Ethernet, IPv4, UDP
+    good = C.ethernet(C.ipv4(C.udp(C.es_dis7(1, 1, 9, loc, (0, 0, 0)))))
+    for keep, decoded, cut in ((head + len(es) + 30, ["1:1:1"], 1), (head + len(es), ["1:1:1"], 1),
+                               (head + 10, [], 1), (head + 100, [], 1), (head - 4, [], 0), (20, [], 0), (6, [], 0)):
+        snapped = _snapped(frame, keep, ng)
+        other = _snapped(good, len(good), ng)  # a whole packet after it
+        header = 24 if not ng else len(C.pcapng([(1, None, 0)], []))
+        data = snapped + other[header:]
+        states, counts = read_capture(_write(tmp_path, data, "s.pcapng" if ng else "s.pcap"))
+        assert states.entity.tolist() == decoded + ["1:1:9"], keep
+        assert counts.truncated == 1 and counts.pdus_cut == cut, keep
+        assert counts.udp_not_dis == counts.malformed == counts.not_ip == 0, (keep, counts)
+
+
+def test_pcapng_trailing_block_lengths_are_checked(tmp_path):
+    pdu = C.es_dis7(1, 1, 1, ecef(10, 50), (0, 0, 0))
+    frame = C.ethernet(C.ipv4(C.udp(pdu)))
+    ng = C.pcapng([(1, None, 0)], [(0, T0 * 10**6 + k, frame) for k in range(3)])
+    blen = 32 + len(frame) + (-len(frame) % 4)
+    rng = np.random.default_rng(5)
+    junk = bytes(rng.integers(0, 256, blen // 2, dtype=np.uint8))
+    # the last block cut in its middle, junk after it making up its length
+    with pytest.raises(InputError, match=r"c\.pcapng: packet 3: corrupt pcapng: the block of packet 3 says "
+                                         rf"{blen} bytes at its start but \d+ at its end"):
+        read_capture(_write(tmp_path, ng[:-(blen // 2)] + junk, "c.pcapng"))
+    # a block of another kind (the interface description) whose trailing length lies
+    bad = bytearray(ng)
+    shb = struct.unpack_from("<I", bad, 4)[0]
+    idb = struct.unpack_from("<I", bad, shb + 4)[0]
+    struct.pack_into("<I", bad, shb + idb - 4, idb + 4)
+    with pytest.raises(InputError, match=rf"byte {shb}: corrupt pcapng: a block that says {idb} bytes at its start"):
+        read_capture(_write(tmp_path, bytes(bad), "c.pcapng"))
+    # whatever the blocks the reads fall in
+    for chunk in (4096, 1 << 20):
+        capture = DisCapture(_write(tmp_path, ng[:-(blen // 2)] + junk, "c.pcapng"), block_pdus=1)
+        capture.chunk_bytes = chunk
+        with pytest.raises(InputError, match="packet 3: corrupt pcapng"):
+            list(capture.blocks())
 
 
 @pytest.mark.parametrize("value64", [False, True])
@@ -292,6 +350,22 @@ def test_a_non_finite_orientation(tmp_path):
     pdu = C.es_dis7(1, 1, 1, ecef(10, 50), (0, np.inf, 0))
     with pytest.raises(InputError, match="packet 1: Entity State PDU has a non-finite orientation"):
         read_capture(_write(tmp_path, C.pcap([(T0, C.ethernet(C.ipv4(C.udp(pdu))))])))
+
+
+@pytest.mark.parametrize("orientation,parts,fragment", [
+    ((0, 0, 1e30), (), r"orientation \(0, 0, 1e\+30\) rad is no angle \(beyond \+-3142 rad = 1000 pi"),
+    ((-3200.0, 0, 0), (), "orientation .* is no angle"),
+    ((0, 0, 0), ((C.TURRET_AZIMUTH, float("nan")),), "articulated turret or gun angle nan rad is no angle"),
+    ((0, 0, 0), ((C.GUN_ELEVATION, 1e20),), "articulated turret or gun angle 1e\\+20 rad")])
+def test_orientations_and_articulations_that_are_no_angle_are_refused_naming_the_packet(tmp_path, orientation, parts,
+                                                                                         fragment):
+    ok = C.es_dis7(1, 1, 1, ecef(10, 50), (3000.0, -3.1, 3141.0), parts=[(C.TURRET_AZIMUTH, -3000.0)])
+    bad = C.es_dis7(1, 1, 1, ecef(10, 50), orientation, parts=list(parts))
+    path = _write(tmp_path, C.pcap([(T0, C.ethernet(C.ipv4(C.udp(ok)))), (T0 + 1, C.ethernet(C.ipv4(C.udp(bad))))]))
+    with pytest.raises(InputError, match="packet 2: Entity State PDU's " + fragment):
+        read_capture(path)
+    states, _ = read_capture(_write(tmp_path, C.pcap([(T0, C.ethernet(C.ipv4(C.udp(ok))))]), "ok.pcap"))
+    assert states.orientation[0, 0] == 3000.0  # within the bound: an angle, read as it is
 
 
 def test_a_capture_without_entity_states(tmp_path):

@@ -549,9 +549,104 @@ def test_packets_a_little_out_of_time_order_are_put_in_order_and_far_out_refused
     path = _capture(tmp_path, frames, "far.pcap")
     msg, got = _error(path, crs="EPSG:32632", chunk_rows=1)
     # entity 1:1:2 at 10.5 s is far behind but its own first row: fine; 1:1:1 at 10.6 after 12.0: refused
-    assert msg == (f"{path}: packet 5: entity '1:1:1': capture time goes back 1.400000 s (t 0.6 after 2.0 at packet 2), "
-                   "more than the 1 s this reader puts back in order; sort the capture by time first (Wireshark's "
-                   "reordercap does)")
+    assert msg == (f"{path}: packet 5: entity '1:1:1': capture time goes back 1.400000 s (t 0.6 after 2.0 at "
+                   "packet 2): the packet is 3.400000 s behind the capture's latest time (packet 3), more than the 1 s "
+                   "this reader puts back in order; sort the capture by time first (Wireshark's reordercap does)")
+
+
+def _capture_order_reference(t, entity):
+    """The order the capture reader's docs define, packet by packet in plain Python: key max(t, latest so
+    far - 1 s), rows stably sorted by it, each entity's time checked. Returns (packets out, bad packet or 0)."""
+    latest, keys = -np.inf, []
+    for tt in t:
+        latest = max(latest, tt)
+        keys.append(max(tt, latest - 1.0))
+    last, out = {}, []
+    for i in sorted(range(len(t)), key=lambda i: (keys[i], i)):
+        if entity[i] in last and t[i] < last[entity[i]]:
+            return out, i + 1
+        last[entity[i]] = t[i]
+        out.append(i + 1)
+    return out, 0
+
+
+def test_a_captures_order_and_its_refusals_do_not_depend_on_where_the_read_blocks_fall(tmp_path, monkeypatch):
+    """Random captures of packets going back in time by up to 3 s, read in blocks of 1 to 1000 PDUs and of
+    4 KiB of the file (a back-step straddling blocks): the same rows in the same order and the same error,
+    those of the plain-Python reference."""
+    from tankcd_cli.io import dis
+    from tankcd_cli.io.dis import read_capture
+
+    monkeypatch.setattr(dis.DisCapture.__init__, "__defaults__", (65536, 4096))  # the smallest read
+    rng = np.random.default_rng(21)
+    errors = 0
+    for trial in range(40):
+        n = int(rng.integers(5, 60))
+        back = rng.choice([0.0, 0.5, 3.0], p=[0.2, 0.4, 0.4])
+        t = np.round(np.cumsum(rng.uniform(0, 0.3, n)) - back * (rng.random(n) < 0.15) * rng.random(n), 3)
+        ent = rng.integers(1, 4, n)
+        frames = [(100 + float(tt), _es(int(e), 0, [], lon=10 + k * 1e-5)) for k, (tt, e) in enumerate(zip(t, ent))]
+        path = _capture(tmp_path, frames, f"r{trial}.pcap")
+        decoded = read_capture(path)[0].t
+        want, bad = _capture_order_reference(decoded.tolist(), ent.tolist())
+        errors += bad > 0
+        for rows in (1, 2, 3, 7, 1000):
+            got, message = [], None
+            try:
+                for chunk in TrajectoryReader(path, rows, convert=False):
+                    got += chunk.line.tolist()
+            except InputError as exc:
+                message = str(exc)
+            assert got == want, (trial, rows)
+            assert (message is None) == (bad == 0), (trial, rows, message)
+            if bad:
+                assert message.startswith(f"{path}: packet {bad}: entity '1:1:{ent[bad - 1]}': capture time goes "
+                                          "back"), message
+                assert "s behind the capture's latest time (packet " in message
+    assert 5 < errors < 35  # both kinds met
+
+
+def test_duplicate_packets_are_dropped_counted_and_warned(tmp_path):
+    from tankcd_cli.errors import SetupWarning
+    from tests.io import captures as C
+    from tests.io.test_dis import ecef
+
+    tur = C.TURRET_AZIMUTH
+
+    def es(ent, lon, parts=()):
+        return C.es_dis7(1, 1, ent, ecef(lon, 50.0), (0.1, 0.2, 0.3), parts=list(parts))
+
+    eth = lambda *pdus: C.ethernet(C.ipv4(C.udp(b"".join(pdus))))  # noqa: E731
+    frames = [(1.0, eth(es(1, 10.0, [(tur, 0.5)]))), (1.0, eth(es(1, 10.0, [(tur, 0.5)]))),  # 2: a duplicate
+              (1.0, eth(es(2, 10.1))), (1.0, eth(es(1, 10.0, [(tur, 0.5)]))),  # 4: still its entity's row before
+              (1.5, eth(es(1, 10.0, [(tur, 0.5)]))),  # the same state later: a row (a vehicle standing)
+              (1.5, eth(es(1, 10.0, [(tur, 0.6)]))),  # the same time, another turret: a row
+              (2.0, eth(es(2, 10.2), es(2, 10.2))),  # bundled twice in one datagram: one dropped
+              (2.0, eth(es(2, 10.2)))]  # 8
+    path = _capture(tmp_path, frames)
+    for rows in (1, 2, 100):
+        reader = TrajectoryReader(path, rows, crs="EPSG:32632")
+        with pytest.warns(SetupWarning, match=r"c\.pcap: 4 duplicate Entity State PDUs dropped .* first at packet 2"):
+            got = _joined(reader)
+        assert got["line"].tolist() == [1, 3, 5, 6, 7]
+        assert got["step"].tolist() == list(range(5))
+        assert reader.counts.duplicates == 4 and reader.skipped == {"duplicates": 4}
+        np.testing.assert_allclose(got["turret_deg"], np.degrees([-0.5, 0, -0.5, -0.6, 0]), atol=1e-5)
+    info = trajectory_info(path)
+    assert info.rows == 5 and info.skipped == {"duplicates": 4}
+
+
+def test_snap_length_cuts_are_warned(tmp_path):
+    from tankcd_cli.errors import SetupWarning
+    from tests.io.test_dis import _snapped
+
+    frame = _es(1, 0, [])
+    data = _snapped(frame, len(frame) - 5)
+    path = _write(tmp_path, data + _snapped(frame, len(frame))[24:], "s.pcap")
+    with pytest.warns(SetupWarning, match=r"s\.pcap: 1 packets were captured shorter than they were sent \(the "
+                                          r"capture's snap length\); 1 PDUs in them cut short and not read"):
+        got = _joined(read_trajectory(path, crs="EPSG:32632"))
+    assert got["line"].tolist() == [2]
 
 
 def test_capture_refusals_are_the_decoders(tmp_path):
