@@ -80,7 +80,9 @@ def test_a_gpx_track_and_a_csv_in_another_zone_meet_at_their_utc_times(run, grou
     assert [(e["a"], e["b"], e["a_part"], e["b_part"]) for e in vehicle] == [("A", "B", "gun", "gun")]
     assert vehicle[0]["t"] == pytest.approx(t, abs=1e-3)
     assert vehicle[0]["point"][0] == pytest.approx(WEST + 10 + 8 * t + GUN, abs=2e-3)
-    assert vehicle[0]["point"][1] == pytest.approx(Y, abs=2e-3)
+    # muzzle face on muzzle face: the point is the mean of the touching features, on the face within the
+    # contact point's 1 cm (docs/formats.md, "Contacts between vehicles"), not its exact centre
+    assert vehicle[0]["point"][1] == pytest.approx(Y, abs=1e-2)
     lined_up_by_first_rows = (150 - 10 - 2 * GUN) / 15  # what they met at before: 2.3 s early, 18 m off
     assert abs(vehicle[0]["t"] - lined_up_by_first_rows) > 2
     summary = json.loads((ground / "s.json").read_text())
