@@ -127,12 +127,13 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
             raise _write_error(target, exc) from None
         finally:
             _OPEN.remove(entry)
-        how = "copy" if in_place else "replace"
+        # renamed onto the file a link names (the link stays), copied into one written in place
+        done = [tmp, target, "copy"] if in_place else [tmp, target, os.path.realpath(target)]
         if _GROUPS:  # the block renames it with the others
-            _GROUPS[-1].append([tmp, target, how])
+            _GROUPS[-1].append(done)
             tmp = None
         else:
-            _commit([[tmp, target, how]])
+            _commit([done])
             tmp = None
     finally:
         if tmp is not None:
@@ -152,7 +153,8 @@ def _owned_elsewhere(exc: OSError, entry: tuple) -> bool:
 def _commit(entries: list) -> None:
     """Outputs to their targets: first the copies into targets written in place (a reader may take
     its time: SIGINT and SIGTERM stay free), then the renames with SIGINT and SIGTERM held back:
-    a signal leaves all of them or none. Each done entry's temporary becomes None."""
+    a signal leaves all of them or none. Each done entry's temporary becomes None. An entry is
+    [temporary, target, "copy" or the path to rename onto]."""
     for entry in entries:
         tmp, target, how = entry
         if tmp is None or how != "copy":
@@ -168,7 +170,7 @@ def _commit(entries: list) -> None:
             if tmp is None:
                 continue
             try:
-                os.replace(tmp, target)
+                os.replace(tmp, how)
             except OSError as exc:
                 raise _write_error(target, exc) from None
             _forget(tmp)
