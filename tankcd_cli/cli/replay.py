@@ -145,7 +145,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         from tankcd_cli.replay.fleet import expand_trajectories
 
         trajectory = expand_trajectories(list(trajectories))
-    from tankcd_cli.io.atomic import atomic_path, committed_together
+    from tankcd_cli.io.atomic import atomic_path, check_folders, committed_together
     from tankcd_cli.replay.world import WorldSpec, world_inputs
 
     if poses_path == "-" and "-" in (events_path, summary_path):
@@ -155,7 +155,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
     from tankcd_cli.io.parquet import check_writable
 
-    check_writable(poses_path, events_path, png, summary_file)  # before the world is loaded
+    check_writable(poses_path, events_path)  # before the world is loaded
+    check_folders(poses_path, events_path, png, summary_file)  # every output's folder, before any work
     report.kernels()
     step = report.progress("replay")
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)

@@ -56,12 +56,8 @@ def pyarrow_modules(target: str | None = None):
 
 
 def check_writable(*targets: str | None) -> None:
-    """ParquetUnavailable for the first of ``targets`` that asks for Parquet when pyarrow is missing,
-    and InputError for one whose folder is missing (``io.atomic.check_folders``): called before
-    any work, so that a run that cannot write its outputs does not start."""
-    from tankcd_cli.io.atomic import check_folders
-
-    check_folders(*targets)
+    """ParquetUnavailable for the first of ``targets`` that asks for Parquet when pyarrow is missing:
+    called before any work, so that a run that cannot write its output does not start."""
     for target in targets:
         if is_parquet(target):
             pyarrow_modules(target)
