@@ -183,7 +183,7 @@ def main(argv=None):
 
     signal.signal(signal.SIGTERM, _on_sigterm)
     signal.signal(signal.SIGINT, _on_sigint)
-    from tankcd_cli.io.atomic import guard_termination
+    from tankcd_cli.io.exit_guard import guard_termination
 
     guard_termination()  # a SIGTERM that Python cannot answer (a long compiled call) ends the run in 1 s
     try:

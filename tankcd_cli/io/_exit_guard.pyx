@@ -1,4 +1,4 @@
-# SIGTERM answered within a grace period even where the run cannot (io/atomic.py, guard_termination).
+# SIGTERM answered within a grace period even where the run cannot (the wrapper: io/exit_guard.py).
 #
 # Python runs a signal's handler only when the main thread next executes Python code; a compiled
 # kernel or a library call (a convolution, a warp, a thread pool's shutdown) can keep it away for

@@ -321,36 +321,23 @@ def _create_beside(target: str, directory: str, suffix: str) -> str:
     raise InputError(target, "cannot write output: no free temporary name beside it")
 
 
-def guard_termination(grace_seconds: int = 1) -> bool:
-    """Make SIGTERM end the command within ``grace_seconds`` whatever it is doing (a compiled
-    kernel or a library call keeps Python's own handler from running until it returns): the
-    compiled guard (``io._exit_guard``) passes the signal on to Python's handler, and if the
-    process still runs when the grace is over, it removes the pending temporary outputs and exits
-    with 143. Installed by the command line after its own SIGTERM handler; False where the guard
-    is not built or cannot chain that handler."""
-    try:
-        from tankcd_cli.io import _exit_guard
-    except ImportError:
-        return False
-    if not _exit_guard.install(grace_seconds):
-        return False
-    for tmp in list(_PENDING):
-        _exit_guard.track(os.fsencode(tmp))
-    return True
+def pending_paths() -> list:
+    """The temporary outputs not yet renamed nor removed."""
+    return list(_PENDING)
 
 
 def _remember(tmp: str) -> None:
     _PENDING.add(tmp)
-    guard = sys.modules.get("tankcd_cli.io._exit_guard")
+    guard = sys.modules.get("tankcd_cli.io.exit_guard")
     if guard is not None:  # removed by the forced exit too (a SIGTERM the run does not answer)
-        guard.track(os.fsencode(tmp))
+        guard.track(tmp)
 
 
 def _forget(tmp: str) -> None:
     _PENDING.discard(tmp)
-    guard = sys.modules.get("tankcd_cli.io._exit_guard")
+    guard = sys.modules.get("tankcd_cli.io.exit_guard")
     if guard is not None:
-        guard.untrack(os.fsencode(tmp))
+        guard.untrack(tmp)
 
 
 class NamedStream:

@@ -185,7 +185,7 @@ import tankcd_cli.terrain.grid.tiled_classify as tiled
 real = tiled.classify_tile
 def slow(*a, **k):
     sys.stderr.write("LONG\\n"); sys.stderr.flush()
-    np.convolve(np.ones(200_000), np.ones(50_000))
+    np.convolve(np.ones(400_000), np.ones(100_000))
     return real(*a, **k)
 tiled.classify_tile = slow
 from tankcd_cli.cli.main import console
@@ -203,6 +203,7 @@ def test_sigterm_in_a_long_compiled_call_ends_the_run_within_a_second(tmp_path):
                             stderr=subprocess.PIPE, text=True)
     assert proc.stderr.readline().strip() == "LONG"
     assert list(out.glob(".tankcd-*")), "the store's temporary file is there while the run works"
+    time.sleep(0.5)  # well inside the convolution (seconds long), past the Python that starts it
     start = time.monotonic()
     proc.send_signal(signal.SIGTERM)
     err = proc.communicate(timeout=60)[1]
