@@ -144,7 +144,7 @@ def test_an_asset_in_millimetres_scaled_collides_where_the_same_asset_in_metres_
     metres = run("collide", "--scene", "scene.toml", "--poses", "poses.csv")
     assert metres.exit_code == 0, metres.stderr
     hit_steps = [json.loads(line)["step"] for line in metres.stdout.splitlines()]
-    assert hit_steps == [1, 3]
+    assert sorted(set(hit_steps)) == [1, 3]  # an event per part in contact at those poses
 
     write_tris(tmp_path / "block.obj", box([-1000, -1000, 0], [1000, 1000, 3000]))  # the same block in mm
     _collide_scene(tmp_path, "scale = 0.001\n")
@@ -157,7 +157,8 @@ def test_an_asset_in_millimetres_scaled_collides_where_the_same_asset_in_metres_
         assert abs(x - (X0 + 10)) <= np.sqrt(2) + 1e-6 and abs(y - Y0) <= np.sqrt(2) + 1e-6 and 0 <= z <= 3 + 1e-6
 
     _collide_scene(tmp_path, "")  # unscaled, the 2 km block swallows every pose
-    assert len(run("collide", "--scene", "scene.toml", "--poses", "poses.csv").stdout.splitlines()) == 4
+    swallowed = run("collide", "--scene", "scene.toml", "--poses", "poses.csv").stdout.splitlines()
+    assert len({json.loads(line)["step"] for line in swallowed}) == 4
 
 
 def test_a_changed_scale_or_rotation_does_not_reuse_a_cached_tree(run, tmp_path):

@@ -183,6 +183,9 @@ def main(argv=None):
 
     signal.signal(signal.SIGTERM, _on_sigterm)
     signal.signal(signal.SIGINT, _on_sigint)
+    from tankcd_cli.io.exit_guard import guard_termination
+
+    guard_termination()  # a SIGTERM that Python cannot answer (a long compiled call) ends the run in 1 s
     try:
         cli.main(args=argv, prog_name="tankcd")
     except BrokenPipeError:

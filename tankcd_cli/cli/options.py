@@ -121,9 +121,10 @@ def refuse_clashes(inputs: dict, outputs: dict) -> None:
 
     inputs, outputs : option label -> path (None is skipped; "-" only counts as standard output).
     Paths are compared resolved (symbolic links, ``..``) and, where both exist, as files (hard
-    links too).
+    links too). Outputs may share a character device (``--poses /dev/null --events /dev/null``:
+    written in place, neither replaces the other).
     """
-    from tankcd_cli.io.files import same_path
+    from tankcd_cli.io.files import is_character_device, same_path
 
     seen = [(label, path) for label, path in inputs.items() if path not in (None, "-")]
     to_stdout = [label for label, path in outputs.items() if path == "-"]
@@ -134,7 +135,7 @@ def refuse_clashes(inputs: dict, outputs: dict) -> None:
         if path in (None, "-"):
             continue
         for other_label, other in seen:
-            if same_path(path, other):
+            if same_path(path, other) and not (other_label in outputs and is_character_device(path)):
                 raise click.UsageError(f"{label} {path} is also {other_label} {other}: give another output path")
         seen.append((label, path))
 

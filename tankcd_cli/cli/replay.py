@@ -157,7 +157,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         from tankcd_cli.replay.fleet import expand_trajectories
 
         trajectory = expand_trajectories(list(trajectories))
-    from tankcd_cli.io.atomic import atomic_path
+    from tankcd_cli.io.atomic import atomic_path, check_folders, committed_together
     from tankcd_cli.replay.world import WorldSpec, world_inputs
 
     if poses_path == "-" and "-" in (events_path, summary_path):
@@ -168,6 +168,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     from tankcd_cli.io.parquet import check_writable
 
     check_writable(poses_path, events_path)  # before the world is loaded
+    check_folders(poses_path, events_path, png, summary_file)  # every output's folder, before any work
     report.kernels()
     step = report.progress("replay")
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
@@ -184,21 +185,23 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         from tankcd_cli.replay.drawing import ReplayDrawing
 
         drawing = ReplayDrawing(colour_by=png_colour)
-    result = api.replay_to_files(trajectory, poses_path, events_path, world=world, matcher=matcher,
-                                 discrete=discrete, escalate=escalate, tolerance=tolerance,
-                                 attitude_tolerance=attitude_tolerance,
-                                 progress=lambda n: report.bar(f"replay: {n:,} rows"),
-                                 observe=drawing.observe if drawing else None)
-    report.bar(None)
-    result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
-    if drawing is not None:
-        step(f"drawing {png}")
-        # the map draws a mesh's classes only when classified here (a mesh store read from disk: none)
-        opened = world.terrain
-        mesh_store = opened.mesh_store if opened.classified else None
-        with atomic_path(png, ".png") as tmp:
-            drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
-    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
+    with committed_together():  # poses, events, picture and summary: all of them or none
+        result = api.replay_to_files(trajectory, poses_path, events_path, world=world, matcher=matcher,
+                                     discrete=discrete, escalate=escalate, tolerance=tolerance,
+                                     attitude_tolerance=attitude_tolerance,
+                                     progress=lambda n: report.bar(f"replay: {n:,} rows"),
+                                     observe=drawing.observe if drawing else None)
+        report.bar(None)
+        result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
+        if drawing is not None:
+            step(f"drawing {png}")
+            # the map draws a mesh's classes only when classified here (a mesh store read from disk: none)
+            opened = world.terrain
+            mesh_store = opened.mesh_store if opened.classified else None
+            with atomic_path(png, ".png") as tmp:
+                drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
+        _write_summary(summary_path, result.as_dict())
+    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows, written=True)
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 
@@ -213,14 +216,18 @@ def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_
                                "standard input")
     world = None if scheduler else api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
                                                   cache=cache, progress=step)
-    result = api.replay_windows(trajectory, poses_path, events_path, scene=scene, terrain=terrain,
-                                vehicle=vehicle_name, up=up, world=world, matcher=matcher, discrete=discrete,
-                                escalate=escalate, tolerance=tolerances[0], attitude_tolerance=tolerances[1],
-                                window_seconds=window_seconds,
-                                scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
-    report.bar(None)
-    result.seconds = round(report.elapsed(), 3)
-    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
+    from tankcd_cli.io.atomic import committed_together
+
+    with committed_together():  # poses, events and summary: all of them or none
+        result = api.replay_windows(trajectory, poses_path, events_path, scene=scene, terrain=terrain,
+                                    vehicle=vehicle_name, up=up, world=world, matcher=matcher, discrete=discrete,
+                                    escalate=escalate, tolerance=tolerances[0], attitude_tolerance=tolerances[1],
+                                    window_seconds=window_seconds,
+                                    scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
+        report.bar(None)
+        result.seconds = round(report.elapsed(), 3)
+        _write_summary(summary_path, result.as_dict())
+    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows, written=True)
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 
@@ -244,10 +251,11 @@ def _write_summary(summary_path, result: dict) -> None:
         fh.write(json.dumps(result, indent=None if summary_path == "-" else 2) + "\n")
 
 
-def _report_summary(report, result: dict, summary_path, effects: dict, rows: int) -> None:
+def _report_summary(report, result: dict, summary_path, effects: dict, rows: int, written: bool = False) -> None:
     import json
 
-    _write_summary(summary_path, result)
+    if not written:  # (``written``: the command wrote the summary with its other outputs)
+        _write_summary(summary_path, result)
     if summary_path == SUMMARY_STDERR:
         click.echo(json.dumps(result), err=True)
     else:

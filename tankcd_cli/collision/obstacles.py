@@ -166,7 +166,8 @@ def file_parts(raw) -> tuple[np.ndarray, tuple]:
 
 @dataclass
 class ObstacleHits:
-    """One row per (pose, obstacle) in contact: pose index, obstacle index, vehicle part, point, contacts."""
+    """One row per (pose, obstacle, vehicle part) in contact, ordered by pose, obstacle and part:
+    pose index, obstacle index, vehicle part, a contact point, the triangle contacts found."""
 
     pose: np.ndarray
     obstacle: np.ndarray
@@ -181,17 +182,18 @@ class ObstacleHits:
 def collide_obstacles(body: VehicleBody, obstacles: list[Obstacle], rotation: np.ndarray, translation: np.ndarray,
                       turret_rad=0.0, gun_rad=0.0, all_contacts: bool = False) -> ObstacleHits:
     """The vehicle at N poses (hull rotation (N, 3, 3), translation (N, 3), turret and gun angles
-    (N,) rad) against every obstacle: broad phase on world AABBs per group, then the tandem tree
-    walk for the pairs that remain. One row per (pose, obstacle) in contact: the part is the
-    first found (hull group first, then turret, then gun), ``contacts`` the triangle contacts
-    found over all groups (one per group touching unless ``all_contacts``)."""
+    (N,) rad) against every obstacle: broad phase on world AABBs per part, then the tandem tree
+    walk for the pairs that remain. One row per (pose, obstacle, part) in contact (each part's
+    own tree, ``BodyGroup.part_trees``: a part is in contact exactly when a triangle of it
+    intersects one of the obstacle's), ``contacts`` the triangle contacts found for that part
+    (one unless ``all_contacts``)."""
     n = len(rotation)
     if not obstacles or n == 0:
         empty = np.zeros(0, dtype=np.int64)
         return ObstacleHits(empty, empty, empty, np.zeros((0, 3)), empty, 0, 0, 0)
     turret_rad = np.broadcast_to(np.asarray(turret_rad, dtype=float), (n,))
     gun_rad = np.broadcast_to(np.asarray(gun_rad, dtype=float), (n,))
-    part = {}  # (pose, obstacle) -> (part, point); counts summed beside
+    point = {}  # (pose, obstacle, part) -> point; counts beside
     count: dict = {}
     node_tests = tri_tests = broad = 0
     # first the box no point of the vehicle leaves under any articulation: its radius about the origin
@@ -207,69 +209,70 @@ def collide_obstacles(body: VehicleBody, obstacles: list[Obstacle], rotation: np
     for group in body.groups:
         R, t = group_placements(body, group, np.asarray(rotation)[sel], translation[sel], turret_rad[sel],
                                 gun_rad[sel])
-        tree = group.tree
-        # the group's world AABB at each pose: its root box moved (centre R c + t, half-widths |R| h)
-        centre = 0.5 * (tree.lo[0, :3] + tree.hi[0, :3])
-        half = 0.5 * (tree.hi[0, :3] - tree.lo[0, :3])
-        world_centre = R @ centre + t
-        world_half = np.abs(R) @ half
-        lo, hi = world_centre - world_half, world_centre + world_half
-        for j, ob in enumerate(obstacles):
-            near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
-            broad += len(near)
-            if len(near) == 0:
-                continue
-            res = collide(tree, ob.tree, R[near], t[near], all_contacts=all_contacts)
-            node_tests += int(res.node_tests.sum())
-            tri_tests += int(res.tri_tests.sum())
-            for k in np.flatnonzero(res.found > 0):
-                key = (int(sel[near[k]]), j)
-                part.setdefault(key, (int(group.parts[res.pairs[k, 0, 0]]), res.points[k, 0]))
-                count[key] = count.get(key, 0) + int(res.found[k])
-    keys = sorted(part)
+        for part, tree in group.part_trees:
+            # the part's world AABB at each pose: its root box moved (centre R c + t, half-widths |R| h)
+            centre = 0.5 * (tree.lo[0, :3] + tree.hi[0, :3])
+            half = 0.5 * (tree.hi[0, :3] - tree.lo[0, :3])
+            world_centre = R @ centre + t
+            world_half = np.abs(R) @ half
+            lo, hi = world_centre - world_half, world_centre + world_half
+            for j, ob in enumerate(obstacles):
+                near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
+                broad += len(near)
+                if len(near) == 0:
+                    continue
+                res = collide(tree, ob.tree, R[near], t[near], all_contacts=all_contacts)
+                node_tests += int(res.node_tests.sum())
+                tri_tests += int(res.tri_tests.sum())
+                for k in np.flatnonzero(res.found > 0):
+                    key = (int(sel[near[k]]), j, part)
+                    point[key] = res.points[k, 0]
+                    count[key] = int(res.found[k])
+    keys = sorted(point)
     pose = np.array([k[0] for k in keys], dtype=np.int64)
     obstacle = np.array([k[1] for k in keys], dtype=np.int64)
-    return ObstacleHits(pose, obstacle, np.array([part[k][0] for k in keys], dtype=np.int64),
-                        np.array([part[k][1] for k in keys], dtype=float).reshape(-1, 3),
+    return ObstacleHits(pose, obstacle, np.array([k[2] for k in keys], dtype=np.int64),
+                        np.array([point[k] for k in keys], dtype=float).reshape(-1, 3),
                         np.array([count[k] for k in keys], dtype=np.int64), node_tests, tri_tests, broad)
 
 
 @dataclass
 class SweptHits:
-    """One row per (step, obstacle) whose first contact lies in the step: step index, obstacle
-    index, vehicle part, the fraction s of the step at first contact, the world contact point."""
+    """One row per (step, obstacle, vehicle part) whose first contact lies in the step, ordered by
+    step, obstacle and part: step index, obstacle index, vehicle part, the fraction s of the step
+    at that part's first contact with the obstacle, the world contact point."""
 
     step: np.ndarray
     obstacle: np.ndarray
     part: np.ndarray
     s: np.ndarray
     point: np.ndarray
-    queries: int  # group-obstacle pairs walked along their steps (the rest cost one box test)
+    queries: int  # part-obstacle pairs walked along their steps (the rest cost one box test)
 
 
 def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray, c0: np.ndarray, q1: np.ndarray,
                     c1: np.ndarray, turret0, dturret, gun0, dgun) -> SweptHits:
-    """The first contact of the vehicle with each obstacle over M rigid steps of the hull, from
-    attitude q0 (M, 4) and origin c0 (M, 3) to q1, c1, the turret and gun turning from turret0,
-    gun0 by dturret, dgun (M,) rad at constant rates (``geometry.motion``; ``bvh.sweep`` for the
-    method and its guarantees).
+    """The first contact of each vehicle part with each obstacle over M rigid steps of the hull,
+    from attitude q0 (M, 4) and origin c0 (M, 3) to q1, c1, the turret and gun turning from
+    turret0, gun0 by dturret, dgun (M,) rad at constant rates (``geometry.motion``; ``bvh.sweep``
+    for the method and its guarantees), each part by its own tree (``BodyGroup.part_trees``)
+    under its group's motion bound (a part's points are among the group's).
 
     Broad phase: first a box around the whole step (the hull origin's two places grown by the
-    vehicle's radius, which no point of it passes under any articulation), then per group and
-    obstacle the group's world box at the step's middle grown by half its motion bound, which
-    holds the group throughout the step (every point stays within half the bound of where it is
+    vehicle's radius, which no point of it passes under any articulation), then per part and
+    obstacle the part's world box at the step's middle grown by half its group's motion bound,
+    which holds it throughout the step (every point stays within half the bound of where it is
     at the middle); a step whose boxes miss every obstacle's costs those box tests alone."""
     from tankcd_cli.bvh.sweep import chain_placements
     from tankcd_cli.bvh.sweep import first_contacts, motion_rows, static_rows
     from tankcd_cli.geometry.motion import rotation_angle
 
     m = len(q0)
-    best_s = np.full((m, len(obstacles)), np.inf)
-    best_part = np.full((m, len(obstacles)), -1, dtype=np.int64)
-    best_point = np.full((m, len(obstacles), 3), np.nan)
+    nparts = len(body.part_names)
     queries = 0
     if m == 0 or not obstacles:
-        return _swept_hits(best_s, best_part, best_point, queries)
+        return _swept_hits(np.zeros(0, np.int64), np.full((0, len(obstacles), nparts), np.inf),
+                           np.zeros((0, len(obstacles), nparts, 3)), queries)
     c0, c1 = np.asarray(c0, float), np.asarray(c1, float)
     reach = body.radius * (1 + 1e-9)
     lo = np.minimum(c0, c1) - reach
@@ -278,8 +281,11 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
     for ob in obstacles:
         close |= ((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1)
     idx = np.flatnonzero(close)
+    # per close step, obstacle and part: the earliest contact found and its point
+    best_s = np.full((len(idx), len(obstacles), nparts), np.inf)
+    best_point = np.full((len(idx), len(obstacles), nparts, 3), np.nan)
     if len(idx) == 0:
-        return _swept_hits(best_s, best_part, best_point, queries)
+        return _swept_hits(idx, best_s, best_point, queries)
     q0, q1, c0, c1 = np.asarray(q0, float)[idx], np.asarray(q1, float)[idx], c0[idx], c1[idx]
     angles = (np.asarray(turret0, float)[idx], np.asarray(gun0, float)[idx])
     changes = (np.asarray(dturret, float)[idx], np.asarray(dgun, float)[idx])
@@ -291,30 +297,28 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
         rows, njoints = motion_rows(q0, c0, q1, c1, joints, angles[:group.kind], changes[:group.kind])
         rate = group.bound_rate(travel, theta, changes[0], changes[1])
         R, t = chain_placements(rows, njoints, half_s)
-        tree = group.tree
-        centre = 0.5 * (tree.lo[0, :3] + tree.hi[0, :3])
-        half = 0.5 * (tree.hi[0, :3] - tree.lo[0, :3])
-        world_centre = np.einsum("nij,j->ni", R, centre) + t
-        world_half = np.einsum("nij,j->ni", np.abs(R), half) + 0.5 * rate[:, None]
-        lo, hi = world_centre - world_half, world_centre + world_half
-        for j, ob in enumerate(obstacles):
-            near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
-            if len(near) == 0:
-                continue
-            queries += len(near)
-            still, none = static_rows(len(near))
-            got = first_contacts(tree, ob.tree, rows[near], njoints[near], still, none, rate[near])
-            hit = np.flatnonzero(got.found)
-            k = idx[near[hit]]
-            better = got.s[hit] < best_s[k, j]
-            k, h = k[better], hit[better]
-            best_s[k, j] = got.s[h]
-            best_part[k, j] = group.parts[got.pairs[h, 0]]
-            best_point[k, j] = got.points[h]
-    return _swept_hits(best_s, best_part, best_point, queries)
+        for part, tree in group.part_trees:
+            centre = 0.5 * (tree.lo[0, :3] + tree.hi[0, :3])
+            half = 0.5 * (tree.hi[0, :3] - tree.lo[0, :3])
+            world_centre = np.einsum("nij,j->ni", R, centre) + t
+            world_half = np.einsum("nij,j->ni", np.abs(R), half) + 0.5 * rate[:, None]
+            lo, hi = world_centre - world_half, world_centre + world_half
+            for j, ob in enumerate(obstacles):
+                near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
+                if len(near) == 0:
+                    continue
+                queries += len(near)
+                still, none = static_rows(len(near))
+                got = first_contacts(tree, ob.tree, rows[near], njoints[near], still, none, rate[near])
+                hit = np.flatnonzero(got.found)
+                k = near[hit]
+                better = got.s[hit] < best_s[k, j, part]
+                k, h = k[better], hit[better]
+                best_s[k, j, part] = got.s[h]
+                best_point[k, j, part] = got.points[h]
+    return _swept_hits(idx, best_s, best_point, queries)
 
 
-def _swept_hits(best_s, best_part, best_point, queries) -> SweptHits:
-    step, obstacle = np.nonzero(np.isfinite(best_s))
-    return SweptHits(step, obstacle, best_part[step, obstacle], best_s[step, obstacle], best_point[step, obstacle],
-                     queries)
+def _swept_hits(idx, best_s, best_point, queries) -> SweptHits:
+    row, obstacle, part = np.nonzero(np.isfinite(best_s))
+    return SweptHits(idx[row], obstacle, part, best_s[row, obstacle, part], best_point[row, obstacle, part], queries)

@@ -16,6 +16,7 @@ radii the motion bound of ``geometry.motion`` needs.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -59,6 +60,20 @@ class BodyGroup:
     @property
     def name(self) -> str:
         return GROUPS[self.kind]
+
+    @cached_property
+    def part_trees(self) -> tuple:
+        """((part, tree), ...): a tree of each of the group's parts' triangles (built with the group
+        tree's settings when first asked: obstacle queries name every part in contact, not the first
+        found), the group's own tree where it has one part. Source indices of a part's tree index
+        its own triangles."""
+        parts = self.parts[self.tree.source_index]  # the part of each triangle in leaf order
+        ids = np.unique(parts)
+        if len(ids) == 1:
+            return ((int(ids[0]), self.tree),)
+        t = self.tree
+        return tuple((int(p), build_tree(t.triangles[parts == p], k=t.k, leaf_size=t.leaf_size,
+                                         aabb_levels=t.aabb_levels, split=t.split)) for p in ids)
 
     def bound_rate(self, travel, turn, dturret, dgun) -> np.ndarray:
         """How far any point of the group moves per unit of a rigid step's fraction, at most (m):

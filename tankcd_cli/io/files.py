@@ -36,6 +36,16 @@ def same_path(a: str, b: str) -> bool:
         return False
 
 
+def is_character_device(path: str) -> bool:
+    """Whether ``path`` names a character device (/dev/null, a terminal), following links."""
+    import stat
+
+    try:
+        return stat.S_ISCHR(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 def read_bytes(path: str, name: str) -> bytes:
     """The whole content of ``path`` ('-': standard input); ``name`` is how errors name it."""
     _, stream = open_input(path)

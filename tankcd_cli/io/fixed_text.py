@@ -6,6 +6,8 @@ A number is rounded to its column's decimals from ``value * 10**decimals``
 (``rint``), so where printf's correctly rounded text lies exactly on a tie it
 can differ in the last digit; callers send values whose scaled magnitude is
 below 2**53 (else they format in Python). Non-finite cells are left empty.
+Labels are any text: written as UTF-8 (the kernel copies their bytes), the result decoded as
+ASCII when every label is (the common case: no second pass) and as UTF-8 otherwise.
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ from tankcd_cli.io._fixed_text import format_table  # noqa: F401
 def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, labels: list, kinds: np.ndarray,
                index: np.ndarray, row_ends: np.ndarray | None = None) -> str | None:
     """CSV text of the rows (see ``format_table``), or None when a value is too large for fixed point.
-    ``row_ends``: an (N,) int64 array that gets each row's end in the text (its newline's index + 1)."""
+    ``row_ends``: an (N,) int64 array that gets each row's end in the text (its newline's index + 1,
+    counted in characters of the returned string, which are bytes only while the labels are ASCII)."""
     numbers = np.ascontiguousarray(numbers, dtype=np.float64)
     decimals = np.asarray(decimals, dtype=np.int64)
     with np.errstate(invalid="ignore", over="ignore"):
@@ -26,7 +29,8 @@ def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, lab
     # a finite value whose scaled magnitude overflows to inf is too large as well
     if np.any(np.isfinite(numbers) & ~(scaled < 2.0 ** 53)):
         return None
-    encoded = [s.encode("ascii") for s in labels]
+    encoded = [s.encode("utf-8") for s in labels]
+    ascii_only = all(len(e) == len(s) for e, s in zip(encoded, labels))
     width = max([len(e) for e in encoded] + [1])
     table = np.zeros((len(encoded), width), np.uint8)
     for k, e in enumerate(encoded):
@@ -39,4 +43,10 @@ def table_text(numbers: np.ndarray, decimals: np.ndarray, codes: np.ndarray, lab
     # row blocks formatted in parallel, each at its row's bound (the same bytes as one pass)
     used = format_table(numbers, decimals, np.ascontiguousarray(codes, dtype=np.int64), table, lengths,
                         np.asarray(kinds, np.int64), np.asarray(index, np.int64), out, per_row, row_ends)
-    return str(memoryview(out)[:used], "ascii")  # decoded straight from the buffer (no bytes copy)
+    if ascii_only:
+        return str(memoryview(out)[:used], "ascii")  # decoded straight from the buffer (no bytes copy)
+    if row_ends is not None and n:
+        # byte offsets to character offsets: less the UTF-8 continuation bytes (10xxxxxx) before each end
+        continuation = np.cumsum((out[:used] & 0xC0) == 0x80)
+        row_ends[:n] -= continuation[row_ends[:n] - 1]
+    return str(memoryview(out)[:used], "utf-8")

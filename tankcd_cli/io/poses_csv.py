@@ -31,8 +31,8 @@ def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity
                 row_ends: np.ndarray | None = None) -> str:
     """CSV text of a chunk of poses. Numbers a pose does not have (status ``off``) are left empty.
     ``entity`` (N,) codes into ``entity_names``: the ``entity`` column after ``step``.
-    ``row_ends``: an (N,) int64 array that gets each row's end in the text (ASCII: characters are
-    bytes)."""
+    ``row_ends``: an (N,) int64 array that gets each row's end in the text, in characters (entity
+    names are any text: UTF-8 in a file)."""
     from tankcd_cli.io.fixed_text import table_text
 
     deg = np.degrees
@@ -57,7 +57,7 @@ def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity
     if text is None:  # a number too large for fixed point (far beyond any terrain): printf does it
         text = format_rows_printf(step, t, poses, matcher_names, status_names, entity, entity_names)
         if row_ends is not None:
-            row_ends[:] = np.flatnonzero(np.frombuffer(text.encode("ascii"), np.uint8) == 10) + 1
+            row_ends[:] = np.flatnonzero(np.frombuffer(text.encode("utf-32-le"), np.uint32) == 10) + 1
     return text
 
 

@@ -174,3 +174,41 @@ def test_concurrent_runs_from_one_store_do_not_interfere(big):
                    check=True, capture_output=True)
     assert outs[0].read_bytes() == outs[1].read_bytes() == alone.read_bytes()
     assert outs[2].read_bytes() != alone.read_bytes()  # a different matcher really ran at the same time
+
+
+# a classify whose tile work starts with a long compiled call (one np.convolve: seconds of C that
+# never returns to Python, as a big convolution or warp does), told on stderr when it starts
+LONG_CLASSIFY = """
+import sys
+import numpy as np
+import tankcd_cli.terrain.grid.tiled_classify as tiled
+real = tiled.classify_tile
+def slow(*a, **k):
+    sys.stderr.write("LONG\\n"); sys.stderr.flush()
+    np.convolve(np.ones(400_000), np.ones(100_000))
+    return real(*a, **k)
+tiled.classify_tile = slow
+from tankcd_cli.cli.main import console
+console(sys.argv[1:])
+"""
+
+
+def test_sigterm_in_a_long_compiled_call_ends_the_run_within_a_second(tmp_path):
+    pytest.importorskip("tankcd_cli.io._exit_guard")  # the compiled guard (setup.py build_ext)
+    ys, xs = np.mgrid[0:60, 0:60] * 1.0
+    write_asc(tmp_path / "g.asc", np.sin(xs / 9) * np.cos(ys / 7))
+    out = tmp_path / "out"
+    out.mkdir()
+    target = out / "g.h5"
+    proc = subprocess.Popen([sys.executable, "-c", LONG_CLASSIFY, "classify", tmp_path / "g.asc", "-o", target],
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stderr.readline().strip() == "LONG"
+    assert list(out.glob(".tankcd-*")), "the store's temporary file is there while the run works"
+    time.sleep(0.5)  # well inside the convolution (seconds long), past the Python that starts it
+    start = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    err = proc.communicate(timeout=60)[1]
+    took = time.monotonic() - start
+    assert proc.returncode == 143 and "terminated" in err, err
+    assert took < 2.5, took  # the 1 s grace and the exit (the convolution alone takes far longer)
+    assert not target.exists() and not list(out.glob(".tankcd-*"))

@@ -36,8 +36,11 @@ def test_a_hull_at_15_m_s_through_a_thin_wall_between_rows_is_caught_when_the_mu
     wall = _obstacle([10.0, -5.0, 0.0], [10.2, 5.0, 3.0])
     hits = obstacles_along(body, [wall], _q(0), [[0.0, 0, 0]], _q(0), [[15.0, 0, 0]], [0.0], [0.0], [0.0], [0.0])
     muzzle = T72.turret_x + T72.trunnion_forward + T72.gun_length  # the gun reaches farthest forward
-    assert hits.step.tolist() == [0] and PARTS[hits.part[0]] == "gun"
-    assert hits.s[0] * 15 == pytest.approx(10.0 - muzzle, abs=LEAF_BOUND)
+    # every part goes through the wall in the step: one first contact each, the gun's first
+    assert hits.step.tolist() == [0] * len(PARTS) and sorted(PARTS[p] for p in hits.part) == sorted(PARTS)
+    first = np.argmin(hits.s)
+    assert PARTS[hits.part[first]] == "gun"
+    assert hits.s[first] * 15 == pytest.approx(10.0 - muzzle, abs=LEAF_BOUND)
     # neither row touches the wall: the discrete check sees nothing
     R = quaternion_matrix(_q([0, 0]))
     assert len(collide_obstacles(body, [wall], R, np.array([[0.0, 0, 0], [15.0, 0, 0]])).pose) == 0
@@ -73,15 +76,16 @@ def test_the_turret_swinging_between_rows_sweeps_the_gun_through_a_wall_beside_t
 
 
 def _dense(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg, samples):
-    """The oracle: the discrete articulated check at many fractions of each step; first fraction per (step, obstacle)."""
+    """The oracle: the discrete articulated check at many fractions of each step; first fraction per
+    (step, obstacle, part)."""
     s = np.linspace(0, 1, samples + 1)
     out = {}
     for k in range(len(q0)):
         q = quaternion_slerp(np.repeat(q0[k:k + 1], len(s), 0), np.repeat(q1[k:k + 1], len(s), 0), s)
         c = c0[k] + s[:, None] * (c1[k] - c0[k])
         hits = collide_obstacles(body, obstacles, quaternion_matrix(q), c, t0[k] + s * dt[k], g0[k] + s * dg[k])
-        for p, o in zip(hits.pose, hits.obstacle):
-            out.setdefault((k, int(o)), s[p])
+        for p, o, part in zip(hits.pose, hits.obstacle, hits.part):
+            out.setdefault((k, int(o), int(part)), s[p])
     return out
 
 
@@ -97,7 +101,8 @@ def test_against_the_dense_oracle_on_random_articulated_steps():
     t0, dt = rng.uniform(-np.pi, np.pi, n), rng.uniform(-1.5, 1.5, n)
     g0, dg = np.radians(rng.uniform(-6, 14, n)), np.radians(rng.uniform(-10, 10, n))
     got = obstacles_along(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg)
-    found = {(int(k), int(o)): s for k, o, s in zip(got.step, got.obstacle, got.s)}
+    found = {(int(k), int(o), int(p)): s for k, o, p, s in zip(got.step, got.obstacle, got.part, got.s)}
+    assert len(found) == len(got.step)  # one row per (step, obstacle, part)
     dense = _dense(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg, 1500)
     assert dense, "the random steps should meet the obstacles now and then"
     from tankcd_cli.geometry.motion import rotation_angle
@@ -110,3 +115,39 @@ def test_against_the_dense_oracle_on_random_articulated_steps():
     # a report the oracle does not see can only be a pass within 1 mm (bvh's tests bound that
     # exactly); here, with 1,500 samples a step, no more than a handful
     assert len(set(found) - set(dense)) <= 2
+
+
+def test_every_part_in_contact_is_named_as_every_triangle_pair_says():
+    """The discrete check names each part in the wall, one row per (pose, obstacle, part), against the
+    brute force over every triangle pair of that part and the obstacle (the turret and gun turned)."""
+    from tankcd_cli.bvh.query import collide_brute_force
+    from tankcd_cli.collision.vehicle_body import group_of, group_placements
+
+    rng = np.random.default_rng(11)
+    tris, parts = vehicle_mesh(T72, 2)
+    body = _body()
+    wall_tris = box([3.0, -6.0, -1.0], [3.4, 6.0, 4.0], 2)
+    wall_tree = build_tree(wall_tris, k=18)
+    wall = Obstacle("wall", wall_tree, wall_tree.lo[0, :3].copy(), wall_tree.hi[0, :3].copy())
+    n = 160
+    # pushed into the wall from the hull's nose first to wholly through, at any heading
+    yaw = np.radians(np.r_[0.0, rng.uniform(-180, 180, n - 1)])
+    c = np.column_stack([np.r_[1.5, rng.uniform(-4, 8, n - 1)], rng.uniform(-2, 2, n) * (np.arange(n) > 0),
+                         np.zeros(n)])
+    R = quaternion_matrix(_q(np.degrees(yaw)))
+    turret, gun = rng.uniform(-np.pi, np.pi, n), np.radians(rng.uniform(-6, 14, n))
+    turret[0], gun[0] = np.pi, 0.0  # the first pose: the gun turned back, the hull's front and tracks in the wall
+    hits = collide_obstacles(body, [wall], R, c, turret, gun)
+    got = {(int(p), PARTS[q]) for p, q in zip(hits.pose, hits.part)}
+    assert len(got) == len(hits.pose)
+    expected = set()
+    for group in body.groups:
+        Rg, tg = group_placements(body, group, R, c, turret, gun)
+        for p, name in enumerate(PARTS):
+            if group_of(name) != group.kind or not (parts == p).any():
+                continue
+            found = collide_brute_force(tris[parts == p], wall_tris, Rg, tg)
+            expected |= {(int(k), name) for k in np.flatnonzero(found)}
+    assert got == expected
+    assert {"hull", "track_left", "track_right"} <= {q for p, q in got if p == 0}
+    assert len({q for _, q in got}) >= 5  # the random poses put most parts in the wall somewhere

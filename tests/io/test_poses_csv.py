@@ -197,3 +197,47 @@ def test_not_utf8_and_no_file_are_refused(tmp_path):
         _read(str(path))
     with pytest.raises(InputError, match="no such file"):
         _read(str(tmp_path / "none.csv"))
+
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+# entity names: any text without commas, quotes or line breaks (docs/formats.md), ASCII or not
+_NAME = st.text(st.characters(blacklist_characters=',"\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029',
+                              blacklist_categories=("Cs",)), min_size=1, max_size=12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(names=st.lists(_NAME, min_size=1, max_size=5, unique=True), seed=st.integers(0, 2 ** 16))
+def test_entity_names_outside_ascii_read_back_the_same(tmp_path_factory, names, seed):
+    import csv
+
+    rng = np.random.default_rng(seed)
+    n = 40
+    p = _poses(rng, n)
+    step, t = np.arange(n), np.arange(n) * 0.1
+    entity = rng.integers(0, len(names), n)
+    ends = np.zeros(n, np.int64)
+    text = format_rows(step, t, p, PLACED_BY, STATUS, entity, names, row_ends=ends)
+    # each row's end counts characters of the text: the rows cut by them are the lines
+    assert [text[a:b] for a, b in zip(np.r_[0, ends[:-1]], ends)] == text.splitlines(keepends=True)
+    path = tmp_path_factory.mktemp("utf8") / "p.csv"
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        fh.write(header(entity=True) + text)
+    with open(path, encoding="utf-8", newline="") as fh:
+        read = [row["entity"] for row in csv.DictReader(fh)]
+    assert read == [names[k] for k in entity]
+
+
+def test_utf8_names_in_the_parallel_writer_keep_their_row_ends():
+    """Row blocks formatted apart (more than two blocks of rows) and joined: the same ends."""
+    rng = np.random.default_rng(3)
+    n = 20_000
+    p = _poses(rng, n)
+    names = ["Т-72 №4", "leopard", "M1 Абрамс 🛡"]
+    entity = rng.integers(0, 3, n)
+    ends = np.zeros(n, np.int64)
+    text = format_rows(np.arange(n), np.arange(n) * 0.1, p, PLACED_BY, STATUS, entity, names, row_ends=ends)
+    lines = text.splitlines(keepends=True)
+    np.testing.assert_array_equal(ends, np.cumsum([len(line) for line in lines]))
+    assert [line.split(",")[1] for line in lines] == [names[k] for k in entity]

@@ -166,3 +166,39 @@ def test_memory_stays_bounded_on_long_inputs(tmp_path):
     small = _peak_rss_mb(70_000, store)
     large = _peak_rss_mb(700_000, store)
     assert large - small < 60, (small, large)  # ten times the rows, the same chunks
+
+
+def test_obstacle_events_name_every_part_every_triangle_pair_puts_in_contact(demo):
+    """The row events against the brute force over every triangle pair of each vehicle part and each
+    obstacle, at the poses the CSV gives: one event per (row, obstacle, part) in contact, no more,
+    no fewer (the sample patrol drives hull, both tracks, turret, gun and drums into the wall)."""
+    from tankcd_cli.bvh.query import collide_brute_force
+    from tankcd_cli.collision.obstacles import placed_triangles, scene_vehicle_body
+    from tankcd_cli.collision.vehicle_body import group_of, group_placements
+    from tankcd_cli.io.poses_csv import read_poses
+    from tankcd_cli.scene import load_scene
+    from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
+
+    out, _ = demo
+    scene = load_scene(str(out / "scene.toml"))
+    body = scene_vehicle_body(scene)
+    tris, parts = vehicle_mesh(scene.vehicle, 2)
+    step, _, R, position, _, _, _ = next(read_poses(str(out / "poses.csv"), 10 ** 7))
+    trajectory = np.genfromtxt(out / "patrol.csv", delimiter=",", names=True)
+    turret, gun = np.radians(trajectory["turret_deg"]), np.radians(trajectory["gun_deg"])
+    expected = set()
+    for spec in scene.obstacles:
+        obstacle, _ = placed_triangles(spec)
+        # rows within the vehicle's reach of the obstacle's box (no point of it is farther from its origin)
+        lo, hi = obstacle.reshape(-1, 3).min(axis=0), obstacle.reshape(-1, 3).max(axis=0)
+        near = np.flatnonzero(((position > lo - body.radius) & (position < hi + body.radius)).all(axis=1))
+        for group in body.groups:
+            Rg, tg = group_placements(body, group, R[near], position[near], turret[near], gun[near])
+            for p, name in enumerate(PARTS):
+                if group_of(name) == group.kind and (parts == p).any():
+                    found = collide_brute_force(tris[parts == p], obstacle, Rg, tg)
+                    expected |= {(int(step[near[k]]), name, spec.name) for k in np.flatnonzero(found)}
+    rows = [(e["step"], e["a"], e["b"]) for e in _events(out / "events.jsonl")
+            if e["kind"] == "obstacle" and not e.get("between")]
+    assert len(rows) == len(set(rows)) and set(rows) == expected
+    assert {"hull", "track_left", "track_right"} <= {a for _, a, _ in rows}

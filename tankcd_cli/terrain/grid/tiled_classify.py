@@ -596,7 +596,8 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: 
         return
     from concurrent.futures import ThreadPoolExecutor
 
-    with ThreadPoolExecutor(max_workers=jobs) as pool:
+    pool = ThreadPoolExecutor(max_workers=jobs)
+    try:
         pending = []
         for core in cores:
             pending.append(pool.submit(work, core, *fetch(core)))
@@ -604,3 +605,7 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: 
                 deliver(pending.pop(0).result())
         for fut in pending:
             deliver(fut.result())
+    except BaseException:  # an error or a signal: the tiles not begun are dropped, not worked through
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
