@@ -145,17 +145,18 @@ def outputs(tmp_path_factory):
 def test_events_jsonl_text_and_json(run, outputs):
     lines = _text(run, outputs / "events.jsonl")
     assert lines["kind"] == "events" and lines["format"] == "JSON Lines"
-    assert lines["by kind"] == "obstacle 19, internal 33, terrain 16"
-    assert lines["between"] == "2" and lines["between share"] == "2.9%"
-    assert lines["obstacles"] == "wall 19" and lines["parts"] == "drum_left 1, gun 36, hull 20, track_left 11"
+    assert lines["by kind"] == "obstacle 58, internal 33, terrain 16"
+    assert lines["between"] == "2" and lines["between share"] == "1.9%"
+    assert lines["obstacles"] == "wall 58"
+    assert lines["parts"] == "drum_left 2, drum_right 2, gun 41, hull 31, track_left 13, track_right 13, turret 5"
     facts = _json(run, outputs / "events.jsonl")
-    assert facts["by_kind"] == {"obstacle": 19, "internal": 33, "terrain": 16} and facts["events"] == 68
-    assert facts["between_fraction"] == pytest.approx(2 / 68, abs=1e-6)
+    assert facts["by_kind"] == {"obstacle": 58, "internal": 33, "terrain": 16} and facts["events"] == 107
+    assert facts["between_fraction"] == pytest.approx(2 / 107, abs=1e-6)
 
 
 def test_parquet_poses_and_events_text_and_json(run, outputs):
     lines = _text(run, outputs / "fleet" / "patrol.events.parquet")
-    assert lines["kind"] == "events (Parquet)" and lines["by kind"] == "obstacle 19, internal 33, terrain 16"
+    assert lines["kind"] == "events (Parquet)" and lines["by kind"] == "obstacle 58, internal 33, terrain 16"
     assert (lines["matcher"], lines["escalate"], lines["attitude tolerance"], lines["mode"], lines["time origin"]) \
         == ("auto", "none", "none", "continuous", "none (relative times)")
     assert lines["crs"] == "local grid (no CRS)"
@@ -171,7 +172,7 @@ def test_parquet_poses_and_events_text_and_json(run, outputs):
 def test_summary_and_fleet_json_text_and_json(run, outputs):
     lines = _text(run, outputs / "summary.json")
     assert lines["kind"] == "replay summary" and lines["rows"] == "1144"
-    assert lines["collisions"] == "obstacle 18, internal 32, terrain 16" and lines["warnings"] == "none"
+    assert lines["collisions"] == "obstacle 57, internal 32, terrain 16" and lines["warnings"] == "none"
     assert _json(run, outputs / "summary.json")["between"] == {"obstacle": 1, "internal": 1, "terrain": 0,
                                                                "off_terrain": 0}
     lines = _text(run, outputs / "fleet" / "fleet.json")
