@@ -46,7 +46,7 @@ class VehicleContacts:
     windows close (``ready``) and at the end (``finish``)."""
 
     def __init__(self, world, continuous: bool = True, window: float | None = None, horizon: float | None = None,
-                 source: str = "trajectory"):
+                 source: str = "trajectory", ordered: bool = True):
         self.world = world
         self.continuous = continuous
         self.window = WINDOW if window is None else window
@@ -54,7 +54,9 @@ class VehicleContacts:
         self.buffer = []  # (kind index, Segments)
         self.names: tuple = ()
         self.last_t = np.zeros(0)  # each entity code's last row time
-        self.done_until = None  # windows before this are processed
+        self.done_k = None  # the windows before window done_k (index on the grid k * window) are processed
+        self.end = -np.inf  # the latest segment end added
+        self.spill = None if ordered else SegmentSpill(self.window)
         self.latest = -np.inf
         self.queries = 0
         self.late = 0  # segments that began before the windows already checked
@@ -69,6 +71,10 @@ class VehicleContacts:
         there any more: a set-up warning names the first such vehicle and row, ``finish`` how many
         more."""
         if segments is None or not len(segments):
+            return
+        self.end = max(self.end, float(segments.t1.max()))
+        if self.spill is not None:
+            self.spill.append(kind.index, segments)
             return
         self.buffer.append((kind.index, segments))
         if self.done_until is not None:
@@ -111,8 +117,13 @@ class VehicleContacts:
             self.last_t = np.concatenate([self.last_t, np.full(size - len(self.last_t), -np.inf)])
         np.maximum.at(self.last_t, codes, chunk.t)
         self.latest = max(self.latest, float(chunk.t.max()))
-        if self.done_until is None:
-            self.done_until = float(np.floor(chunk.t.min() / self.window) * self.window)
+        if self.done_k is None:
+            self.done_k = int(np.floor(chunk.t.min() / self.window))
+
+    @property
+    def done_until(self) -> float | None:
+        """The time before which every window is processed (None before the first rows)."""
+        return None if self.done_k is None else self.done_k * self.window
 
     def watermark(self) -> float:
         """The time up to which every vehicle still sending rows has sent them."""
@@ -121,33 +132,82 @@ class VehicleContacts:
         return float(live.min()) if len(live) else self.latest
 
     def ready(self, chunk) -> list:
-        """After a chunk: the contacts of every window the watermark has passed."""
+        """After a chunk: the contacts of every window the watermark has passed (none while spilling:
+        they all come at ``finish``)."""
         self._observe(chunk)
         self._say_late()
-        if self.done_until is None:
+        if self.done_k is None or self.spill is not None:
             return []
-        mark = self.watermark()
+        return self._close(self.watermark())
+
+    def _close(self, mark: float | None) -> list:
+        """Close the windows whose segments are all known: every segment beginning before ``mark`` has
+        been added (None: the trajectory has ended, every window). Windows run from one start bucket
+        (a window in which a segment begins) to the next: a window in which none begins holds only
+        segments going on from the one before it, and is checked with it (``_window`` over the span
+        of both), so the cost follows the segments, not the exercise's time span."""
         events = []
-        while self.done_until + self.window <= mark:
-            events += self._window(self.done_until, self.done_until + self.window)
-            self.done_until += self.window
+        while self.buffer:
+            starts = np.floor(np.concatenate([s.t0 for _, s in self.buffer]) / self.window).astype(np.int64)
+            k = max(self.done_k, int(starts.min()))
+            later = starts[starts > k]
+            if len(later):
+                m = int(later.min())
+                if mark is not None and m * self.window > mark:
+                    break
+                events += self._window(k * self.window, m * self.window)
+                self.done_k = m
+            elif mark is None:
+                m = int(np.floor(self.end / self.window)) + 1
+                events += self._window(k * self.window, m * self.window, last=True)
+                self.done_k = m
+                self.buffer = []
+            else:
+                break
+        if not self.buffer and mark is not None and np.isfinite(mark):
+            # nothing buffered: no segment begins before the watermark in the windows up to it
+            self.done_k = max(self.done_k, int(np.floor(mark / self.window)))
         return events
 
     def finish(self) -> list:
-        """The contacts of every window left, once the trajectory has ended."""
-        events = []
-        if self.done_until is None:
-            return events
-        end = max([float(s.t1.max()) for _, s in self.buffer] + [self.done_until])
-        while self.done_until <= end:
-            events += self._window(self.done_until, self.done_until + self.window, last=self.done_until + self.window > end)
-            self.done_until += self.window
+        """The contacts of every window left, once the trajectory has ended (all of them when the
+        segments were spilled: the spill's buckets in time order, through the same windows)."""
+        if self.done_k is None:
+            self.close()
+            return []
+        if self.spill is not None:
+            try:
+                events = self._finish_spill()
+            finally:
+                self.close()
+        else:
+            events = self._close(None)
         self.buffer = []
         self._say_late()
         if self.late > 1:
             self._warn(f"{self.late:,} stretches of motion in all began before the contacts between vehicles "
                        "there were checked (see above)")
         return events
+
+    def _finish_spill(self) -> list:
+        """The spilled segments' windows: each start bucket's segments join the buffer (those going on
+        from earlier windows), and the window runs to the next start bucket, as ``_close`` runs them."""
+        events = []
+        k = None
+        for bucket, kinds, segments in self.spill.buckets():
+            if k is not None:
+                events += self._window(k * self.window, bucket * self.window)
+            self.buffer += [(int(kind), segments.take(np.flatnonzero(kinds == kind))) for kind in np.unique(kinds)]
+            k = bucket
+        if k is not None:
+            events += self._window(k * self.window, (int(np.floor(self.end / self.window)) + 1) * self.window,
+                                   last=True)
+        return events
+
+    def close(self) -> None:
+        """Remove the spill file, if any (``finish`` does; a replay that fails calls it too)."""
+        if self.spill is not None:
+            self.spill.close()
 
     def close_window(self, w0: float, w1: float, last: bool = False) -> list:
         """The contacts that begin in the window [w0, w1) among the segments buffered (``add``), for a
@@ -238,7 +298,10 @@ class VehicleContacts:
                                          "b_part": body_b.part_names[hits.part_b[h]],
                                          "point": [round(float(c), 4) for c in hits.point[h]],
                                          "closing_speed": round(speed, 4), "a_step": int(s.step[a]),
-                                         "b_step": int(s.step[b]), "entity": str(names[s.entity[a]])},
+                                         "b_step": int(s.step[b]),
+                                         # found along the motion, not where a vehicle begins to exist (a row)
+                                         **({} if at_first[h] else {"between": True}),
+                                         "entity": str(names[s.entity[a]])},
                                         int(s.entity[a])))
         events.sort(key=lambda e: (e.t, e.a, e.b))
         return events
@@ -266,3 +329,113 @@ def _still(m, idx):
 
     z = np.zeros(len(idx))
     return SpanMotion(m.q0[idx], m.c0[idx], m.q0[idx], m.c0[idx], m.turret0[idx], z, m.gun0[idx], z)
+
+
+class SegmentSpill:
+    """The vehicles' segments of an exercise whose rows are not in time order, on disk until the
+    trajectory has ended: one unnamed temporary file (the system's temp dir; gone when closed, and
+    with the process), each batch of segments (a chunk's, of one kind) sorted by start bucket
+    (``floor(t0 / window)``) and appended, with an index of (bucket group, offset, count) per batch.
+    ``buckets`` then gives them back bucket by bucket in time order, reading one group of
+    ``GROUP`` buckets at a time: memory follows the segments of ``GROUP`` windows and the index (a
+    few numbers per chunk and group), not the exercise."""
+
+    GROUP = 16  # windows read back at a time
+
+    def __init__(self, window: float):
+        import tempfile
+
+        self.window = window
+        self.file = tempfile.TemporaryFile(prefix="tankcd-segments-")
+        self.records = 0
+        self.index: list = []  # (groups (E,), offsets (E,), counts (E,)) per batch
+
+    def append(self, kind: int, segments) -> None:
+        bucket = np.floor(segments.t0 / self.window).astype(np.int64)
+        order = np.argsort(bucket, kind="stable")
+        rec = np.empty(len(order), dtype=SPILL_DTYPE)
+        rec["kind"] = kind
+        for f in segments.__dataclass_fields__:
+            rec[f] = getattr(segments, f)[order]
+        rec["bucket"] = bucket[order]
+        group = rec["bucket"] // self.GROUP
+        first = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+        counts = np.diff(np.r_[first, len(group)])
+        self.file.seek(self.records * SPILL_DTYPE.itemsize)
+        rec.tofile(self.file)
+        self.index.append((group[first], self.records + first, counts))
+        self.records += len(rec)
+
+    def buckets(self):
+        """(bucket, kinds (M,), Segments) for every start bucket holding segments, in time order; within
+        a bucket the segments in the order they were added."""
+        from tankcd_cli.replay.between_rows import Segments
+
+        if not self.index:
+            return
+        groups = np.concatenate([g for g, _, _ in self.index])
+        offsets = np.concatenate([o for _, o, _ in self.index])
+        counts = np.concatenate([c for _, _, c in self.index])
+        order = np.argsort(groups, kind="stable")  # batches in the order added, within a group
+        groups, offsets, counts = groups[order], offsets[order], counts[order]
+        cut = np.flatnonzero(np.r_[True, groups[1:] != groups[:-1], True])
+        fields = Segments.__dataclass_fields__
+        for a, b in zip(cut[:-1], cut[1:]):
+            parts = []
+            for off, n in zip(offsets[a:b], counts[a:b]):
+                self.file.seek(int(off) * SPILL_DTYPE.itemsize)
+                parts.append(np.fromfile(self.file, dtype=SPILL_DTYPE, count=int(n)))
+            rec = np.concatenate(parts)
+            rec = rec[np.argsort(rec["bucket"], kind="stable")]
+            edge = np.flatnonzero(np.r_[True, rec["bucket"][1:] != rec["bucket"][:-1], True])
+            for i, j in zip(edge[:-1], edge[1:]):
+                r = rec[i:j]
+                yield int(r["bucket"][0]), r["kind"], Segments(*(np.ascontiguousarray(r[f]) for f in fields))
+
+    def close(self) -> None:
+        self.file.close()
+
+
+SPILL_DTYPE = np.dtype([("kind", "<i8"), ("bucket", "<i8"), ("entity", "<i8"), ("step", "<i8"), ("t0", "<f8"),
+                        ("t1", "<f8"), ("q0", "<f8", (4,)), ("c0", "<f8", (3,)), ("q1", "<f8", (4,)),
+                        ("c1", "<f8", (3,)), ("turret0", "<f8"), ("dturret", "<f8"), ("gun0", "<f8"),
+                        ("dgun", "<f8"), ("fresh", "?")])
+
+
+class OrderCheck:
+    """Whether an exercise's rows, read in its chunks, let the streaming windows (``VehicleContacts``
+    fed in order) see every segment before its window closes: a pass over the times and entities
+    only, playing the watermark. A segment starts at a vehicle's row and is added with the chunk of
+    the vehicle's next row; the windows closed by then end at or before the watermark after the
+    chunk before. So the rows are in time order here when, for every row after a vehicle's first,
+    the vehicle's previous row is at or after the watermark of the chunks before this one's
+    (a vehicle silent past the horizon, a vehicle's rows after another's: not in order).
+    ``observe`` per chunk returns False at the first row that breaks it."""
+
+    def __init__(self, horizon: float | None = None):
+        self.horizon = HORIZON if horizon is None else horizon
+        self.last_t = np.zeros(0)
+        self.latest = -np.inf
+        self.ordered = True
+
+    def observe(self, chunk) -> bool:
+        if not self.ordered or chunk is None or not len(chunk):
+            return self.ordered
+        codes = chunk.entity if chunk.entity is not None else np.zeros(len(chunk), dtype=np.int64)
+        size = int(codes.max()) + 1
+        if size > len(self.last_t):
+            self.last_t = np.r_[self.last_t, np.full(size - len(self.last_t), -np.inf)]
+        heard = self.last_t[np.isfinite(self.last_t)]
+        live = heard[heard >= self.latest - self.horizon]
+        mark = float(live.min()) if len(live) else self.latest
+        # each row's vehicle's previous row: within the chunk, or the one carried from before
+        order = np.argsort(codes, kind="stable")
+        c, t = codes[order], chunk.t[order]
+        first = np.r_[True, c[1:] != c[:-1]]
+        prev = np.where(first, self.last_t[c], np.r_[-np.inf, t[:-1]])
+        had = np.isfinite(prev)
+        if had.any() and float(prev[had].min()) < mark:
+            self.ordered = False
+        np.maximum.at(self.last_t, codes, chunk.t)
+        self.latest = max(self.latest, float(chunk.t.max()))
+        return self.ordered
