@@ -216,7 +216,6 @@ def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_
                                 window_seconds=window_seconds,
                                 scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
     report.bar(None)
-    result.warnings = list(loading) + result.warnings
     result.seconds = round(report.elapsed(), 3)
     _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows)
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)

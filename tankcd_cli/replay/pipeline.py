@@ -130,8 +130,9 @@ def replay_chunks(run: ReplayRun, chunks, lead=None) -> Iterator[tuple[object, P
             if tail:
                 yield None, None, tail
     finally:
-        if run.vehicles is not None:
-            run.vehicles.close()  # the spill file, also when the replay fails
+        close = getattr(run.vehicles, "close", None)  # the spill file, also when the replay fails
+        if close is not None:
+            close()
 
 
 def _names(chunk) -> tuple:
