@@ -95,9 +95,10 @@ def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None
     if isinstance(trajectory, str):
         if not os.path.isfile(trajectory):
             return False
-        from tankcd_cli.io.trajectory import read_trajectory
+        from tankcd_cli.io.trajectory import TrajectoryReader
 
-        chunks = read_trajectory(trajectory, chunk_rows=options.chunk_rows, part=part, crs=crs)
+        # times and entities only: a geographic input's coordinates need no conversion here
+        chunks = TrajectoryReader(trajectory, options.chunk_rows, part, crs, convert=False)
     else:
         chunks = iter(trajectory)
         if chunks is trajectory:

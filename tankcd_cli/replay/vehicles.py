@@ -5,11 +5,27 @@ sub-steps between two placements, with their time spans), produced chunk by chun
 trajectory streams. Two vehicles can touch only where both move, so the check runs over the
 common spans of their segments:
 
-1. **Time windows.** Segments are buffered until every vehicle still sending rows has rows past a
-   window's end (the watermark: the earliest last row time over the vehicles heard from within
-   ``HORIZON`` seconds of the latest row). A window [w0, w1) is then complete: every segment
-   overlapping it is known. Memory follows the window and the watermark's lag (a sender's gap
-   between updates), not the exercise's length.
+1. **Time windows.** Windows lie on the grid ``k * WINDOW``. A window runs from a start bucket (a
+   grid cell in which some segment begins) to the next one: a cell in which no segment begins holds
+   only segments going on from the window before, and is checked with it, so the work follows the
+   segments, not the exercise's time span (a billion seconds without a row cost nothing). A window
+   [w0, w1) needs every segment with t0 < w1 and t1 >= w0; the segments reaching past w1 are kept
+   for the next.
+
+   *Rows in time order* (the vehicles interleaved, as simulators and captures send them): segments
+   are buffered until every vehicle still sending rows has rows past a window's end (the watermark:
+   the earliest last row time over the vehicles heard from within ``HORIZON`` seconds of the
+   latest row); the window is then complete. Memory follows the window and the watermark's lag (a
+   sender's gap between updates), not the exercise's length.
+
+   *Rows in any other order* (grouped by vehicle, as per-vehicle loggers and ``sort`` write them; a
+   vehicle silent past the horizon; any mix): a first pass over the times (``OrderCheck``, run by
+   ``replay.run.in_time_order``) plays the watermark and finds the first row whose motion would
+   come after its window closed. Then the segments are spilled to an unnamed temporary file by
+   start bucket (``SegmentSpill``) as the chunks stream, and once the trajectory has ended the
+   buckets are read back in time order through the same windows: the same events as the rows in
+   time order (their steps each file's own), in memory of a few windows' segments. Input that
+   cannot be read twice (standard input, a pipe, a one-pass iterator) is spilled.
 2. **Broad phase** (``collision.broad_phase.candidate_pairs``): each segment's box (its hull
    origin's two places grown by the vehicle's radius, which no point of it leaves under any
    articulation) and time span clipped to the window; pairs of different vehicles whose boxes and
@@ -22,13 +38,24 @@ common spans of their segments:
    contact (tested exactly at that instant) and gives no event, unless the span is where one of
    the two begins to exist (its first row, or a new piece of its motion): then the contact is
    there from the start and is reported at that instant. So a contact is reported once, in the
-   span where it begins, whichever window, chunk or segment boundaries cut its time.
+   span where it begins, whichever window, chunk or segment boundaries cut its time. A contact the
+   sweep finds along the motion began between rows: ``"between": true``, as every other kind; one
+   at the instant a vehicle begins to exist is at that row and carries none.
 
-A vehicle silent for more than ``HORIZON`` seconds no longer holds the windows back; when it speaks
-again, its gap's motion before the windows already checked is not checked against the other
-vehicles, and a set-up warning says so (``--strict``: exit 3). Rows out of time order across
-vehicles (a file of one vehicle's rows, then another's) meet the same limit and the same warning:
-an exercise's rows come in time order, vehicles interleaved.
+**Why any order gives the same events.** A window's events are a union over pairs of segments,
+each pair's common span checked on its own, so they depend on the set of segments overlapping the
+window and on the window's ends only, not on the order segments arrive in. The windows are the
+same in both modes: their ends are the start buckets, a property of the segments. In time order
+every segment with t0 < w1 is buffered when [w0, w1) closes: the window closes only once the next
+start bucket at or after w1 is known and lies at or before the watermark, and a vehicle still
+sending rows adds its next segment from its last row, at or after the watermark (``OrderCheck``
+proves, before the replay, that no row breaks this). The spill holds every segment. The poses do
+not depend on the order at all (each vehicle's motion is carried by its code).
+
+With the first pass deciding, a segment that begins before the windows already checked cannot
+arrive in the streaming mode; should one all the same (a caller feeding ``VehicleContacts`` itself),
+its motion before those windows is not checked against the other vehicles, and a set-up warning
+says so (``--strict``: exit 3), never silently.
 """
 
 from __future__ import annotations
@@ -96,7 +123,7 @@ class VehicleContacts:
         self._warn(f"row {step}: entity {name!r} moves from t = {t0:g} s, after the contacts between vehicles up "
                    f"to t = {done:g} s were checked (its rows came more than {self.horizon:g} s late, or the rows "
                    "are not in time order across vehicles): contacts with other vehicles before then are not "
-                   "checked; give the rows in time order (sort by t)")
+                   "checked; give the rows in time order (sort by t), or replay the file itself")
 
     def _warn(self, what: str) -> None:
         from tankcd_cli.errors import warn

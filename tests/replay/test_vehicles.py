@@ -488,9 +488,9 @@ def test_a_billion_seconds_of_empty_time_cost_nothing_and_hide_no_contact(flat):
     for k in range(21):
         t = late + 0.5 * k
         rows += [(t, "A", 10 + 8 * (t - late), 30, 0), (t, "B", 150 - 7 * (t - late), 30, 180)]
-    for order in (sorted(rows), sorted(rows, key=lambda r: r[1])):
+    for order, chunk_rows in ((sorted(rows), 65536), (sorted(rows), 7), (sorted(rows, key=lambda r: r[1]), 7)):
         start = time.perf_counter()
-        poses, events = api.replay(_columns(order), world=world)
+        poses, events = _replay_rows(world, _columns(order), chunk_rows)  # streamed, streamed, spilled
         seconds = time.perf_counter() - start
         vehicle = [e for e in events if e["kind"] == "vehicle"]
         assert len(vehicle) == 1 and vehicle[0]["a"] == "A" and vehicle[0]["a_part"] == "gun"
@@ -535,3 +535,29 @@ def test_a_quiet_summary_carries_the_warnings_of_a_grouped_exercise(run, flat):
     summary = json.loads(result.stdout.strip().splitlines()[-1])
     assert any("entity 'A'" in w and "faster than any vehicle" in w for w in summary["warnings"])
     assert any("obstacle 'crate' lies off the terrain" in w for w in summary["warnings"])
+
+
+def test_the_spill_is_removed_at_the_end_and_when_the_replay_fails(flat, monkeypatch):
+    """The spilled segments live in an unnamed temporary file: closed (gone) when the replay ends, and
+    when a bad row stops it half way."""
+    from tankcd_cli import api
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay import vehicles
+
+    made = []
+    init = vehicles.SegmentSpill.__init__
+
+    def remember(self, window):
+        init(self, window)
+        made.append(self)
+
+    monkeypatch.setattr(vehicles.SegmentSpill, "__init__", remember)
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    rows = sorted(_exercise(np.random.default_rng(5), 4, area=15.0), key=lambda r: r[1])
+    _write(flat / "grouped.csv", rows)
+    _replay_rows(world, str(flat / "grouped.csv"), 7)
+    assert len(made) == 1 and made[0].records > 0 and made[0].file.closed
+    (flat / "bad.csv").write_text((flat / "grouped.csv").read_text() + "9.5,v0,nan,30,0\n")
+    with pytest.raises(InputError, match="line"):
+        _replay_rows(world, str(flat / "bad.csv"), 7)
+    assert len(made) == 2 and made[1].records > 0 and made[1].file.closed
