@@ -561,3 +561,26 @@ def test_the_spill_is_removed_at_the_end_and_when_the_replay_fails(flat, monkeyp
     with pytest.raises(InputError, match="line"):
         _replay_rows(world, str(flat / "bad.csv"), 7)
     assert len(made) == 2 and made[1].records > 0 and made[1].file.closed
+
+
+def test_a_fleet_of_an_exercise_grouped_and_in_time_order(flat, tmp_path):
+    """A fleet of two exercises, the same rows in time order and grouped by vehicle, in chunks of 7
+    rows: each its own task, the same events."""
+    from tankcd_cli.replay.fleet import FleetWorld, plan_tasks, run_fleet
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.world import WorldSpec
+
+    rows = _exercise(np.random.default_rng(5), 5, area=15.0)
+    (flat / "a").mkdir()
+    (flat / "b").mkdir()
+    _write(flat / "a" / "timed.csv", rows)
+    _write(flat / "b" / "grouped.csv", sorted(rows, key=lambda r: r[1]))
+    world = FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), ReplayOptions(chunk_rows=7))
+    out = tmp_path / "out"
+    out.mkdir()
+    tasks = plan_tasks([str(flat / "a" / "timed.csv"), str(flat / "b" / "grouped.csv")], str(out))
+    fleet = run_fleet(world, tasks)
+    assert fleet.ok == 2, fleet
+    timed, grouped = ([json.loads(line) for line in open(t.events)] for t in tasks)
+    assert any(e["kind"] == "vehicle" for e in timed)
+    assert _events_but_steps(grouped) == _events_but_steps(timed)
