@@ -44,9 +44,13 @@ def group_by_vehicle(path: str, out: str) -> None:
     """``path``'s rows sorted by entity (stable: each vehicle's rows in their order), header first."""
     with open(path) as src, open(out, "w") as dst:
         dst.write(src.readline())
-        dst.flush()
-        subprocess.run(["sort", "-s", "-t,", "-k2,2"], stdin=src, stdout=dst, check=True,
+    with open(out, "a") as dst:
+        rows = subprocess.Popen(["tail", "-n", "+2", path], stdout=subprocess.PIPE)
+        subprocess.run(["sort", "-s", "-t,", "-k2,2"], stdin=rows.stdout, stdout=dst, check=True,
                        env={**os.environ, "LC_ALL": "C"})
+        rows.stdout.close()
+        if rows.wait():
+            raise SystemExit(f"tail failed on {path}")
 
 
 def events_but_steps(path: str) -> list:
