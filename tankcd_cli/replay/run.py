@@ -79,46 +79,6 @@ def _run(world, trajectory, outputs, options, part, progress, observe, sources, 
     return summarize(counts, run, time.perf_counter() - start)
 
 
-def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None = None) -> bool:
-    """Whether an exercise's rows are in time order across vehicles, as the streaming checks between
-    vehicles need them (``replay.vehicles.OrderCheck``): one pass over a regular file (or any
-    iterable of chunks that can be read again: ``iter`` gives a new iterator), stopping at the first
-    row out of order. Standard input, a pipe or a one-pass iterator cannot be read twice: False
-    (their segments are spilled, correct whatever the order). A bad row or warning here is left to
-    the replay's own pass, which says it where it is."""
-    import os
-    import warnings
-
-    from tankcd_cli.errors import InputError
-    from tankcd_cli.replay.vehicles import OrderCheck
-
-    if isinstance(trajectory, str):
-        if not os.path.isfile(trajectory):
-            return False
-        from tankcd_cli.io.trajectory import TrajectoryReader
-
-        # times and entities only: a geographic input's coordinates need no conversion here
-        chunks = TrajectoryReader(trajectory, options.chunk_rows, part, crs, convert=False)
-    else:
-        chunks = iter(trajectory)
-        if chunks is trajectory:
-            return False
-    check = OrderCheck()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            for chunk in chunks:
-                if not check.observe(chunk):
-                    break
-    except InputError:
-        return False
-    finally:
-        close = getattr(chunks, "close", None)
-        if close is not None:
-            close()
-    return check.ordered
-
-
 def _chain(first, rest):
     if first is not None:
         yield first
@@ -233,3 +193,43 @@ def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions
     if not parts:
         return pose_columns(np.zeros(0, np.int64), np.zeros(0), None), events
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, events
+
+
+def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None = None) -> bool:
+    """Whether an exercise's rows are in time order across vehicles, as the streaming checks between
+    vehicles need them (``replay.vehicles.OrderCheck``): one pass over a regular file (or any
+    iterable of chunks that can be read again: ``iter`` gives a new iterator), stopping at the first
+    row out of order. Standard input, a pipe or a one-pass iterator cannot be read twice: False
+    (their segments are spilled, correct whatever the order). A bad row or warning here is left to
+    the replay's own pass, which says it where it is."""
+    import os
+    import warnings
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay.vehicles import OrderCheck
+
+    if isinstance(trajectory, str):
+        if not os.path.isfile(trajectory):
+            return False
+        from tankcd_cli.io.trajectory import TrajectoryReader
+
+        # times and entities only: a geographic input's coordinates need no conversion here
+        chunks = TrajectoryReader(trajectory, options.chunk_rows, part, crs, convert=False)
+    else:
+        chunks = iter(trajectory)
+        if chunks is trajectory:
+            return False
+    check = OrderCheck()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for chunk in chunks:
+                if not check.observe(chunk):
+                    break
+    except InputError:
+        return False
+    finally:
+        close = getattr(chunks, "close", None)
+        if close is not None:
+            close()
+    return check.ordered
