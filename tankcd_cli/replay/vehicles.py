@@ -48,8 +48,9 @@ window and on the window's ends only, not on the order segments arrive in. The w
 same in both modes: their ends are the start buckets, a property of the segments. In time order
 every segment with t0 < w1 is buffered when [w0, w1) closes: the window closes only once the next
 start bucket at or after w1 is known and lies at or before the watermark, and a vehicle still
-sending rows adds its next segment from its last row, at or after the watermark (``OrderCheck``
-proves, before the replay, that no row breaks this). The spill holds every segment. The poses do
+sending rows adds its next segment from its last row, at or after the watermark; a vehicle that
+appears, or resumes after the horizon, starts its motion at or after the highest watermark so far
+(``OrderCheck`` proves, before the replay, that no row breaks this). The spill holds every segment. The poses do
 not depend on the order at all (each vehicle's motion is carried by its code).
 
 With the first pass deciding, a segment that begins before the windows already checked cannot
@@ -433,16 +434,19 @@ class OrderCheck:
     """Whether an exercise's rows, read in its chunks, let the streaming windows (``VehicleContacts``
     fed in order) see every segment before its window closes: a pass over the times and entities
     only, playing the watermark. A segment starts at a vehicle's row and is added with the chunk of
-    the vehicle's next row; the windows closed by then end at or before the watermark after the
-    chunk before. So the rows are in time order here when, for every row after a vehicle's first,
-    the vehicle's previous row is at or after the watermark of the chunks before this one's
-    (a vehicle silent past the horizon, a vehicle's rows after another's: not in order).
-    ``observe`` per chunk returns False at the first row that breaks it."""
+    the vehicle's next row; every window closed by then ends at or before the highest watermark
+    after the chunks before this one (``closed``: the watermark falls when a vehicle appears, but a
+    closed window stays closed). So the rows are in time order here when every row's vehicle's
+    previous row, or the row itself for a vehicle's first, is at or after ``closed`` (a vehicle
+    silent past the horizon, a vehicle appearing after the others' windows closed, a vehicle's rows
+    after another's: not in order). ``observe`` per chunk returns False at the first chunk that
+    breaks it."""
 
     def __init__(self, horizon: float | None = None):
         self.horizon = HORIZON if horizon is None else horizon
         self.last_t = np.zeros(0)
         self.latest = -np.inf
+        self.closed = -np.inf
         self.ordered = True
 
     def observe(self, chunk) -> bool:
@@ -452,17 +456,18 @@ class OrderCheck:
         size = int(codes.max()) + 1
         if size > len(self.last_t):
             self.last_t = np.r_[self.last_t, np.full(size - len(self.last_t), -np.inf)]
-        heard = self.last_t[np.isfinite(self.last_t)]
-        live = heard[heard >= self.latest - self.horizon]
-        mark = float(live.min()) if len(live) else self.latest
-        # each row's vehicle's previous row: within the chunk, or the one carried from before
+        # the earliest motion each row can start: from the vehicle's previous row (in the chunk, or
+        # the one carried from before), or from the row itself for the vehicle's first
         order = np.argsort(codes, kind="stable")
         c, t = codes[order], chunk.t[order]
         first = np.r_[True, c[1:] != c[:-1]]
         prev = np.where(first, self.last_t[c], np.r_[-np.inf, t[:-1]])
-        had = np.isfinite(prev)
-        if had.any() and float(prev[had].min()) < mark:
+        start = np.where(np.isfinite(prev), prev, t)
+        if float(start.min()) < self.closed:
             self.ordered = False
         np.maximum.at(self.last_t, codes, chunk.t)
         self.latest = max(self.latest, float(chunk.t.max()))
+        heard = self.last_t[np.isfinite(self.last_t)]
+        live = heard[heard >= self.latest - self.horizon]
+        self.closed = max(self.closed, float(live.min()) if len(live) else self.latest)
         return self.ordered
