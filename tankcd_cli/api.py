@@ -169,7 +169,7 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
         line's inputs), a list of paths replayed as one exercise (``--together``: each file an
         entity named after its stem, or its own entities), or a dict of arrays with ``t``, ``x``,
         ``y``, ``yaw_deg`` and optionally ``turret_deg``, ``gun_deg`` (metres, seconds, degrees;
-        ``t`` never decreasing) and ``entity`` (each row's vehicle: an exercise, rows in time order);
+        ``t`` never decreasing) and ``entity`` (each row's vehicle: an exercise, rows in any order);
         or with ``lon``, ``lat`` (WGS 84 degrees) in place of ``x``, ``y`` and ``heading_deg`` (a
         compass bearing), ``yaw_deg`` (from true east) or neither (the track's, warned), converted
         to the terrain's CRS as a geographic CSV is (see ``trajectory_chunks``)
@@ -212,8 +212,25 @@ def _chunks(trajectory, world):
     if isinstance(trajectory, (list, tuple)):
         from tankcd_cli.io.trajectory import merged_trajectories
 
-        return merged_trajectories([p if isinstance(p, str) else str(p) for p in trajectory], crs=world.crs)
-    return trajectory_chunks(trajectory, crs=world.crs)
+        paths = [p if isinstance(p, str) else str(p) for p in trajectory]
+        return _Reread(lambda: merged_trajectories(paths, crs=world.crs))
+    return _Reread(lambda: trajectory_chunks(trajectory, crs=world.crs),
+                   first=trajectory_chunks(trajectory, crs=world.crs))  # checked here
+
+
+class _Reread:
+    """Chunks that can be read again (each ``iter`` a new pass: ``replay.run.in_time_order`` reads an
+    exercise's times first); ``first``: the iterator the first pass takes."""
+
+    def __init__(self, make, first=None):
+        self.make = make
+        self.first = first
+
+    def __iter__(self):
+        if self.first is not None:
+            first, self.first = self.first, None
+            return first
+        return iter(self.make())
 
 
 def replay_to_files(trajectory, poses: str | None = "-", events: str | None = None, scene: str | None = None,

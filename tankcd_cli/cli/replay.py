@@ -179,7 +179,10 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
                         discrete, escalate, (tolerance, attitude_tolerance), window_seconds, scheduler, summary_path,
                         fail_on_collision, allow_off_terrain, step)
-    world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
+    from tankcd_cli.errors import collected_warnings
+
+    with collected_warnings() as loading:  # the world's warnings belong in the summary too
+        world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
     drawing = None
     if png:
         from tankcd_cli.replay.drawing import ReplayDrawing
@@ -192,6 +195,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                                      progress=lambda n: report.bar(f"replay: {n:,} rows"),
                                      observe=drawing.observe if drawing else None)
         report.bar(None)
+        result.warnings = list(loading) + result.warnings
         result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
         if drawing is not None:
             step(f"drawing {png}")

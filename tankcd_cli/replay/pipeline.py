@@ -89,14 +89,16 @@ class ReplayRun:
 
 
 def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities: bool = False,
-              source: str = "trajectory") -> ReplayRun:
+              source: str = "trajectory", ordered: bool = True) -> ReplayRun:
     """A replay's run of ``world`` for a trajectory whose turret or gun moves (or not), with many
-    vehicles (``entities``: their checks against each other too) or one."""
+    vehicles (``entities``: their checks against each other too) or one. ``ordered``: the rows are
+    in time order across vehicles (``replay.vehicles.OrderCheck``), so the vehicles' checks stream;
+    else their segments are spilled to disk and checked at the end."""
     run = ReplayRun(world, options, turret_moves)
     if entities:
         from tankcd_cli.replay.vehicles import VehicleContacts
 
-        run.vehicles = VehicleContacts(world, continuous=options.continuous, source=source)
+        run.vehicles = VehicleContacts(world, continuous=options.continuous, source=source, ordered=ordered)
         run.seconds["vehicles"] = 0.0
     return run
 
@@ -111,21 +113,26 @@ def replay_chunks(run: ReplayRun, chunks, lead=None) -> Iterator[tuple[object, P
         placed and checked like the others but not yielded, so that the interval from it to the
         first row is checked here, under its step, exactly once over all the parts.
     """
-    if lead is not None and len(lead):
-        _chunk(run, lead)
-    for chunk in chunks:
-        poses, events = _chunk(run, chunk)
+    try:
+        if lead is not None and len(lead):
+            _chunk(run, lead)
+        for chunk in chunks:
+            poses, events = _chunk(run, chunk)
+            if run.vehicles is not None:
+                t0 = time.perf_counter()
+                events += run.vehicles.ready(chunk)
+                run.seconds["vehicles"] += time.perf_counter() - t0
+            yield chunk, poses, events
         if run.vehicles is not None:
             t0 = time.perf_counter()
-            events += run.vehicles.ready(chunk)
+            tail = run.vehicles.finish()
             run.seconds["vehicles"] += time.perf_counter() - t0
-        yield chunk, poses, events
-    if run.vehicles is not None:
-        t0 = time.perf_counter()
-        tail = run.vehicles.finish()
-        run.seconds["vehicles"] += time.perf_counter() - t0
-        if tail:
-            yield None, None, tail
+            if tail:
+                yield None, None, tail
+    finally:
+        close = getattr(run.vehicles, "close", None)  # the spill file, also when the replay fails
+        if close is not None:
+            close()
 
 
 def _names(chunk) -> tuple:

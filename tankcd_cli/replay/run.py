@@ -61,7 +61,9 @@ def _run(world, trajectory, outputs, options, part, progress, observe, sources, 
         source, chunks = "trajectory", iter(trajectory)
     first = next(chunks, None)
     entities = bool(first is not None and first.has_entity)
-    run = start_run(world, options, bool(first is not None and first.has_turret), entities=entities, source=source)
+    ordered = in_time_order(trajectory, options, part, world.crs) if entities and options.continuous else True
+    run = start_run(world, options, bool(first is not None and first.has_turret), entities=entities, source=source,
+                    ordered=ordered)
     lead = lead_row(trajectory, part, crs=world.crs) if part is not None and isinstance(trajectory, str) else None
     counts = ReplayCounts()
     stream = _chain(first, chunks)
@@ -204,3 +206,43 @@ def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions
     if not parts:
         return pose_columns(np.zeros(0, np.int64), np.zeros(0), None), events
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, events
+
+
+def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None = None) -> bool:
+    """Whether an exercise's rows are in time order across vehicles, as the streaming checks between
+    vehicles need them (``replay.vehicles.OrderCheck``): one pass over a regular file (or any
+    iterable of chunks that can be read again: ``iter`` gives a new iterator), stopping at the first
+    row out of order. Standard input, a pipe or a one-pass iterator cannot be read twice: False
+    (their segments are spilled, correct whatever the order). A bad row or warning here is left to
+    the replay's own pass, which says it where it is."""
+    import os
+    import warnings
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay.vehicles import OrderCheck
+
+    if isinstance(trajectory, str):
+        if not os.path.isfile(trajectory):
+            return False
+        from tankcd_cli.io.trajectory import TrajectoryReader
+
+        # times and entities only: a geographic input's coordinates need no conversion here
+        chunks = TrajectoryReader(trajectory, options.chunk_rows, part, crs, convert=False)
+    else:
+        chunks = iter(trajectory)
+        if chunks is trajectory:
+            return False
+    check = OrderCheck()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for chunk in chunks:
+                if not check.observe(chunk):
+                    break
+    except InputError:
+        return False
+    finally:
+        close = getattr(chunks, "close", None)
+        if close is not None:
+            close()
+    return check.ordered

@@ -5,11 +5,27 @@ sub-steps between two placements, with their time spans), produced chunk by chun
 trajectory streams. Two vehicles can touch only where both move, so the check runs over the
 common spans of their segments:
 
-1. **Time windows.** Segments are buffered until every vehicle still sending rows has rows past a
-   window's end (the watermark: the earliest last row time over the vehicles heard from within
-   ``HORIZON`` seconds of the latest row). A window [w0, w1) is then complete: every segment
-   overlapping it is known. Memory follows the window and the watermark's lag (a sender's gap
-   between updates), not the exercise's length.
+1. **Time windows.** Windows lie on the grid ``k * WINDOW``. A window runs from a start bucket (a
+   grid cell in which some segment begins) to the next one: a cell in which no segment begins holds
+   only segments going on from the window before, and is checked with it, so the work follows the
+   segments, not the exercise's time span (a billion seconds without a row cost nothing). A window
+   [w0, w1) needs every segment with t0 < w1 and t1 >= w0; the segments reaching past w1 are kept
+   for the next.
+
+   *Rows in time order* (the vehicles interleaved, as simulators and captures send them): segments
+   are buffered until every vehicle still sending rows has rows past a window's end (the watermark:
+   the earliest last row time over the vehicles heard from within ``HORIZON`` seconds of the
+   latest row); the window is then complete. Memory follows the window and the watermark's lag (a
+   sender's gap between updates), not the exercise's length.
+
+   *Rows in any other order* (grouped by vehicle, as per-vehicle loggers and ``sort`` write them; a
+   vehicle silent past the horizon; any mix): a first pass over the times (``OrderCheck``, run by
+   ``replay.run.in_time_order``) plays the watermark and finds the first row whose motion would
+   come after its window closed. Then the segments are spilled to an unnamed temporary file by
+   start bucket (``SegmentSpill``) as the chunks stream, and once the trajectory has ended the
+   buckets are read back in time order through the same windows: the same events as the rows in
+   time order (their steps each file's own), in memory of a few windows' segments. Input that
+   cannot be read twice (standard input, a pipe, a one-pass iterator) is spilled.
 2. **Broad phase** (``collision.broad_phase.candidate_pairs``): each segment's box (its hull
    origin's two places grown by the vehicle's radius, which no point of it leaves under any
    articulation) and time span clipped to the window; pairs of different vehicles whose boxes and
@@ -22,13 +38,25 @@ common spans of their segments:
    contact (tested exactly at that instant) and gives no event, unless the span is where one of
    the two begins to exist (its first row, or a new piece of its motion): then the contact is
    there from the start and is reported at that instant. So a contact is reported once, in the
-   span where it begins, whichever window, chunk or segment boundaries cut its time.
+   span where it begins, whichever window, chunk or segment boundaries cut its time. A contact the
+   sweep finds along the motion began between rows: ``"between": true``, as every other kind; one
+   at the instant a vehicle begins to exist is at that row and carries none.
 
-A vehicle silent for more than ``HORIZON`` seconds no longer holds the windows back; when it speaks
-again, its gap's motion before the windows already checked is not checked against the other
-vehicles, and a set-up warning says so (``--strict``: exit 3). Rows out of time order across
-vehicles (a file of one vehicle's rows, then another's) meet the same limit and the same warning:
-an exercise's rows come in time order, vehicles interleaved.
+**Why any order gives the same events.** A window's events are a union over pairs of segments,
+each pair's common span checked on its own, so they depend on the set of segments overlapping the
+window and on the window's ends only, not on the order segments arrive in. The windows are the
+same in both modes: their ends are the start buckets, a property of the segments. In time order
+every segment with t0 < w1 is buffered when [w0, w1) closes: the window closes only once the next
+start bucket at or after w1 is known and lies at or before the watermark, and a vehicle still
+sending rows adds its next segment from its last row, at or after the watermark; a vehicle that
+appears, or resumes after the horizon, starts its motion at or after the highest watermark so far
+(``OrderCheck`` proves, before the replay, that no row breaks this). The spill holds every segment. The poses do
+not depend on the order at all (each vehicle's motion is carried by its code).
+
+With the first pass deciding, a segment that begins before the windows already checked cannot
+arrive in the streaming mode; should one all the same (a caller feeding ``VehicleContacts`` itself),
+its motion before those windows is not checked against the other vehicles, and a set-up warning
+says so (``--strict``: exit 3), never silently.
 """
 
 from __future__ import annotations
@@ -46,7 +74,7 @@ class VehicleContacts:
     windows close (``ready``) and at the end (``finish``)."""
 
     def __init__(self, world, continuous: bool = True, window: float | None = None, horizon: float | None = None,
-                 source: str = "trajectory"):
+                 source: str = "trajectory", ordered: bool = True):
         self.world = world
         self.continuous = continuous
         self.window = WINDOW if window is None else window
@@ -54,7 +82,9 @@ class VehicleContacts:
         self.buffer = []  # (kind index, Segments)
         self.names: tuple = ()
         self.last_t = np.zeros(0)  # each entity code's last row time
-        self.done_until = None  # windows before this are processed
+        self.done_k = None  # the windows before window done_k (index on the grid k * window) are processed
+        self.end = -np.inf  # the latest segment end added
+        self.spill = None if ordered else SegmentSpill(self.window)
         self.latest = -np.inf
         self.queries = 0
         self.late = 0  # segments that began before the windows already checked
@@ -69,6 +99,10 @@ class VehicleContacts:
         there any more: a set-up warning names the first such vehicle and row, ``finish`` how many
         more."""
         if segments is None or not len(segments):
+            return
+        self.end = max(self.end, float(segments.t1.max()))
+        if self.spill is not None:
+            self.spill.append(kind.index, segments)
             return
         self.buffer.append((kind.index, segments))
         if self.done_until is not None:
@@ -90,7 +124,7 @@ class VehicleContacts:
         self._warn(f"row {step}: entity {name!r} moves from t = {t0:g} s, after the contacts between vehicles up "
                    f"to t = {done:g} s were checked (its rows came more than {self.horizon:g} s late, or the rows "
                    "are not in time order across vehicles): contacts with other vehicles before then are not "
-                   "checked; give the rows in time order (sort by t)")
+                   "checked; give the rows in time order (sort by t), or replay the file itself")
 
     def _warn(self, what: str) -> None:
         from tankcd_cli.errors import warn
@@ -111,8 +145,13 @@ class VehicleContacts:
             self.last_t = np.concatenate([self.last_t, np.full(size - len(self.last_t), -np.inf)])
         np.maximum.at(self.last_t, codes, chunk.t)
         self.latest = max(self.latest, float(chunk.t.max()))
-        if self.done_until is None:
-            self.done_until = float(np.floor(chunk.t.min() / self.window) * self.window)
+        if self.done_k is None:
+            self.done_k = int(np.floor(chunk.t.min() / self.window))
+
+    @property
+    def done_until(self) -> float | None:
+        """The time before which every window is processed (None before the first rows)."""
+        return None if self.done_k is None else self.done_k * self.window
 
     def watermark(self) -> float:
         """The time up to which every vehicle still sending rows has sent them."""
@@ -121,33 +160,82 @@ class VehicleContacts:
         return float(live.min()) if len(live) else self.latest
 
     def ready(self, chunk) -> list:
-        """After a chunk: the contacts of every window the watermark has passed."""
+        """After a chunk: the contacts of every window the watermark has passed (none while spilling:
+        they all come at ``finish``)."""
         self._observe(chunk)
         self._say_late()
-        if self.done_until is None:
+        if self.done_k is None or self.spill is not None:
             return []
-        mark = self.watermark()
+        return self._close(self.watermark())
+
+    def _close(self, mark: float | None) -> list:
+        """Close the windows whose segments are all known: every segment beginning before ``mark`` has
+        been added (None: the trajectory has ended, every window). Windows run from one start bucket
+        (a window in which a segment begins) to the next: a window in which none begins holds only
+        segments going on from the one before it, and is checked with it (``_window`` over the span
+        of both), so the cost follows the segments, not the exercise's time span."""
         events = []
-        while self.done_until + self.window <= mark:
-            events += self._window(self.done_until, self.done_until + self.window)
-            self.done_until += self.window
+        while self.buffer:
+            starts = np.floor(np.concatenate([s.t0 for _, s in self.buffer]) / self.window).astype(np.int64)
+            k = max(self.done_k, int(starts.min()))
+            later = starts[starts > k]
+            if len(later):
+                m = int(later.min())
+                if mark is not None and m * self.window > mark:
+                    break
+                events += self._window(k * self.window, m * self.window)
+                self.done_k = m
+            elif mark is None:
+                m = int(np.floor(self.end / self.window)) + 1
+                events += self._window(k * self.window, m * self.window, last=True)
+                self.done_k = m
+                self.buffer = []
+            else:
+                break
+        if not self.buffer and mark is not None and np.isfinite(mark):
+            # nothing buffered: no segment begins before the watermark in the windows up to it
+            self.done_k = max(self.done_k, int(np.floor(mark / self.window)))
         return events
 
     def finish(self) -> list:
-        """The contacts of every window left, once the trajectory has ended."""
-        events = []
-        if self.done_until is None:
-            return events
-        end = max([float(s.t1.max()) for _, s in self.buffer] + [self.done_until])
-        while self.done_until <= end:
-            events += self._window(self.done_until, self.done_until + self.window, last=self.done_until + self.window > end)
-            self.done_until += self.window
+        """The contacts of every window left, once the trajectory has ended (all of them when the
+        segments were spilled: the spill's buckets in time order, through the same windows)."""
+        if self.done_k is None:
+            self.close()
+            return []
+        if self.spill is not None:
+            try:
+                events = self._finish_spill()
+            finally:
+                self.close()
+        else:
+            events = self._close(None)
         self.buffer = []
         self._say_late()
         if self.late > 1:
             self._warn(f"{self.late:,} stretches of motion in all began before the contacts between vehicles "
                        "there were checked (see above)")
         return events
+
+    def _finish_spill(self) -> list:
+        """The spilled segments' windows: each start bucket's segments join the buffer (those going on
+        from earlier windows), and the window runs to the next start bucket, as ``_close`` runs them."""
+        events = []
+        k = None
+        for bucket, kinds, segments in self.spill.buckets():
+            if k is not None:
+                events += self._window(k * self.window, bucket * self.window)
+            self.buffer += [(int(kind), segments.take(np.flatnonzero(kinds == kind))) for kind in np.unique(kinds)]
+            k = bucket
+        if k is not None:
+            events += self._window(k * self.window, (int(np.floor(self.end / self.window)) + 1) * self.window,
+                                   last=True)
+        return events
+
+    def close(self) -> None:
+        """Remove the spill file, if any (``finish`` does; a replay that fails calls it too)."""
+        if self.spill is not None:
+            self.spill.close()
 
     def close_window(self, w0: float, w1: float, last: bool = False) -> list:
         """The contacts that begin in the window [w0, w1) among the segments buffered (``add``), for a
@@ -238,7 +326,10 @@ class VehicleContacts:
                                          "b_part": body_b.part_names[hits.part_b[h]],
                                          "point": [round(float(c), 4) for c in hits.point[h]],
                                          "closing_speed": round(speed, 4), "a_step": int(s.step[a]),
-                                         "b_step": int(s.step[b]), "entity": str(names[s.entity[a]])},
+                                         "b_step": int(s.step[b]),
+                                         # found along the motion, not where a vehicle begins to exist (a row)
+                                         **({} if at_first[h] else {"between": True}),
+                                         "entity": str(names[s.entity[a]])},
                                         int(s.entity[a])))
         events.sort(key=lambda e: (e.t, e.a, e.b))
         return events
@@ -266,3 +357,117 @@ def _still(m, idx):
 
     z = np.zeros(len(idx))
     return SpanMotion(m.q0[idx], m.c0[idx], m.q0[idx], m.c0[idx], m.turret0[idx], z, m.gun0[idx], z)
+
+
+class SegmentSpill:
+    """The vehicles' segments of an exercise whose rows are not in time order, on disk until the
+    trajectory has ended: one unnamed temporary file (the system's temp dir; gone when closed, and
+    with the process), each batch of segments (a chunk's, of one kind) sorted by start bucket
+    (``floor(t0 / window)``) and appended, with an index of (bucket group, offset, count) per batch.
+    ``buckets`` then gives them back bucket by bucket in time order, reading one group of
+    ``GROUP`` buckets at a time: memory follows the segments of ``GROUP`` windows and the index (a
+    few numbers per chunk and group), not the exercise."""
+
+    GROUP = 16  # windows read back at a time
+
+    def __init__(self, window: float):
+        import tempfile
+
+        self.window = window
+        self.file = tempfile.TemporaryFile(prefix="tankcd-segments-")
+        self.records = 0
+        self.index: list = []  # (groups (E,), offsets (E,), counts (E,)) per batch
+
+    def append(self, kind: int, segments) -> None:
+        bucket = np.floor(segments.t0 / self.window).astype(np.int64)
+        order = np.argsort(bucket, kind="stable")
+        rec = np.empty(len(order), dtype=SPILL_DTYPE)
+        rec["kind"] = kind
+        for f in segments.__dataclass_fields__:
+            rec[f] = getattr(segments, f)[order]
+        rec["bucket"] = bucket[order]
+        group = rec["bucket"] // self.GROUP
+        first = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+        counts = np.diff(np.r_[first, len(group)])
+        self.file.seek(self.records * SPILL_DTYPE.itemsize)
+        rec.tofile(self.file)
+        self.index.append((group[first], self.records + first, counts))
+        self.records += len(rec)
+
+    def buckets(self):
+        """(bucket, kinds (M,), Segments) for every start bucket holding segments, in time order; within
+        a bucket the segments in the order they were added."""
+        from tankcd_cli.replay.between_rows import Segments
+
+        if not self.index:
+            return
+        groups = np.concatenate([g for g, _, _ in self.index])
+        offsets = np.concatenate([o for _, o, _ in self.index])
+        counts = np.concatenate([c for _, _, c in self.index])
+        order = np.argsort(groups, kind="stable")  # batches in the order added, within a group
+        groups, offsets, counts = groups[order], offsets[order], counts[order]
+        cut = np.flatnonzero(np.r_[True, groups[1:] != groups[:-1], True])
+        fields = Segments.__dataclass_fields__
+        for a, b in zip(cut[:-1], cut[1:]):
+            parts = []
+            for off, n in zip(offsets[a:b], counts[a:b]):
+                self.file.seek(int(off) * SPILL_DTYPE.itemsize)
+                parts.append(np.fromfile(self.file, dtype=SPILL_DTYPE, count=int(n)))
+            rec = np.concatenate(parts)
+            rec = rec[np.argsort(rec["bucket"], kind="stable")]
+            edge = np.flatnonzero(np.r_[True, rec["bucket"][1:] != rec["bucket"][:-1], True])
+            for i, j in zip(edge[:-1], edge[1:]):
+                r = rec[i:j]
+                yield int(r["bucket"][0]), r["kind"], Segments(*(np.ascontiguousarray(r[f]) for f in fields))
+
+    def close(self) -> None:
+        self.file.close()
+
+
+SPILL_DTYPE = np.dtype([("kind", "<i8"), ("bucket", "<i8"), ("entity", "<i8"), ("step", "<i8"), ("t0", "<f8"),
+                        ("t1", "<f8"), ("q0", "<f8", (4,)), ("c0", "<f8", (3,)), ("q1", "<f8", (4,)),
+                        ("c1", "<f8", (3,)), ("turret0", "<f8"), ("dturret", "<f8"), ("gun0", "<f8"),
+                        ("dgun", "<f8"), ("fresh", "?")])
+
+
+class OrderCheck:
+    """Whether an exercise's rows, read in its chunks, let the streaming windows (``VehicleContacts``
+    fed in order) see every segment before its window closes: a pass over the times and entities
+    only, playing the watermark. A segment starts at a vehicle's row and is added with the chunk of
+    the vehicle's next row; every window closed by then ends at or before the highest watermark
+    after the chunks before this one (``closed``: the watermark falls when a vehicle appears, but a
+    closed window stays closed). So the rows are in time order here when every row's vehicle's
+    previous row, or the row itself for a vehicle's first, is at or after ``closed`` (a vehicle
+    silent past the horizon, a vehicle appearing after the others' windows closed, a vehicle's rows
+    after another's: not in order). ``observe`` per chunk returns False at the first chunk that
+    breaks it."""
+
+    def __init__(self, horizon: float | None = None):
+        self.horizon = HORIZON if horizon is None else horizon
+        self.last_t = np.zeros(0)
+        self.latest = -np.inf
+        self.closed = -np.inf
+        self.ordered = True
+
+    def observe(self, chunk) -> bool:
+        if not self.ordered or chunk is None or not len(chunk):
+            return self.ordered
+        codes = chunk.entity if chunk.entity is not None else np.zeros(len(chunk), dtype=np.int64)
+        size = int(codes.max()) + 1
+        if size > len(self.last_t):
+            self.last_t = np.r_[self.last_t, np.full(size - len(self.last_t), -np.inf)]
+        # the earliest motion each row can start: from the vehicle's previous row (in the chunk, or
+        # the one carried from before), or from the row itself for the vehicle's first
+        order = np.argsort(codes, kind="stable")
+        c, t = codes[order], chunk.t[order]
+        first = np.r_[True, c[1:] != c[:-1]]
+        prev = np.where(first, self.last_t[c], np.r_[-np.inf, t[:-1]])
+        start = np.where(np.isfinite(prev), prev, t)
+        if float(start.min()) < self.closed:
+            self.ordered = False
+        np.maximum.at(self.last_t, codes, chunk.t)
+        self.latest = max(self.latest, float(chunk.t.max()))
+        heard = self.last_t[np.isfinite(self.last_t)]
+        live = heard[heard >= self.latest - self.horizon]
+        self.closed = max(self.closed, float(live.min()) if len(live) else self.latest)
+        return self.ordered

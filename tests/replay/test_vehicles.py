@@ -5,6 +5,8 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
 from tests.conftest import write_asc
 
@@ -266,32 +268,320 @@ def test_the_drums_are_each_vehicles_own(run, flat):
     assert summary["effects"]["internal"] is True
 
 
-def test_rows_out_of_time_order_across_vehicles_are_said_not_lost_silently(flat):
-    """An exercise whose rows come one vehicle after the other (each in its own time order, valid
-    rows) cannot have its contacts between vehicles checked once the first vehicle's windows have
-    closed: a set-up warning names the vehicle and the row. In time order the same rows give the
-    head-on contact and no warning."""
+def _replay_rows(world, trajectory, chunk_rows):
+    from tankcd_cli import api
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.run import replay_rows
+
+    if isinstance(trajectory, dict):  # columns: their chunks in a list (read twice, as a file is)
+        trajectory = list(api.trajectory_chunks(trajectory, chunk_rows=chunk_rows))
+    return replay_rows(world, trajectory, ReplayOptions(chunk_rows=chunk_rows))
+
+
+STEPS = ("step", "a_step", "b_step")
+
+
+def _events_but_steps(events):
+    """The events as comparable text, without the step numbers (which count each file's own rows)."""
+    return sorted(json.dumps({k: v for k, v in e.items() if k not in STEPS}, sort_keys=True) for e in events)
+
+
+def _poses_by_row(poses):
+    """Each pose row keyed by (entity, t), its columns but the step, in the input's row order."""
+    keys = [k for k in poses if k != "step"]
+    return [((poses["entity"][i], float(poses["t"][i])),
+             tuple(poses[k][i] if not isinstance(poses[k][i], float) or poses[k][i] == poses[k][i] else "nan"
+                   for k in keys)) for i in range(len(poses["t"]))]
+
+
+def _same_as_in_time_order(world, timed, other, chunk_rows, write=None):
+    """``other`` (the rows of ``timed`` in another order) gives the events of ``timed`` (but the steps)
+    and, row for row in its own order, the same poses; returns the events."""
+    p1, e1 = _replay_rows(world, timed if write is None else write("timed.csv", timed), chunk_rows)
+    p2, e2 = _replay_rows(world, other if write is None else write("other.csv", other), chunk_rows)
+    assert _events_but_steps(e2) == _events_but_steps(e1)
+    by_row = dict(_poses_by_row(p1))
+    got = _poses_by_row(p2)
+    assert len(got) == len(by_row) and [row for _, row in got] == [by_row[key] for key, _ in got]
+    return e1
+
+
+@pytest.mark.parametrize("chunk_rows", [7, 50])
+def test_rows_grouped_by_vehicle_give_the_events_and_poses_of_the_rows_in_time_order(flat, chunk_rows):
+    """An exercise whose rows come one vehicle after the other (``sort -k entity``), across many
+    chunks: the same contacts (every field but the steps) as the same rows in time order, the same
+    poses row for row (in each file's own order), and no warning."""
     import warnings
 
     from tankcd_cli import api
     from tankcd_cli.errors import SetupWarning
-    from tankcd_cli.replay.records import ReplayOptions
-    from tankcd_cli.replay.run import replay_rows
+
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    timed = _exercise(np.random.default_rng(5), 6, area=15.0, seconds=8.0)
+    grouped = sorted(timed, key=lambda r: r[1])
+
+    def write(name, rows):
+        _write(flat / name, rows)
+        return str(flat / name)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        events = _same_as_in_time_order(world, timed, grouped, chunk_rows, write)
+    assert sum(e["kind"] == "vehicle" for e in events) >= 3
+    assert not [w for w in caught if issubclass(w.category, SetupWarning)]
+
+
+def test_the_head_on_contact_of_rows_grouped_by_vehicle(flat):
+    """The rows of the head-on closed form one vehicle after the other, in chunks of 10: the one
+    contact, at the time of the rows in time order (where the old streaming checks lost it)."""
+    from tankcd_cli import api
 
     rows = []
     for k in range(41):
         t = 0.25 * k
         rows += [(t, "A", 10 + 8 * t, 30, 0), (t, "B", 150 - 7 * t, 30, 180)]
     world = api.load_world(scene=str(flat / "scene.toml"))
-    options = ReplayOptions(chunk_rows=10)
-    for name, ordered in (("timed.csv", rows), ("grouped.csv", sorted(rows, key=lambda r: r[1]))):
-        _write(flat / name, ordered)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            _, events = replay_rows(world, str(flat / name), options)
-        said = [str(w.message) for w in caught if issubclass(w.category, SetupWarning)]
-        late = [m for m in said if "not in time order across vehicles" in m]
-        if name == "timed.csv":
-            assert [e["kind"] for e in events].count("vehicle") == 1 and not late
-        else:
-            assert len(late) == 1 and "entity 'B'" in late[0] and "row 41" in late[0]
+    _write(flat / "grouped.csv", sorted(rows, key=lambda r: r[1]))
+    _, events = _replay_rows(world, str(flat / "grouped.csv"), 10)
+    vehicle = [e for e in events if e["kind"] == "vehicle"]
+    assert len(vehicle) == 1 and vehicle[0]["t"] == pytest.approx((150 - 10 - 2 * 6.1) / 15, abs=1e-3)
+    k = int(vehicle[0]["t"] // 0.25)  # the interval's earlier row: A's rows are lines 0..40, B's 41..81
+    assert vehicle[0]["a_step"] == k and vehicle[0]["b_step"] == 41 + k
+
+
+def _columns(rows):
+    return {"t": [r[0] for r in rows], "entity": [r[1] for r in rows], "x": [r[2] for r in rows],
+            "y": [r[3] for r in rows], "yaw_deg": [r[4] for r in rows]}
+
+
+def test_api_replay_of_a_shuffled_entity_array_is_the_time_ordered_one(flat, monkeypatch):
+    """api.replay with the rows of an exercise shuffled (each vehicle's own rows still in order) or
+    grouped by vehicle, in chunks of 9 rows: the events and poses of the rows in time order."""
+    import functools
+
+    from tankcd_cli import api
+    from tankcd_cli.replay import vehicles
+
+    monkeypatch.setattr(api, "trajectory_chunks", functools.partial(api.trajectory_chunks, chunk_rows=9))
+    modes = []
+    init = vehicles.VehicleContacts.__init__
+
+    def remember(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        modes.append(self.spill is None)
+
+    monkeypatch.setattr(vehicles.VehicleContacts, "__init__", remember)
+
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    timed = _exercise(np.random.default_rng(7), 5, area=14.0)
+    rng = np.random.default_rng(1)
+    # a random interleaving that keeps each vehicle's order: shuffle, then give each vehicle its rows back in order
+    who = np.array([r[1] for r in timed])
+    slots = rng.permutation(len(timed))
+    mixed = [None] * len(timed)
+    for name in np.unique(who):
+        mine = [r for r in timed if r[1] == name]
+        places = np.sort(slots[who == name])
+        for place, r in zip(places, mine):
+            mixed[place] = r
+    p1, e1 = api.replay(_columns(timed), world=world)
+    assert any(e["kind"] == "vehicle" for e in e1)
+    by_row = dict(_poses_by_row(p1))
+    for rows in (mixed, sorted(timed, key=lambda r: r[1])):
+        p2, e2 = api.replay(_columns(rows), world=world)
+        assert _events_but_steps(e2) == _events_but_steps(e1)
+        assert [row for _, row in _poses_by_row(p2)] == [by_row[key] for key, _ in _poses_by_row(p2)]
+    # in time order, and shuffled (every vehicle still sending: the watermark waits for each), the checks
+    # stream; grouped by vehicle, the segments are spilled
+    assert modes[0] and not modes[2]
+
+
+def test_files_together_each_grouped_by_vehicle(run, flat):
+    """--together of two files, each of several vehicles grouped by vehicle: the events of one file
+    of all the rows in time order."""
+    rows = _exercise(np.random.default_rng(2), 6, area=18.0)
+    _write(flat / "ex.csv", rows)
+    one, _ = _replay(run, flat)
+    names = sorted({r[1] for r in rows})
+    for part, mine in (("a", names[:3]), ("b", names[3:])):
+        _write(flat / f"{part}.csv", sorted((r for r in rows if r[1] in mine), key=lambda r: r[1]))
+    result = run("replay", "a.csv", "b.csv", "--together", "--scene", "scene.toml", "--poses", "q.csv",
+                 "--events", "f.jsonl")
+    assert result.exit_code == 0, result.stderr
+    together = [json.loads(line) for line in (flat / "f.jsonl").read_text().splitlines()]
+    assert any(e["kind"] == "vehicle" for e in one)
+    assert _events_but_steps(together) == _events_but_steps(one)
+
+
+def test_a_vehicle_silent_past_the_horizon_is_checked_all_the_same(flat):
+    """B stands silent from t = 0 to t = 100 (past the 30 s horizon), where A, driving at 1 m/s, runs
+    its gun into B's rear at t = 62.5: the contact is found, in time order or grouped, with no
+    warning."""
+    import warnings
+
+    from tankcd_cli import api
+    from tankcd_cli.errors import SetupWarning
+
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    rows = [(float(t), "A", 10 + t, 30, 0) for t in range(0, 101, 2)]
+    rows += [(0.0, "B", 70 + 6.1 + 3.43 + 0.5, 30, 0), (100.0, "B", 70 + 6.1 + 3.43 + 0.5, 30, 0)]
+    timed = sorted(rows)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        events = _same_as_in_time_order(world, _columns(timed), _columns(sorted(rows, key=lambda r: r[1])), 8)
+    vehicle = [e for e in events if e["kind"] == "vehicle"]
+    assert len(vehicle) == 1 and 60 < vehicle[0]["t"] < 65 and vehicle[0]["a_part"] == "gun"
+    assert not [w for w in caught if issubclass(w.category, SetupWarning)]
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([5, 16, 1000]))
+@example(106064, 5)  # v2's first row comes after the windows up to 2 s closed: it must spill, not stream
+def test_any_interleaving_gives_the_events_of_time_order(seed, chunk_rows):
+    """A random interleaving of an exercise's rows that keeps each vehicle's own order, in random
+    chunks: the events and poses of the rows in time order."""
+    world = _hypothesis_world()
+    rng = np.random.default_rng(seed)
+    timed = _exercise(np.random.default_rng(11), 4, area=12.0, seconds=4.0)
+    by = {}
+    for r in timed:
+        by.setdefault(r[1], []).append(r)
+    queues = {k: list(v) for k, v in by.items()}
+    mixed = []
+    while queues:
+        k = sorted(queues)[int(rng.integers(len(queues)))]
+        mixed.append(queues[k].pop(0))
+        if not queues[k]:
+            del queues[k]
+    _same_as_in_time_order(world, _columns(timed), _columns(mixed), chunk_rows)
+
+
+_WORLD = {}
+
+
+def _hypothesis_world():
+    """One flat world for the property test's examples (hypothesis gives no function fixture)."""
+    import tempfile
+    from pathlib import Path
+
+    from tankcd_cli import api
+
+    if "w" not in _WORLD:
+        folder = Path(tempfile.mkdtemp(prefix="tankcd-test-order-"))
+        write_asc(folder / "flat.asc", np.full((80, 160), GROUND))
+        (folder / "scene.toml").write_text('[terrain]\npath = "flat.asc"\n\n[vehicle]\npreset = "t72"\n'
+                                           'fuel_drums = false\n')
+        _WORLD["w"] = api.load_world(scene=str(folder / "scene.toml"))
+    return _WORLD["w"]
+
+
+def test_a_billion_seconds_of_empty_time_cost_nothing_and_hide_no_contact(flat):
+    """Two vehicles, and one more row of each a billion seconds later, where they meet head on: the
+    windows skip the empty time (one pass per 2 s window would never finish) and the contact after
+    the gap is found where the closed form puts it."""
+    import time
+
+    from tankcd_cli import api
+
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    late = 1e9
+    rows = [(0.0, "A", 20, 30, 0), (1.0, "A", 21, 30, 0), (0.0, "B", 120, 30, 180), (1.0, "B", 119, 30, 180)]
+    for k in range(21):
+        t = late + 0.5 * k
+        rows += [(t, "A", 10 + 8 * (t - late), 30, 0), (t, "B", 150 - 7 * (t - late), 30, 180)]
+    for order, chunk_rows in ((sorted(rows), 65536), (sorted(rows), 7), (sorted(rows, key=lambda r: r[1]), 7)):
+        start = time.perf_counter()
+        poses, events = _replay_rows(world, _columns(order), chunk_rows)  # streamed, streamed, spilled
+        seconds = time.perf_counter() - start
+        vehicle = [e for e in events if e["kind"] == "vehicle"]
+        assert len(vehicle) == 1 and vehicle[0]["a"] == "A" and vehicle[0]["a_part"] == "gun"
+        assert vehicle[0]["t"] - late == pytest.approx((150 - 10 - 2 * 6.1) / 15, abs=1e-3)
+        assert seconds < 5  # a few hundred milliseconds; a pass per window: 5e8 of them
+
+
+def test_a_vehicle_contact_between_rows_says_so_and_one_at_a_first_row_does_not(flat):
+    """A contact the sweep finds along the motion carries "between": true (as every other kind); one
+    present where a vehicle begins to exist is at that row and carries none."""
+    from tankcd_cli import api
+
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    rows = []
+    for k in range(21):
+        t = 0.5 * k
+        rows += [(t, "A", 10 + 8 * t, 30, 0), (t, "B", 150 - 7 * t, 30, 180)]
+    rows += [(3.0, "C", 34 + 3, 30, 90), (4.0, "C", 34 + 3, 30, 90)]  # appears in A's hull at t = 3
+    _, events = api.replay(_columns(sorted(rows)), world=world)
+    vehicle = {(e["a"], e["b"]): e for e in events if e["kind"] == "vehicle"}
+    assert vehicle[("A", "B")]["between"] is True
+    assert vehicle[("A", "C")]["t"] == 3.0 and "between" not in vehicle[("A", "C")]
+
+
+def test_a_quiet_summary_carries_the_warnings_of_a_grouped_exercise(run, flat):
+    """-q --summary - on an exercise grouped by vehicle that warns (a step no vehicle makes): the
+    summary JSON's warnings list names it, and a world warning said while loading is there too."""
+    rows = [(float(t), "A", 10 + 2 * t, 30, 0) for t in range(6)] + [(6.0, "A", 120, 30, 0)]
+    rows += [(float(t), "B", 60, 50 - 2 * t, 270) for t in range(7)]
+    _write(flat / "ex.csv", sorted(rows, key=lambda r: r[1]))
+    from tests.conftest import write_obj
+
+    box = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    faces = [[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4], [2, 6, 3], [3, 6, 7], [0, 4, 2],
+             [2, 4, 6], [1, 3, 5], [3, 7, 5]]
+    write_obj(flat / "crate.obj", box, faces)
+    (flat / "scene.toml").write_text((flat / "scene.toml").read_text() + '\n[[obstacle]]\nname = "crate"\n'
+                                     'path = "crate.obj"\nposition = [5000.0, 10.0, 0.0]\n')  # off the terrain
+    result = run("-q", "replay", "ex.csv", "--scene", "scene.toml", "--poses", "p.csv", "--summary", "-")
+    assert result.exit_code == 0, result.stderr
+    assert result.stderr == ""  # -q: nothing said
+    summary = json.loads(result.stdout.strip().splitlines()[-1])
+    assert any("entity 'A'" in w and "faster than any vehicle" in w for w in summary["warnings"])
+    assert any("obstacle 'crate' lies off the terrain" in w for w in summary["warnings"])
+
+
+def test_the_spill_is_removed_at_the_end_and_when_the_replay_fails(flat, monkeypatch):
+    """The spilled segments live in an unnamed temporary file: closed (gone) when the replay ends, and
+    when a bad row stops it half way."""
+    from tankcd_cli import api
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay import vehicles
+
+    made = []
+    init = vehicles.SegmentSpill.__init__
+
+    def remember(self, window):
+        init(self, window)
+        made.append(self)
+
+    monkeypatch.setattr(vehicles.SegmentSpill, "__init__", remember)
+    world = api.load_world(scene=str(flat / "scene.toml"))
+    rows = sorted(_exercise(np.random.default_rng(5), 4, area=15.0), key=lambda r: r[1])
+    _write(flat / "grouped.csv", rows)
+    _replay_rows(world, str(flat / "grouped.csv"), 7)
+    assert len(made) == 1 and made[0].records > 0 and made[0].file.closed
+    (flat / "bad.csv").write_text((flat / "grouped.csv").read_text() + "9.5,v0,nan,30,0\n")
+    with pytest.raises(InputError, match="line"):
+        _replay_rows(world, str(flat / "bad.csv"), 7)
+    assert len(made) == 2 and made[1].records > 0 and made[1].file.closed
+
+
+def test_a_fleet_of_an_exercise_grouped_and_in_time_order(flat, tmp_path):
+    """A fleet of two exercises, the same rows in time order and grouped by vehicle, in chunks of 7
+    rows: each its own task, the same events."""
+    from tankcd_cli.replay.fleet import FleetWorld, plan_tasks, run_fleet
+    from tankcd_cli.replay.records import ReplayOptions
+    from tankcd_cli.replay.world import WorldSpec
+
+    rows = _exercise(np.random.default_rng(5), 5, area=15.0)
+    (flat / "a").mkdir()
+    (flat / "b").mkdir()
+    _write(flat / "a" / "timed.csv", rows)
+    _write(flat / "b" / "grouped.csv", sorted(rows, key=lambda r: r[1]))
+    world = FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), ReplayOptions(chunk_rows=7))
+    out = tmp_path / "out"
+    out.mkdir()
+    tasks = plan_tasks([str(flat / "a" / "timed.csv"), str(flat / "b" / "grouped.csv")], str(out))
+    fleet = run_fleet(world, tasks)
+    assert fleet.ok == 2, fleet
+    timed, grouped = ([json.loads(line) for line in open(t.events)] for t in tasks)
+    assert any(e["kind"] == "vehicle" for e in timed)
+    assert _events_but_steps(grouped) == _events_but_steps(timed)
