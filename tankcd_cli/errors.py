@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextvars
+
 
 class InputError(Exception):
     """Bad input data: unreadable, empty, non-finite, malformed file or row.
@@ -52,38 +54,42 @@ class SetupWarning(UserWarning):
 
 
 def warn(source: str | None, what: str) -> None:
-    """Raise a :class:`SetupWarning` through Python's warnings (the caller decides what it does)."""
+    """Raise a :class:`SetupWarning` through Python's warnings (the caller decides what it does),
+    first recorded by every ``collected_warnings`` block it is raised in."""
     import warnings
 
-    warnings.warn(SetupWarning(source, what), stacklevel=2)
+    warning = SetupWarning(source, what)
+    for seen in _COLLECTING.get():
+        seen.add(warning.one_line())
+    warnings.warn(warning, stacklevel=2)
 
 
 class CollectedWarnings(list):
     """The one-line texts of the set-up warnings raised while a ``collected_warnings`` block ran, in
-    order (a list of str)."""
+    the order first raised, each once (a list of str)."""
+
+    def add(self, text: str) -> None:
+        if text not in self:
+            self.append(text)
+
+
+_COLLECTING: contextvars.ContextVar = contextvars.ContextVar("tankcd_collected_warnings", default=())
 
 
 def collected_warnings():
-    """A context manager that records every set-up warning shown inside it (``CollectedWarnings``),
-    each also shown as before (the command line prints it, ``-q`` does not). The filters in force
-    decide as ever: under an ``error`` filter (``--strict``) a warning is raised, not recorded; one
-    a filter ignores is neither shown nor recorded. Entering the block resets Python's
-    once-per-place memory, so each replay records its own warnings."""
+    """A context manager that records every set-up warning raised inside it (``CollectedWarnings``),
+    whatever the warnings filters then do with it: shown (the command line prints it, ``-q`` does
+    not), ignored, or raised as an error (``--strict``). So a summary built from it carries every
+    warning of its run. Blocks nest: a warning is recorded by each block it is raised in."""
     import contextlib
-    import warnings
 
     @contextlib.contextmanager
     def block():
         seen = CollectedWarnings()
-        with warnings.catch_warnings():
-            shown = warnings.showwarning
-
-            def show(message, category, filename, lineno, file=None, line=None):
-                if isinstance(message, SetupWarning):
-                    seen.append(message.one_line())
-                shown(message, category, filename, lineno, file, line)
-
-            warnings.showwarning = show
+        token = _COLLECTING.set(_COLLECTING.get() + (seen,))
+        try:
             yield seen
+        finally:
+            _COLLECTING.reset(token)
 
     return block()

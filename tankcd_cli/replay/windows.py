@@ -375,6 +375,7 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
     t_end = -np.inf
     has_turret = has_entity = False
     ordered = True  # the rows in time order across vehicles, as the streaming checks between them need
+    order = vehicles.OrderCheck()  # the one-piece run's own test of it
     names: tuple = ()
     time_origin = None
     for c, chunk in enumerate(reader):
@@ -392,7 +393,6 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
             else:
                 checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
         chunk_starts.append(int(chunk.step[0]))
-        mark = watch.watermark() if watch.done_until is not None else -np.inf  # of the chunks before this one
         before = watch.done_until if watch.done_until is not None else grid.edges[0]
         watch.ready(chunk)
         w = before
@@ -410,7 +410,7 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
             last = np.r_[last, np.full((grow, 2), -1, np.int64)]
             last_t = np.r_[last_t, np.full(grow, -np.inf)]
         if ordered and has_entity:
-            ordered = _in_time_order(codes, chunk.t, last_t, mark)
+            ordered = order.observe(chunk)
         starts = np.asarray(grid.edges[::per_task])
         task = np.maximum(np.searchsorted(starts, chunk.t, side="right") - 1, 0)
         _own(task, chunk.step, part_steps, own_min, own_max, own_parts)
@@ -456,20 +456,6 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
         min_chunk[j] = min([first_chunk] + [w.emit for w in windows])
     return WindowPlan(tasks, min_step, min_chunk, rows, n_chunks, has_entity, len(names), bool(reader.geographic),
                       time_origin=time_origin)
-
-
-def _in_time_order(codes, t, last_t, mark) -> bool:
-    """Whether a chunk's rows keep the exercise in time order for the streaming checks between
-    vehicles: every row after its vehicle's first has the vehicle's previous row (in the chunk, or
-    the last before it: ``last_t`` by code) at or after ``mark``, the watermark of the chunks before
-    (a segment starts at that row and is added with this chunk; the windows closed by then end at
-    or before the mark)."""
-    order = np.argsort(codes, kind="stable")
-    c, ts = codes[order], t[order]
-    first = np.r_[True, c[1:] != c[:-1]]
-    prev = np.where(first, last_t[c], np.r_[-np.inf, ts[:-1]])
-    had = np.isfinite(prev)
-    return not (had.any() and float(prev[had].min()) < mark)
 
 
 def _own(task, steps, part_steps, own_min, own_max, own_parts) -> None:
