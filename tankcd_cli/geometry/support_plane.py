@@ -30,25 +30,36 @@ from tankcd_cli.geometry._support_plane import MAX_PIVOTS, support_plane, suppor
 
 def support_plane_brute_force(u: np.ndarray, v: np.ndarray, z: np.ndarray) -> float:
     """Height over the origin of the upper hull: the highest interpolation, at the
-    origin, of any triangle or segment of points containing it (O(n^3) oracle)."""
-    best = -np.inf
+    origin, of any triangle or segment of points containing it (O(n^3) oracle: every
+    point, pair and triple tried, in blocks of triples so that memory stays bounded)."""
+    u, v, z = (np.asarray(a, dtype=np.float64) for a in (u, v, z))
     n = len(u)
-    for i in range(n):
-        if abs(u[i]) < 1e-12 and abs(v[i]) < 1e-12:
-            best = max(best, z[i])
-        for j in range(i + 1, n):
-            # a segment through the origin
-            du, dv = u[j] - u[i], v[j] - v[i]
-            cross = u[i] * dv - v[i] * du
-            if abs(cross) < 1e-12 and (du * du + dv * dv) > 0:
-                t = -(u[i] * du + v[i] * dv) / (du * du + dv * dv)
-                if 0 <= t <= 1:
-                    best = max(best, z[i] + t * (z[j] - z[i]))
-            for k in range(j + 1, n):
-                M = np.array([[u[i], u[j], u[k]], [v[i], v[j], v[k]], [1.0, 1.0, 1.0]])
-                if abs(np.linalg.det(M)) < 1e-12:
-                    continue
-                lam = np.linalg.solve(M, [0.0, 0.0, 1.0])
-                if (lam >= -1e-12).all():
-                    best = max(best, float(lam @ [z[i], z[j], z[k]]))
+    best = -np.inf
+    at = (np.abs(u) < 1e-12) & (np.abs(v) < 1e-12)
+    if at.any():
+        best = float(z[at].max())
+    i, j = np.triu_indices(n, 1)
+    # a segment through the origin
+    du, dv = u[j] - u[i], v[j] - v[i]
+    cross = u[i] * dv - v[i] * du
+    length = du * du + dv * dv
+    seg = (np.abs(cross) < 1e-12) & (length > 0)
+    if seg.any():
+        t = -(u[i][seg] * du[seg] + v[i][seg] * dv[seg]) / length[seg]
+        inside = (t >= 0) & (t <= 1)
+        if inside.any():
+            best = max(best, float((z[i][seg] + t * (z[j][seg] - z[i][seg]))[inside].max()))
+    # a triangle containing the origin: its barycentric weights of the origin, all >= 0
+    triples = np.array([(a, b, c) for a in range(n) for b in range(a + 1, n) for c in range(b + 1, n)],
+                       dtype=np.int64).reshape(-1, 3)
+    for lo in range(0, len(triples), 1 << 16):
+        tri = triples[lo:lo + (1 << 16)]
+        M = np.stack([u[tri], v[tri], np.ones(tri.shape)], axis=1)  # (T, 3, 3): columns the points
+        ok = np.abs(np.linalg.det(M)) >= 1e-12
+        if not ok.any():
+            continue
+        lam = np.linalg.solve(M[ok], np.broadcast_to([0.0, 0.0, 1.0], (int(ok.sum()), 3))[..., None])[..., 0]
+        inside = (lam >= -1e-12).all(axis=1)
+        if inside.any():
+            best = max(best, float(np.einsum("ti,ti->t", lam[inside], z[tri[ok][inside]]).max()))
     return best
