@@ -300,7 +300,7 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
 
     from tankcd_cli.errors import InputError
     from tankcd_cli.replay.records import ReplayOutputs
-    from tankcd_cli.replay.windows import in_process, on_dask, plan_windows, run_windows
+    from tankcd_cli.replay.windows import SparseTime, in_process, on_dask, plan_windows, run_windows
 
     if not isinstance(trajectory, str) or trajectory == "-":
         raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
@@ -329,7 +329,19 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         runner = in_process(loaded, options)
         path = trajectory
     # here, an input that is no CSV (a capture, GPX) is decoded and converted once for all the windows
-    plan = plan_windows(path, options, window_seconds, crs=None if scheduler else loaded.crs)
+    try:
+        plan = plan_windows(path, options, window_seconds, crs=None if scheduler else loaded.crs)
+    except SparseTime as sparse:
+        from tankcd_cli.errors import collected_warnings, warn
+
+        with collected_warnings() as said:
+            warn(trajectory, f"{sparse}: replayed in one piece, which skips empty time (the same poses and events)")
+        loaded = _world(world, scene, terrain, vehicle, up, False, None) if scheduler else loaded
+        summary = replay_to_files(trajectory, poses, events, world=loaded, matcher=matcher, discrete=discrete,
+                                  escalate=escalate, tolerance=tolerance, attitude_tolerance=attitude_tolerance,
+                                  progress=progress)
+        summary.warnings = list(said) + summary.warnings
+        return summary
     return run_windows(path, ReplayOutputs(poses, events), runner, plan, options, progress=progress)
 
 

@@ -51,6 +51,21 @@ from tankcd_cli.errors import InputError
 from tankcd_cli.replay.records import ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
 
 DEFAULT_WINDOW_SECONDS = 60.0
+SPARSE_WINDOWS = 100_000  # contact windows a plan may hold beyond SPARSE_WINDOWS_PER_ROW a row
+SPARSE_WINDOWS_PER_ROW = 64  # a vehicle's rows a minute apart: 30 windows a row
+
+
+class SparseTime(Exception):
+    """An exercise whose time span holds far more contact windows than rows (a clock jump, a row a
+    year later): its plan would cost by time, not rows (a task, a join slot and a window's
+    bookkeeping for every 2 s of empty time), so it is not cut into windows; the caller replays it
+    in one piece, which skips empty time (``replay.vehicles``), with the same poses and events."""
+
+    def __init__(self, windows: float, rows: int, width: float):
+        self.windows, self.rows = windows, rows
+        super().__init__(f"{windows * width:.6g} s of time for {rows:,} rows, {windows:.3g} contact windows of "
+                         f"{width:g} s: far more windows than rows (a clock jump?)")
+
 
 
 @dataclass(frozen=True)
@@ -393,6 +408,9 @@ def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) ->
             else:
                 checks.observe(chunk.t, chunk.x, chunk.y, chunk.yaw_deg, chunk.line)
         chunk_starts.append(int(chunk.step[0]))
+        windows = (max(t_end, float(chunk.t.max())) - grid.edges[0]) / width
+        if windows > SPARSE_WINDOWS + SPARSE_WINDOWS_PER_ROW * (rows + len(chunk)):
+            raise SparseTime(windows, rows + len(chunk), width)
         before = watch.done_until if watch.done_until is not None else grid.edges[0]
         watch.ready(chunk)
         w = before

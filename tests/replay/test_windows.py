@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -664,3 +665,23 @@ def test_minus_v_shows_the_traceback_of_a_tasks_internal_error(run, flat, tmp_pa
         assert "internal error: ZeroDivisionError: in window 0" in result.stderr
         assert ("in broken" in result.stderr) == bool(verbose), result.stderr
         assert not (tmp_path / "p.csv").exists()
+
+
+def test_a_clock_jump_of_a_billion_seconds_is_replayed_in_one_piece(tmp_path):
+    # windows over 1e9 s of empty time would cost by time (5e8 windows for 41 rows): the plan declines
+    # and the exercise runs in one piece, which skips empty time, with the same bytes and a warning
+    from tankcd_cli import api
+    from tankcd_cli.errors import SetupWarning
+
+    rows = "".join(f"{k * 0.5},A,{500040 + k},4500050,0\n{k * 0.5},B,{500080 - k},4500050,180\n" for k in range(20))
+    (tmp_path / "gap.csv").write_text("t,entity,x,y,yaw_deg\n" + rows + "1000000000,A,500070,4500050,0\n")
+    terrain = str(Path(__file__).resolve().parents[2] / "sample_data" / "battlefield.asc")
+    whole = api.replay_to_files(str(tmp_path / "gap.csv"), str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl"),
+                                terrain=terrain)
+    with pytest.warns(SetupWarning, match="far more windows than rows .* replayed in one piece"):
+        windowed = api.replay_windows(str(tmp_path / "gap.csv"), str(tmp_path / "pw.csv"), str(tmp_path / "ew.jsonl"),
+                                      terrain=terrain, window_seconds=60.0)
+    assert (tmp_path / "pw.csv").read_bytes() == (tmp_path / "p.csv").read_bytes()
+    assert (tmp_path / "ew.jsonl").read_bytes() == (tmp_path / "e.jsonl").read_bytes()
+    assert windowed.vehicle_contacts == whole.vehicle_contacts == 1
+    assert any("far more windows than rows" in w for w in windowed.warnings)
