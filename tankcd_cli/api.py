@@ -415,6 +415,13 @@ def trajectory_chunks(columns: dict, chunk_rows: int = 65536, crs: str | None = 
         if len(bad):
             raise InputError("trajectory", f"{name} is not a finite number ({values[bad[0]]!r})",
                              where=f"row {int(bad[0])}")
+        if name == "gun_deg":
+            from tankcd_cli.io.trajectory import GUN_LIMIT_DEG
+
+            bad = np.flatnonzero(np.abs(values) > GUN_LIMIT_DEG)
+            if len(bad):
+                raise InputError("trajectory", f"{values[bad[0]]!r} is no gun elevation (-{GUN_LIMIT_DEG:g} to "
+                                               f"{GUN_LIMIT_DEG:g} degrees)", where=f"row {int(bad[0])} gun_deg")
         cols[name] = values
     if "entity" in columns:
         names, codes = _entity_codes(columns["entity"], n)

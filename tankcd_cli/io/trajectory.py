@@ -34,6 +34,7 @@ REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
 FORMATS = FORMAT_NAMES
 EXPORT_COLUMNS = ("t", "entity", "x", "y", "yaw_deg", "turret_deg", "gun_deg")  # turret, gun: where the input has them
+GUN_LIMIT_DEG = 180.0  # a gun elevation beyond a half turn means nothing (and would spin the gun's path without end)
 REORDER_WINDOW = 1.0  # s: a capture's packets this much out of time order are put back in order
 _EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
 
@@ -280,6 +281,12 @@ class TrajectoryReader:
                 c, value, limit = ("lon", a[k], 180) if not abs(a[k]) <= 180 else ("lat", b[k], 90)
                 error = InputError(lay.name, f"{float(value)!r} is out of range (-{limit} to {limit} degrees)",
                                    where=f"line {lines[k]} column {c}")
+        if "gun_deg" in col:
+            bad = np.flatnonzero(~(np.abs(v[col["gun_deg"], :k]) <= GUN_LIMIT_DEG))
+            if len(bad):
+                k = int(bad[0])
+                error = InputError(lay.name, f"{float(v[col['gun_deg'], k])!r} is no gun elevation (-{GUN_LIMIT_DEG:g} "
+                                             f"to {GUN_LIMIT_DEG:g} degrees)", where=f"line {lines[k]} column gun_deg")
         piece, bad = order.check(codes[:k], t[:k], lines[:k], len(names.list))
         if bad >= 0:
             error = self._order_error(lay.name, lay.entity, names, order, codes[bad], t[bad], lines[bad])
@@ -561,6 +568,12 @@ class _CaptureState:
         piece, bad = self.order.check(codes, block["t"], block["packet"], ncodes)
         k = n if bad < 0 else bad
         error = self._order_error(block, bad) if bad >= 0 else None
+        far = np.flatnonzero(np.abs(block["gun_deg"][:k]) > GUN_LIMIT_DEG)  # NaN: no gun record, kept
+        if len(far):
+            k = bad = int(far[0])
+            error = InputError(self.name, f"Entity State PDU's gun elevation {float(block['gun_deg'][k]):.6g} deg is "
+                                          f"no elevation (beyond +-{GUN_LIMIT_DEG:g} deg)",
+                               where=f"packet {int(block['packet'][k])}")
         if bad >= 0:
             block = {key: v[:k] for key, v in block.items()}
             piece = piece[:k]

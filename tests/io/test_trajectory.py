@@ -997,3 +997,20 @@ def test_files_merged_on_their_clocks_count_from_the_earliest_whatever_their_zon
             np.testing.assert_allclose(t[names == f"f{k}"], np.array(instants) - first, rtol=0, atol=1e-6)
 
     check()
+
+
+@pytest.mark.parametrize("gun", ["1e15", "-180.5", "720"])
+def test_a_gun_elevation_beyond_a_half_turn_is_bad_input(tmp_path, gun):
+    # 1e15 deg of gun elevation between two rows once spun the gun's path check without end (the fuzzer's find)
+    from tankcd_cli import api
+
+    path = tmp_path / "gun.csv"
+    path.write_text(f"t,x,y,yaw_deg,turret_deg,gun_deg\n0,1,2,0,90,0\n1,2,2,0,90,{gun}\n")
+    with pytest.raises(InputError, match=r"line 3 column gun_deg: .* is no gun elevation \(-180 to 180 degrees\)"):
+        list(read_trajectory(str(path)))
+    with pytest.raises(InputError, match=r"row 1 gun_deg: .* is no gun elevation"):
+        list(api.trajectory_chunks({"t": [0.0, 1.0], "x": [1.0, 2.0], "y": [2.0, 2.0], "yaw_deg": [0.0, 0.0],
+                                    "gun_deg": [0.0, float(gun)]}))
+    edge = tmp_path / "edge.csv"
+    edge.write_text("t,x,y,yaw_deg,turret_deg,gun_deg\n0,1,2,0,90,-180\n1,2,2,0,90,180\n")
+    assert np.concatenate([c.gun_deg for c in read_trajectory(str(edge))]).tolist() == [-180.0, 180.0]
