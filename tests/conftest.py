@@ -110,3 +110,20 @@ def stop_processes(procs):
     for p in procs:
         if p.poll() is None:
             os.killpg(p.pid, signal.SIGKILL)
+
+
+class FullDisk:
+    """A text stream whose every write fails as on a full disk (ENOSPC); everything else is the
+    stream's own."""
+
+    def __init__(self, fh):
+        self.fh = fh
+
+    def write(self, text):
+        import errno
+        import os
+
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def __getattr__(self, name):
+        return getattr(self.fh, name)

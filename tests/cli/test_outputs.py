@@ -154,15 +154,7 @@ def test_a_full_disk_names_the_file_being_written(run, ground, tmp_path, monkeyp
 
     real = atomic._open_text
 
-    class Full:
-        def __init__(self, fh):
-            self.fh = fh
-
-        def write(self, text):
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-        def __getattr__(self, name):
-            return getattr(self.fh, name)
+    from tests.conftest import FullDisk as Full
 
     suffix = ".csv.part" if failing.endswith(".csv") else ".jsonl.part"
     monkeypatch.setattr(atomic, "_open_text", lambda path, newline: Full(real(path, newline))

@@ -163,21 +163,10 @@ def test_regular_files_and_new_names_are_still_renamed_onto(tmp_path):
 
 
 def test_a_full_disk_under_one_of_two_outputs_names_that_one(tmp_path, monkeypatch):
-    import errno
-
     from tankcd_cli.errors import InputError
+    from tests.conftest import FullDisk as Full
 
     real = atomic._open_text
-
-    class Full:
-        def __init__(self, fh):
-            self.fh = fh
-
-        def write(self, text):
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-        def __getattr__(self, name):
-            return getattr(self.fh, name)
 
     def open_text(path, newline):
         fh = real(path, newline)
