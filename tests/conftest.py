@@ -1,3 +1,4 @@
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,18 @@ class FullDisk:
 
     def __getattr__(self, name):
         return getattr(self.fh, name)
+
+
+class PipeReader(threading.Thread):
+    """Reads a named pipe (``path``) or a pipe's read end (``fd``) to its end in a thread, as `cat`
+    would: ``start()``, then ``join()`` and ``data``."""
+
+    def __init__(self, path=None, fd=None):
+        super().__init__(daemon=True)
+        self.path, self.fd, self.data = path, fd, b""
+
+    def run(self):
+        import os
+
+        with (open(self.path, "rb") if self.path else os.fdopen(self.fd, "rb")) as fh:
+            self.data = fh.read()

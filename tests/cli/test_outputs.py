@@ -6,12 +6,11 @@ import os
 import stat
 import subprocess
 import sys
-import threading
 
 import numpy as np
 import pytest
 
-from tests.conftest import write_asc
+from tests.conftest import PipeReader, write_asc
 
 ROWS = 300
 
@@ -38,16 +37,6 @@ def _leftovers(folder):
     return sorted(p.name for p in folder.iterdir() if p.name.startswith(".tankcd-"))
 
 
-class _Reader(threading.Thread):
-    def __init__(self, path=None, fd=None):
-        super().__init__(daemon=True)
-        self.path, self.fd, self.data = path, fd, b""
-
-    def run(self):
-        with (open(self.path, "rb") if self.path else os.fdopen(self.fd, "rb")) as fh:
-            self.data = fh.read()
-
-
 def _replay(run, ground, *args):
     return run("-q", "replay", ground / "traj.csv", "--terrain", ground / "g.h5", *args)
 
@@ -66,7 +55,7 @@ def test_poses_to_a_character_device_leave_it_a_device(run, ground, tmp_path):
 def test_poses_to_a_named_pipe_reach_its_reader(run, ground, tmp_path):
     fifo = tmp_path / "poses.fifo"
     os.mkfifo(fifo)
-    reader = _Reader(path=fifo)
+    reader = PipeReader(path=fifo)
     reader.start()
     res = _replay(run, ground, "--poses", fifo, "--events", tmp_path / "ev.jsonl")
     reader.join(30)
@@ -81,7 +70,7 @@ def test_parquet_poses_to_a_named_pipe_are_a_whole_parquet_file(run, ground, tmp
     pq = pytest.importorskip("pyarrow.parquet")
     fifo = tmp_path / "poses.parquet"  # a pipe whose name asks for Parquet: built whole, then copied in
     os.mkfifo(fifo)
-    reader = _Reader(path=fifo)
+    reader = PipeReader(path=fifo)
     reader.start()
     res = _replay(run, ground, "--poses", fifo)
     reader.join(30)
@@ -93,7 +82,7 @@ def test_parquet_poses_to_a_named_pipe_are_a_whole_parquet_file(run, ground, tmp
 def test_poses_to_a_process_substitution(run, ground, tmp_path):
     """`--poses >(gzip > p.gz)`: the shell passes /dev/fd/N, a pipe's write end."""
     r, w = os.pipe()
-    reader = _Reader(fd=r)
+    reader = PipeReader(fd=r)
     reader.start()
     try:
         res = _replay(run, ground, "--poses", f"/dev/fd/{w}")

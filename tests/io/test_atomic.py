@@ -52,7 +52,8 @@ def test_pending_temporaries_are_removed_at_exit(tmp_path):
 # -- outputs written in place: pipes, devices, open files -------------------------------------------------
 
 import stat
-import threading
+
+from tests.conftest import PipeReader
 
 root_only = pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0,
                                reason="making a device node needs root")
@@ -63,18 +64,6 @@ def _null_device(folder):
     path = folder / "null"
     os.mknod(path, stat.S_IFCHR | 0o666, os.makedev(1, 3))
     return path
-
-
-class _Reader(threading.Thread):
-    """Reads a named pipe (or a pipe's read end) to its end, as `cat` would."""
-
-    def __init__(self, path=None, fd=None):
-        super().__init__(daemon=True)
-        self.path, self.fd, self.data = path, fd, b""
-
-    def run(self):
-        with (open(self.path, "rb") if self.path else os.fdopen(self.fd, "rb")) as fh:
-            self.data = fh.read()
 
 
 @root_only
@@ -110,7 +99,7 @@ def test_a_block_device_is_refused(tmp_path):
 def test_a_named_pipe_is_written_in_place_and_its_reader_gets_everything(tmp_path, binary):
     fifo = tmp_path / "poses.fifo"
     os.mkfifo(fifo)
-    reader = _Reader(path=fifo)
+    reader = PipeReader(path=fifo)
     reader.start()
     text = "".join(f"{k},{k * 0.1:.1f}\n" for k in range(20_000))  # more than a pipe's buffer
     with committed_together():
@@ -130,7 +119,7 @@ def test_a_named_pipe_is_written_in_place_and_its_reader_gets_everything(tmp_pat
 def test_a_process_substitution_path_is_written_in_place(tmp_path, binary):
     """`--poses >(gzip > p.gz)` names the pipe's write end as /dev/fd/N."""
     r, w = os.pipe()
-    reader = _Reader(fd=r)
+    reader = PipeReader(fd=r)
     reader.start()
     target = f"/dev/fd/{w}"
     assert atomic.writes_in_place(target)
