@@ -9,6 +9,7 @@ tests/replay/test_golden_outputs.py`` and says why in its commit."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
@@ -76,14 +77,17 @@ def scene_dir():
     """The sample scene and the golden inputs in one folder, at the same path on every run: Parquet's
     metadata and fleet.json name their sources by absolute path."""
     folder = Path(tempfile.gettempdir()) / "tankcd-golden-outputs"
-    shutil.rmtree(folder, ignore_errors=True)
-    folder.mkdir()
-    for p in SAMPLE.iterdir():
-        if p.suffix in (".asc", ".obj", ".toml", ".csv"):
-            (folder / p.name).write_bytes(p.read_bytes())
-    _exercise_csv(folder / "exercise.csv")
-    yield folder
-    shutil.rmtree(folder, ignore_errors=True)
+    # one run at a time holds the folder (two checkouts tested at once would share it)
+    with open(str(folder) + ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir()
+        for p in SAMPLE.iterdir():
+            if p.suffix in (".asc", ".obj", ".toml", ".csv"):
+                (folder / p.name).write_bytes(p.read_bytes())
+        _exercise_csv(folder / "exercise.csv")
+        yield folder
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def _replay(run, *args):
