@@ -19,7 +19,7 @@ from libc.stdlib cimport free, malloc
 
 import numpy as np
 
-from tankcd_cli.bvh._trees cimport Trees, fill_trees, tree_reach
+from tankcd_cli.bvh._trees cimport Trees, fill_trees, nodes_disjoint, tree_reach
 from tankcd_cli.geometry._triangles cimport tri_tri_distance_c
 
 cdef extern from "_omp_shim.h":
@@ -135,20 +135,14 @@ cdef bint _walk_within(const double* R, const double* tv, const double* f, const
 
     A pair of nodes is dropped when their volumes are more than r + tol apart along a slab
     direction (unit directions: a volume grown by a ball of radius r grows by r in each slab)."""
-    cdef Py_ssize_t K = tr.K
-    cdef Py_ssize_t T = tr.T
-    cdef Py_ssize_t sp, i, t, nd, nt, v, m
+    cdef Py_ssize_t sp, v, m
     cdef int64_t a, b, ta, tb
-    cdef bint aabb, disjoint, a_leaf, b_leaf
-    cdef double best_lo, best_hi, c, rr, d
+    cdef bint disjoint, a_leaf, b_leaf
+    cdef double d
     cdef double P[9]
     cdef double scratch[18]
     cdef double lo[3]
     cdef double hi[3]
-    cdef const double* ac
-    cdef const double* ah
-    cdef const double* gt
-    cdef const double* fi
     cdef const double* at
     cdef const double* bt
     cdef double margin = r + tol
@@ -160,29 +154,7 @@ cdef bint _walk_within(const double* R, const double* tv, const double* f, const
         a = stack[2 * sp]
         b = stack[2 * sp + 1]
         node_tests[0] += 1
-        aabb = tr.a_depth[a] < tr.a_levels or tr.b_depth[b] < tr.b_levels
-        nd = 3 if aabb else K
-        nt = 1 if aabb else T
-        disjoint = False
-        for i in range(nd):
-            best_lo = -INFINITY
-            best_hi = INFINITY
-            fi = f + 3 * i
-            for t in range(nt):
-                ac = tr.a_centre + (a * T + t) * 3
-                ah = tr.a_half + (a * T + t) * 3
-                gt = g + (t * K + i) * 3
-                c = fi[0] * ac[0] + fi[1] * ac[1] + fi[2] * ac[2]
-                rr = fabs(gt[0]) * ah[0] + fabs(gt[1]) * ah[1] + fabs(gt[2]) * ah[2]
-                if c - rr > best_lo:
-                    best_lo = c - rr
-                if c + rr < best_hi:
-                    best_hi = c + rr
-            if (best_lo + shift[i] > tr.b_hi[b * tr.nb + i] + margin
-                    or best_hi + shift[i] < tr.b_lo[b * tr.nb + i] - margin):
-                disjoint = True
-                break
-        if disjoint:
+        if nodes_disjoint(tr, a, b, f, g, shift, margin):
             continue
         a_leaf = tr.a_left[a] < 0
         b_leaf = tr.b_left[b] < 0

@@ -18,7 +18,7 @@ cnp.import_array()
 
 from tankcd_cli.geometry.arrays import f64 as _f64, i64 as _i64
 
-from tankcd_cli.bvh._trees cimport Trees, fill_trees, tree_reach
+from tankcd_cli.bvh._trees cimport Trees, fill_trees, nodes_disjoint, tree_reach
 from tankcd_cli.geometry._triangles cimport tri_tri_c
 
 FIRST, ALL = 0, 1
@@ -30,22 +30,15 @@ cdef int64_t _walk(const double* R, const double* tv, const double* f, const dou
                    const Trees* tr, int64_t mode, int64_t* pairs, double* points, Py_ssize_t cap,
                    int64_t* stack, double tol, int64_t* node_tests_out, int64_t* tri_tests_out) noexcept nogil:
     """One pose: contacts found; pairs (cap, 2) and points (cap, 3) receive the first ``cap``."""
-    cdef Py_ssize_t K = tr.K
-    cdef Py_ssize_t T = tr.T
     cdef int64_t node_tests = 0
     cdef int64_t tri_tests = 0
     cdef int64_t found = 0
     cdef double P[9]
     cdef double out[3]
     cdef double scratch[18]
-    cdef Py_ssize_t sp, i, t, nd, nt, v, m
+    cdef Py_ssize_t sp, v, m
     cdef int64_t a, b, ta, tb
-    cdef bint aabb, disjoint, a_leaf, b_leaf
-    cdef double best_lo, best_hi, c, r
-    cdef const double* ac
-    cdef const double* ah
-    cdef const double* gt
-    cdef const double* fi
+    cdef bint a_leaf, b_leaf
     cdef const double* at
     stack[0] = 0
     stack[1] = 0
@@ -55,29 +48,7 @@ cdef int64_t _walk(const double* R, const double* tv, const double* f, const dou
         a = stack[2 * sp]
         b = stack[2 * sp + 1]
         node_tests += 1
-        aabb = tr.a_depth[a] < tr.a_levels or tr.b_depth[b] < tr.b_levels
-        nd = 3 if aabb else K
-        nt = 1 if aabb else T
-        disjoint = False
-        for i in range(nd):
-            best_lo = -INFINITY
-            best_hi = INFINITY
-            fi = f + 3 * i
-            for t in range(nt):
-                ac = tr.a_centre + (a * T + t) * 3
-                ah = tr.a_half + (a * T + t) * 3
-                gt = g + (t * K + i) * 3
-                c = fi[0] * ac[0] + fi[1] * ac[1] + fi[2] * ac[2]
-                r = fabs(gt[0]) * ah[0] + fabs(gt[1]) * ah[1] + fabs(gt[2]) * ah[2]
-                if c - r > best_lo:
-                    best_lo = c - r
-                if c + r < best_hi:
-                    best_hi = c + r
-            if (best_lo + shift[i] > tr.b_hi[b * tr.nb + i] + tol
-                    or best_hi + shift[i] < tr.b_lo[b * tr.nb + i] - tol):
-                disjoint = True
-                break
-        if disjoint:
+        if nodes_disjoint(tr, a, b, f, g, shift, tol):
             continue
         a_leaf = tr.a_left[a] < 0
         b_leaf = tr.b_left[b] < 0

@@ -5,7 +5,7 @@
 # the caller keeps alive for as long as it walks.
 
 cimport numpy as cnp
-from libc.math cimport fabs
+from libc.math cimport fabs, INFINITY
 from libc.stdint cimport int64_t
 
 
@@ -99,3 +99,44 @@ cdef inline double tree_reach(const Trees* tr) noexcept nogil:
         v = fabs(tr.b_hi[i])
         reach = v if v > reach else reach
     return reach
+
+
+cdef inline bint nodes_disjoint(const Trees* tr, int64_t a, int64_t b, const double* f, const double* g,
+                                const double* shift, double margin) noexcept nogil:
+    """Whether node a of A (moved into B's frame) and node b of B are more than ``margin`` apart
+    along one of the slab directions: then no pair of their triangles is within ``margin``.
+
+    f (K, 3): the slab directions in A's frame; g (T, K, 3): the same through the inverses of A's
+    parallelepiped triples; shift (K,): A's translation along each direction. Near the roots
+    (depth below either tree's ``aabb_levels``) only the three axis slabs and A's first triple
+    are tested. The walks of _traverse.pyx and _sweep.pyx share this one test, so they drop the
+    same pairs of nodes (bit for bit) at the same margin."""
+    cdef bint aabb = tr.a_depth[a] < tr.a_levels or tr.b_depth[b] < tr.b_levels
+    cdef Py_ssize_t K = tr.K
+    cdef Py_ssize_t T = tr.T
+    cdef Py_ssize_t nd = 3 if aabb else K
+    cdef Py_ssize_t nt = 1 if aabb else T
+    cdef Py_ssize_t i, t
+    cdef double best_lo, best_hi, c, r
+    cdef const double* ac
+    cdef const double* ah
+    cdef const double* gt
+    cdef const double* fi
+    for i in range(nd):
+        best_lo = -INFINITY
+        best_hi = INFINITY
+        fi = f + 3 * i
+        for t in range(nt):
+            ac = tr.a_centre + (a * T + t) * 3
+            ah = tr.a_half + (a * T + t) * 3
+            gt = g + (t * K + i) * 3
+            c = fi[0] * ac[0] + fi[1] * ac[1] + fi[2] * ac[2]
+            r = fabs(gt[0]) * ah[0] + fabs(gt[1]) * ah[1] + fabs(gt[2]) * ah[2]
+            if c - r > best_lo:
+                best_lo = c - r
+            if c + r < best_hi:
+                best_hi = c + r
+        if (best_lo + shift[i] > tr.b_hi[b * tr.nb + i] + margin
+                or best_hi + shift[i] < tr.b_lo[b * tr.nb + i] - margin):
+            return True
+    return False

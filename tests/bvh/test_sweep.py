@@ -311,3 +311,30 @@ def test_same_answers_on_one_and_two_threads():
         set_num_threads(threads)
     for name in ("found", "s", "pairs", "points", "node_tests", "levels"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+
+
+def test_the_sweep_and_the_pose_walk_agree_on_still_poses():
+    """Both walks drop pairs of nodes with one shared k-DOP test (bvh/_trees.pxd): a body held still
+    at a pose meets the other in the sweep wherever the pose walk finds triangles crossing, and
+    the sweep's other reports are within its leaf bound (brute force over every triangle pair)."""
+    from tankcd_cli.bvh.query import collide
+
+    rng = np.random.default_rng(11)
+    A = box([-1.0, -0.4, -0.3], [1.0, 0.4, 0.3])
+    B = np.concatenate([box([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]), box([2.0, -0.2, -1.0], [2.3, 0.2, 1.0])])
+    ta, tb = build_tree(A, k=18, leaf_size=2), build_tree(B, k=18, leaf_size=2)
+    n = 120
+    q = quaternion_from_euler(*np.radians(rng.uniform(-90, 90, (3, n))))
+    c = rng.uniform(-2.5, 3.5, (n, 3)) * [1, 0.6, 0.6]
+    rows, joints = motion_rows(q, c, q, c)
+    still, none = static_rows(n)
+    swept = first_contacts(ta, tb, rows, joints, still, none, np.zeros(n))
+    R, t = chain_placements_naive(rows, joints, np.zeros(n))
+    posed = collide(ta, tb, R, t)
+    assert posed.hit.any() and not posed.hit.all()
+    assert swept.found[posed.hit].all()  # crossing at the pose: the sweep meets it at once
+    for k in np.flatnonzero(swept.found & ~posed.hit):
+        placed = A @ R[k].T + t[k]
+        least = min(tri_distance(P, Q)[0] for P in placed for Q in B)
+        assert least <= 2 * LEAF_BOUND
+    assert not swept.found.all()
