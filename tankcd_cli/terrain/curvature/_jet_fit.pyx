@@ -24,8 +24,10 @@ from libc.math cimport INFINITY, fabs, pow, sqrt
 from libc.stdint cimport int64_t
 from libc.stdlib cimport free, malloc
 
-from tankcd_cli.terrain.curvature._kdtree cimport STACK, Tree, _before, _build, _knn, _tree_alloc, _tree_free
-from tankcd_cli.terrain.curvature._small_linalg cimport _cholesky_solve, _eig_smallest, _lu_solve
+from tankcd_cli.terrain.curvature._kdtree cimport (
+    STACK, Tree, build_node, comes_before, knn_candidates, tree_alloc, tree_free,
+)
+from tankcd_cli.terrain.curvature._small_linalg cimport cholesky_solve, eig_smallest, lu_solve
 
 cdef enum:
     NMON = 14         # monomials of a quartic through the origin
@@ -49,10 +51,10 @@ cdef int64_t _nth_in_bin(const double* bd, const int64_t* bi, int64_t n, const i
     no later than (limd, limi)."""
     cdef int64_t j, c = 0, pos, x
     for j in range(n):
-        if bin[j] == b and not _before(limd, limi, bd[j], bi[j]):
+        if bin[j] == b and not comes_before(limd, limi, bd[j], bi[j]):
             x = j
             pos = c
-            while pos > 0 and _before(bd[x], bi[x], bd[tmp[pos - 1]], bi[tmp[pos - 1]]):
+            while pos > 0 and comes_before(bd[x], bi[x], bd[tmp[pos - 1]], bi[tmp[pos - 1]]):
                 tmp[pos] = tmp[pos - 1]
                 pos -= 1
             tmp[pos] = x
@@ -241,7 +243,7 @@ cdef double _fit(const double* V, int64_t ci, const int64_t* nb, int64_t k, cons
     C[3] = C[1]
     C[6] = C[2]
     C[7] = C[5]
-    _eig_smallest(C, n)
+    eig_smallest(C, n)
     if fabs(n[2]) > 1e-6:
         side = n[2]
     else:
@@ -348,13 +350,13 @@ cdef double _fit(const double* V, int64_t ci, const int64_t* nb, int64_t k, cons
         M[a * count + a] += ridge
         D[a] = M[a * count + a]
     if count == NMON:  # constant sizes: the loops unroll
-        ok = _cholesky_solve(M, rhs, D, NMON)
+        ok = cholesky_solve(M, rhs, D, NMON)
     else:
-        ok = _cholesky_solve(M, rhs, D, 9)
+        ok = cholesky_solve(M, rhs, D, 9)
     if not ok:
         for a in range(count):
             M[a * count + a] = D[a]
-        if not _lu_solve(M, rhs, count):
+        if not lu_solve(M, rhs, count):
             return 0.0  # singular (numpy would raise): no curvature to report
     fu = rhs[0]
     fv = rhs[1]
@@ -447,13 +449,13 @@ def jet_fit(V, normal, centre, nbr, int degree=4):
 cdef int _make_tree(Tree* t, const double[:, ::1] P) noexcept nogil:
     cdef int64_t m = P.shape[0], p, next_node = 1
     cdef int c
-    if _tree_alloc(t, m) < 0:
+    if tree_alloc(t, m) < 0:
         return -1
     for p in range(m):
         for c in range(3):
             t.X[3 * p + c] = P[p, c]
         t.ID[p] = p
-    _build(t, 0, 0, m, &next_node)
+    build_node(t, 0, 0, m, &next_node)
     return 0
 
 
@@ -543,7 +545,7 @@ cdef int _run(const Tree* t, const double* P, const int64_t* query, const int64_
                         d2 = dx * dx + dy * dy
                         d2 = d2 + dz * dz
                         r2 = d2 if d2 > r2 else r2
-                cnt = _knn(t, qp, K, r2, bd, bi, cap, st_node, st_dist, &r2, cd, tmp)
+                cnt = knn_candidates(t, qp, K, r2, bd, bi, cap, st_node, st_dist, &r2, cd, tmp)
                 scale = 1e-300  # assigned here so that prange makes it private (_choose sets it by pointer)
                 got = _choose(bd, bi, cnt, r2, K, k, query[qi], nb, bins, tmp, seed, &scale)
                 # in rank order: the fit's sums then run in the same order whatever the pool
@@ -604,13 +606,13 @@ cdef object _search(P, query, Py_ssize_t k, Py_ssize_t extra, out_arr, V, N, poo
     with nogil:
         st = _make_tree(&t, Pv)
     if st < 0:
-        _tree_free(&t)
+        tree_free(&t)
         raise MemoryError()
     try:
         order_arr = _query_order(&t, qv)
         st = _run_checked(&t, Pv, qv, order_arr, k, extra, outp, Vp, Np, poolp, degree, Hp)
     finally:
-        _tree_free(&t)
+        tree_free(&t)
     if st < 0:
         raise MemoryError()
 

@@ -21,7 +21,7 @@ cdef struct Tree:
     int64_t m
 
 
-cdef inline void _swap(double* X, int64_t* ID, int64_t i, int64_t j) noexcept nogil:
+cdef inline void swap_points(double* X, int64_t* ID, int64_t i, int64_t j) noexcept nogil:
     cdef double t
     cdef int64_t ti
     cdef int c
@@ -34,7 +34,7 @@ cdef inline void _swap(double* X, int64_t* ID, int64_t i, int64_t j) noexcept no
     ID[j] = ti
 
 
-cdef inline void _select(double* X, int64_t* ID, int64_t lo, int64_t hi, int64_t kth, int d) noexcept nogil:
+cdef inline void select_on_axis(double* X, int64_t* ID, int64_t lo, int64_t hi, int64_t kth, int d) noexcept nogil:
     """Quickselect on coordinate d of points lo..hi (inclusive): point kth ends in its sorted place,
     smaller-or-equal ones before, larger-or-equal after."""
     cdef int64_t i, j, mid
@@ -66,7 +66,7 @@ cdef inline void _select(double* X, int64_t* ID, int64_t lo, int64_t hi, int64_t
             while X[3 * j + d] > pivot:
                 j -= 1
             if i <= j:
-                _swap(X, ID, i, j)
+                swap_points(X, ID, i, j)
                 i += 1
                 j -= 1
         if kth <= j:
@@ -77,18 +77,18 @@ cdef inline void _select(double* X, int64_t* ID, int64_t lo, int64_t hi, int64_t
             return
 
 
-cdef inline double X_at(Tree* t, int64_t p, int c) noexcept nogil:
+cdef inline double x_at(Tree* t, int64_t p, int c) noexcept nogil:
     return t.X[3 * p + c]
 
 
-cdef inline void _build(Tree* t, int64_t node, int64_t s, int64_t e, int64_t* next_node) noexcept nogil:
+cdef inline void build_node(Tree* t, int64_t node, int64_t s, int64_t e, int64_t* next_node) noexcept nogil:
     """Node ``node`` over points s..e-1: its box, and its children when it has more than LEAF points."""
     cdef double* bx = t.box + 6 * node
     cdef int64_t p, mid, child
     cdef int c, d
     cdef double v, w, widest
     for c in range(3):
-        bx[c] = X_at(t, s, c)
+        bx[c] = x_at(t, s, c)
         bx[3 + c] = bx[c]
     for p in range(s + 1, e):
         for c in range(3):
@@ -110,15 +110,15 @@ cdef inline void _build(Tree* t, int64_t node, int64_t s, int64_t e, int64_t* ne
             widest = w
             d = c
     mid = s + (e - s) // 2
-    _select(t.X, t.ID, s, e - 1, mid, d)
+    select_on_axis(t.X, t.ID, s, e - 1, mid, d)
     child = next_node[0]
     next_node[0] += 2
     t.left[node] = child
-    _build(t, child, s, mid, next_node)
-    _build(t, child + 1, mid, e, next_node)
+    build_node(t, child, s, mid, next_node)
+    build_node(t, child + 1, mid, e, next_node)
 
 
-cdef inline int _tree_alloc(Tree* t, int64_t m) noexcept nogil:
+cdef inline int tree_alloc(Tree* t, int64_t m) noexcept nogil:
     cdef int64_t cap = 2 * (m // ((LEAF + 1) // 2)) + 3
     t.m = m
     t.nodes = cap
@@ -133,7 +133,7 @@ cdef inline int _tree_alloc(Tree* t, int64_t m) noexcept nogil:
     return 0
 
 
-cdef inline void _tree_free(Tree* t) noexcept nogil:
+cdef inline void tree_free(Tree* t) noexcept nogil:
     free(t.X)
     free(t.ID)
     free(t.box)
@@ -142,7 +142,7 @@ cdef inline void _tree_free(Tree* t) noexcept nogil:
     free(t.left)
 
 
-cdef inline double _box_dist(const double* bx, const double* q) noexcept nogil:
+cdef inline double box_dist2(const double* bx, const double* q) noexcept nogil:
     cdef double s = 0.0, g
     cdef int c
     for c in range(3):
@@ -156,11 +156,11 @@ cdef inline double _box_dist(const double* bx, const double* q) noexcept nogil:
     return s
 
 
-cdef inline bint _before(double da, int64_t ia, double db, int64_t ib) noexcept nogil:
+cdef inline bint comes_before(double da, int64_t ia, double db, int64_t ib) noexcept nogil:
     return da < db or (da == db and ia < ib)
 
 
-cdef inline void _select_pairs(double* bd, int64_t* bi, int64_t n, int64_t kth) noexcept nogil:
+cdef inline void select_pairs(double* bd, int64_t* bi, int64_t n, int64_t kth) noexcept nogil:
     """Quickselect on (bd, bi) pairs, ordered by (distance, index): entry kth ends in its sorted
     place, smaller ones before it. The pairs are distinct (each point is seen once)."""
     cdef int64_t lo = 0, hi = n - 1, i, j, mid, ti
@@ -200,23 +200,23 @@ cdef inline void _select_pairs(double* bd, int64_t* bi, int64_t n, int64_t kth) 
             return
 
 
-cdef inline int64_t _compact(double* bd, int64_t* bi, int64_t n, int64_t K, double* cd, int64_t* ci) noexcept nogil:
+cdef inline int64_t keep_nearest(double* bd, int64_t* bi, int64_t n, int64_t K, double* cd, int64_t* ci) noexcept nogil:
     """Keep the K nearest of the n candidates, in their order (the visiting order: the result then
     does not depend on when this ran). cd, ci: scratch (n), cd[K - 1] the K-th distance after."""
     cdef int64_t j, c = 0
     for j in range(n):
         cd[j] = bd[j]
         ci[j] = bi[j]
-    _select_pairs(cd, ci, n, K - 1)
+    select_pairs(cd, ci, n, K - 1)
     for j in range(n):
-        if not _before(cd[K - 1], ci[K - 1], bd[j], bi[j]):
+        if not comes_before(cd[K - 1], ci[K - 1], bd[j], bi[j]):
             bd[c] = bd[j]
             bi[c] = bi[j]
             c += 1
     return c
 
 
-cdef inline int64_t _knn(const Tree* t, const double* q, int64_t K, double r2, double* bd, int64_t* bi,
+cdef inline int64_t knn_candidates(const Tree* t, const double* q, int64_t K, double r2, double* bd, int64_t* bi,
                   int64_t cap, int64_t* st_node, double* st_dist, double* r2_out, double* cd,
                   int64_t* ci) noexcept nogil:
     """Candidates for the K nearest points of q, in no order: bd, bi (squared distances, indices;
@@ -228,7 +228,7 @@ cdef inline int64_t _knn(const Tree* t, const double* q, int64_t K, double r2, d
     cdef double dmin, dl, dr, dx, dy, dz, d2
     cdef const double* X = t.X
     st_node[0] = 0
-    st_dist[0] = _box_dist(t.box, q)
+    st_dist[0] = box_dist2(t.box, q)
     sp = 1
     while sp > 0:
         sp -= 1
@@ -247,11 +247,11 @@ cdef inline int64_t _knn(const Tree* t, const double* q, int64_t K, double r2, d
                 bi[cnt] = t.ID[p]
                 cnt += <int64_t>(d2 <= r2)
                 if cnt == cap:
-                    cnt = _compact(bd, bi, cnt, K, cd, ci)
+                    cnt = keep_nearest(bd, bi, cnt, K, cd, ci)
                     r2 = cd[K - 1]
         else:
-            dl = _box_dist(t.box + 6 * l, q)
-            dr = _box_dist(t.box + 6 * (l + 1), q)
+            dl = box_dist2(t.box + 6 * l, q)
+            dr = box_dist2(t.box + 6 * (l + 1), q)
             if sp + 2 > STACK:  # cannot happen for a median-split tree of < 2^63 points
                 sp = STACK - 2
             if dl <= dr:

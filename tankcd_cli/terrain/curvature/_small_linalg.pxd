@@ -10,7 +10,7 @@ cdef enum:
     SMALL_MAX = 14    # unknowns of the largest system solved (a quartic jet's 14 monomials)
 
 
-cdef inline void _eig_jacobi(double* A, double* out) noexcept nogil:
+cdef inline void eig_jacobi(double* A, double* out) noexcept nogil:
     """Unit eigenvector of the smallest eigenvalue of the symmetric 3 x 3 matrix A (row-major,
     overwritten): cyclic Jacobi rotations until the off-diagonal vanishes to rounding."""
     cdef double Vm[9]
@@ -72,7 +72,7 @@ cdef inline void _eig_jacobi(double* A, double* out) noexcept nogil:
         out[r] = Vm[3 * r + best]
 
 
-cdef inline double _charpoly(const double* A, double lam, double* slope) noexcept nogil:
+cdef inline double charpoly(const double* A, double lam, double* slope) noexcept nogil:
     """det(A - lam I) and its derivative in lam."""
     cdef double b0 = A[0] - lam, b1 = A[4] - lam, b2 = A[8] - lam
     cdef double m0 = b1 * b2 - A[5] * A[5], m1 = b0 * b2 - A[2] * A[2], m2 = b0 * b1 - A[1] * A[1]
@@ -80,7 +80,7 @@ cdef inline double _charpoly(const double* A, double lam, double* slope) noexcep
     return b0 * m0 - A[1] * (A[1] * b2 - A[5] * A[2]) + A[2] * (A[1] * A[5] - b1 * A[2])
 
 
-cdef inline void _eig_smallest(double* A, double* out) noexcept nogil:
+cdef inline void eig_smallest(double* A, double* out) noexcept nogil:
     """Unit eigenvector of the smallest eigenvalue of the symmetric 3 x 3 matrix A (row-major;
     overwritten when the fallback runs). The eigenvalues in closed form (the trigonometric
     solution of the characteristic cubic), the smallest polished by Newton's method, the vector
@@ -102,7 +102,7 @@ cdef inline void _eig_smallest(double* A, double* out) noexcept nogil:
     b22 = A[8] - q
     p2 = b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * p1
     if not (p2 > 0.0) or p2 != p2 + 0.0 * p2:
-        _eig_jacobi(A, out)
+        eig_jacobi(A, out)
         return
     p = sqrt(p2 / 6.0)
     r = (b00 * (b11 * b22 - A[5] * A[5]) - A[1] * (A[1] * b22 - A[5] * A[2])
@@ -116,14 +116,14 @@ cdef inline void _eig_smallest(double* A, double* out) noexcept nogil:
     l2 = q + 2.0 * p * cos(phi)
     l0 = q + 2.0 * p * cos(phi + 2.0 * M_PI / 3.0)
     for it in range(3):
-        f = _charpoly(A, l0, &fp)
+        f = charpoly(A, l0, &fp)
         if fp == 0.0:
             break
         l0 = l0 - f / fp
     l1 = 3.0 * q - l0 - l2
     spread = l2 - l0
     if not (l1 - l0 > 1e-4 * spread) or not (spread > 0.0):
-        _eig_jacobi(A, out)
+        eig_jacobi(A, out)
         return
     for i in range(3):
         r0[i] = A[i]
@@ -156,7 +156,7 @@ cdef inline void _eig_smallest(double* A, double* out) noexcept nogil:
         nb = nc
     # the rows span the plane normal to the vector with singular values l1 - l0, l2 - l0
     if not (nb > 0.01 * (l1 - l0) * (l1 - l0) * spread * spread):
-        _eig_jacobi(A, out)
+        eig_jacobi(A, out)
         return
     nb = sqrt(nb)
     out[0] = best[0] / nb
@@ -164,7 +164,7 @@ cdef inline void _eig_smallest(double* A, double* out) noexcept nogil:
     out[2] = best[2] / nb
 
 
-cdef inline bint _cholesky_solve(double* M, double* rhs, double* D, const int count) noexcept nogil:
+cdef inline bint cholesky_solve(double* M, double* rhs, double* D, const int count) noexcept nogil:
     """Solve M x = rhs (M symmetric, full) by Cholesky, right-looking (independent updates, not
     dot-product chains) into the lower triangle; the strict upper triangle keeps M. False when a
     pivot is not positive (rhs untouched then)."""
@@ -206,7 +206,7 @@ cdef inline bint _cholesky_solve(double* M, double* rhs, double* D, const int co
     return True
 
 
-cdef inline bint _lu_solve(double* M, double* rhs, int count) noexcept nogil:
+cdef inline bint lu_solve(double* M, double* rhs, int count) noexcept nogil:
     """Solve with LU and partial pivoting (numpy's solve) from the upper triangle of M (symmetric).
     False when a pivot is zero."""
     cdef int a, b, c, r, piv
