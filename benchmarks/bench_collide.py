@@ -152,7 +152,7 @@ def main():
 
 
 def _peer(name, tank, world, R, t, truth):
-    from tankcd_cli.tradeoff.measure import peer_query
+    from tankcd_cli.tradeoff.peers import peer_query
 
     peer = peer_query(name, tank, world, R, t)
     if peer is None:

@@ -279,7 +279,7 @@ def corpus_table(result: dict) -> str:
                      f"{r['attitude_p95_deg']:.2f} / {r['attitude_max_deg']:.2f} | {r['height_median_mm']:.1f} / "
                      f"{r['height_p95_mm']:.1f} / {r['height_max_mm']:.1f} | "
                      f"{r['failing_share']:.1%} |")
-    from tankcd_cli.tradeoff.measure import cost_text
+    from tankcd_cli.tradeoff.timing import cost_text
 
     med, lo, hi = result.get("escalation_ratio_pairs", (float("nan"),) * 3)
     lines += ["", f"Whole corpus: attitude p95 {result['auto_attitude_p95_deg']:.2f} deg plain, "

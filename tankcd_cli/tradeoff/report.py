@@ -11,7 +11,18 @@ from typing import Callable
 
 import numpy as np
 
-from tankcd_cli.tradeoff.measure import CONTACT_KINDS, FULL, QUICK, Results, cost_text, ratio_text, spread_flag
+from tankcd_cli.tradeoff.measure import CONTACT_KINDS, rate_stage
+from tankcd_cli.tradeoff.stages import (
+    FULL,
+    QUICK,
+    Results,
+    collision_stage,
+    curvature_stage,
+    headline_stage,
+    internal_stage,
+    matching_stage,
+)
+from tankcd_cli.tradeoff.timing import cost_text, machine, ratio_text, spread_flag
 
 STAGES = ("curvature", "matching", "collision", "internal")
 
@@ -23,12 +34,11 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
     from tankcd_cli.scene import load_scene
     from tankcd_cli.terrain import synthetic
     from tankcd_cli.terrain.open import open_terrain
-    from tankcd_cli.tradeoff import measure
 
     say = progress or (lambda s: None)
     budget = QUICK if quick else FULL
     res = Results()
-    res.machine = measure.machine()
+    res.machine = machine()
     with tempfile.TemporaryDirectory(prefix="tankcd-tradeoff-") as tmp:
         if scene_path is None:
             from tankcd_cli.sample import write_sample
@@ -62,12 +72,12 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
                       "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
         course = synthetic.surface_of(synthetic.dem_terrain(synthetic.obstacle_course(0.5), name="obstacle course",
                                                             spacing=0.5), vehicle)
-        measure.headline_stage(res, surface, vehicle, x, y, yaw, budget, say, traj_name)
-        measure.curvature_stage(res, vehicle, budget, say)
-        measure.matching_stage(res, [(scene_name, surface), ("obstacle course (crests, ditch, step, craters)", course)],
+        headline_stage(res, surface, vehicle, x, y, yaw, budget, say, traj_name)
+        curvature_stage(res, vehicle, budget, say)
+        matching_stage(res, [(scene_name, surface), ("obstacle course (crests, ditch, step, craters)", course)],
                                vehicle, budget, say)
-        measure.collision_stage(res, surface, vehicle, obstacle_tris, budget, say)
-        measure.internal_stage(res, vehicle, budget, say)
+        collision_stage(res, surface, vehicle, obstacle_tris, budget, say)
+        internal_stage(res, vehicle, budget, say)
         if columns is None or columns["entities"] > 1 or columns["pieces"] > 1:
             res.inputs["rate_skipped"] = ("the lawnmower drive has no times" if columns is None else
                                           "the trajectory names several vehicles" if columns["entities"] > 1 else
@@ -76,7 +86,7 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
             from tankcd_cli.replay.world import WorldSpec
 
             say("rate: loading the world")
-            measure.rate_stage(res, WorldSpec(scene=scene_path).load(), columns, budget, say, traj_name)
+            rate_stage(res, WorldSpec(scene=scene_path).load(), columns, budget, say, traj_name)
         if quick:
             res.inputs["corpus_skipped"] = True  # its 45 s would be most of a quick run; its own test holds it
         else:

@@ -1,6 +1,6 @@
 """How the report states a ratio: only what its pairs support."""
 
-from tankcd_cli.tradeoff.measure import Paired, cost_text, paired, ratio_text
+from tankcd_cli.tradeoff.timing import Paired, cost_text, paired, ratio_text
 
 
 def test_a_ratio_whose_pairs_agree_is_stated_with_its_spread():

@@ -6,15 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from tankcd_cli.tradeoff.measure import (
-    RATES_HZ,
-    contacts,
-    missed_contacts,
-    rate_row,
-    resample,
-    spread_caveat,
-    spread_flag,
-)
+from tankcd_cli.tradeoff.measure import RATES_HZ, contacts, missed_contacts, rate_row, resample
+from tankcd_cli.tradeoff.timing import spread_caveat, spread_flag
 from tests.conftest import trajectory_columns, write_asc, write_obj
 
 HALF_LENGTH = 3.43  # the box hull's half length, m

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tankcd_cli.terrain import synthetic
-from tankcd_cli.tradeoff.measure import Point, angle_deg, tripod_planes
+from tankcd_cli.tradeoff.stages import Point, angle_deg, tripod_planes
 from tankcd_cli.tradeoff.report import pareto
 
 
