@@ -29,7 +29,7 @@ r <= eps, and over the leaf no point moves more than eps, so the bodies come wit
 (1 mm) of each other there: "a pass within 1 mm may count as a contact". (3) The time: the
 earliest leaf reported lies no later than the leaf around the first true contact, so its middle
 is at most half a leaf after it, and within half a leaf no point of either body travels more
-than eps: the time is right to 0.5 mm of travel, far below the contract's 1 cm.
+than eps: the time is right to 0.5 mm of travel (docs/formats.md#motion-between-rows).
 Nothing is sampled: a contact that begins and ends between two samples of any fixed step is
 found all the same, and a pass more than 2 eps from the obstacle at every instant is never
 reported.

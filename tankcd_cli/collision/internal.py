@@ -106,7 +106,8 @@ def elevation_envelope(vehicle: Vehicle, azimuth_deg: np.ndarray, resolution_deg
 
 GUN_PATH_STEP_DEG = 0.005
 """deg. Where the barrel is within ``GUN_CLOSE`` of a drum, the path is walked in steps this
-long (in the larger of the two angles' changes) with the exact test: half the contract's 0.01 deg."""
+long (in the larger of the two angles' changes) with the exact test: half the 0.01 deg to which the
+envelope is given (docs/method.md#gun-against-the-rear-fuel-drums)."""
 
 GUN_CLOSE = 2.5e-4
 """m. Below this clearance the walk along the path stops advancing by the distance (whose steps

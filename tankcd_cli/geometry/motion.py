@@ -42,7 +42,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 MAX_TURN_DEG = 1.0
-"""deg. The largest turn of the hull between two sub-steps of the ground (the contract's)."""
+"""deg. The largest turn of the hull between two sub-steps of the ground (docs/formats.md#motion-between-rows)."""
 
 MESH_TRAVEL = 0.25
 """m. The largest travel between two sub-steps on a mesh terrain (no post spacing to halve)."""

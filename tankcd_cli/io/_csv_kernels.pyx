@@ -1,4 +1,4 @@
-# The compiled CSV chunk parser (see csv_kernels.py for the contract): Clinger's fast path, else "not ok".
+# The compiled CSV chunk parser (csv_kernels.py says what it reads and returns): Clinger's fast path, else "not ok".
 
 import numpy as np
 

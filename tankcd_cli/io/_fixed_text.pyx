@@ -1,4 +1,4 @@
-# The compiled fixed-point CSV writer (see fixed_text.py for the contract).
+# The compiled fixed-point CSV writer (fixed_text.py says what it writes).
 
 import numpy as np
 

@@ -1,4 +1,4 @@
-# The compiled plain-OBJ reader (see obj.py for the contract): one counting pass, one
+# The compiled plain-OBJ reader (obj.py says what it reads and returns): one counting pass, one
 # filling pass, both without the GIL and without a Python object per line; any line off the
 # plain shape declines the whole file (None), and the Python readers decide.
 

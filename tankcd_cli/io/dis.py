@@ -32,8 +32,8 @@ For a replay: rows come in capture order, the entities interleaved as their PDUs
 capture's times normally rise, but a pcapng merged from several interfaces, or a capture
 tool's buffering, can put a packet a little before the one ahead of it: an entity's ``t``
 may then go back. The sender's dead-reckoning algorithm (``dr_algorithm``) and velocity come
-along; between two updates the contract's motion (both ends known) is used, not the sender's
-extrapolation from the first.
+along; between two updates tankcd's motion between rows (both ends known:
+docs/formats.md#motion-between-rows) is used, not the sender's extrapolation from the first.
 """
 
 from __future__ import annotations
@@ -559,13 +559,14 @@ def read_capture(path: str) -> tuple[EntityStates, CaptureCounts]:
 
 
 def articulation_angles(turret_azimuth, gun_elevation) -> tuple[np.ndarray, np.ndarray]:
-    """DIS articulated-part angles (rad) -> the contract's turret and gun angles (rad).
+    """DIS articulated-part angles (rad) -> tankcd's turret and gun angles (rad).
 
     DIS turns articulated parts by the right-hand rule in the entity's frame (x forward, y right,
     z down): a positive azimuth about z (down) turns the gun from forward toward the right,
     clockwise seen from above; a positive elevation about y (right) turns it from forward toward
-    -z, up. The contract's turret azimuth turns counter-clockwise about the hull's +z (up), its
-    gun elevation raises the muzzle: turret = -azimuth (to (-pi, pi]), gun = elevation. NaN stays NaN.
+    -z, up. tankcd's turret azimuth turns counter-clockwise about the hull's +z (up), its
+    gun elevation raises the muzzle (docs/formats.md#conventions-frames-units-signs):
+    turret = -azimuth (to (-pi, pi]), gun = elevation. NaN stays NaN.
     """
     turret = -np.asarray(turret_azimuth, dtype=np.float64)
     turret = np.pi - np.mod(np.pi - turret, 2 * np.pi)

@@ -2,7 +2,7 @@
 
 For each interval between consecutive rows of a vehicle (rows with the same ``t`` have none), the
 ground places the hull at the interval's sub-steps (at most ``substep_travel`` of travel and 1 deg
-of turn apart, the contract's resolution), and then, for the effects the scene calls for:
+of turn apart: docs/formats.md#motion-between-rows), and then, for the effects the scene calls for:
 
 - the hull bottom against the terrain: the exact pass of the rows at every sub-step;
 - obstacles: exact along each rigid sub-step (``collision.obstacles.obstacles_along``: never

@@ -2,7 +2,7 @@
 estimator named, gives the boundary its one-sided fits, and runs the compiled passes or their
 numpy twins.
 
-Sign convention (the contract's, as libigl, VTK and GIS tools): with the upward
+Sign convention (docs/formats.md#conventions-frames-units-signs; libigl's, VTK's and GIS tools'): with the upward
 normal, a hilltop or ridge is positive, a bowl or valley negative, a plane zero.
 On a height field z = f(x, y):
 
