@@ -30,7 +30,7 @@ import numpy as np
 from tankcd_cli.errors import InputError
 
 PYARROW_MISSING = "Parquet output needs pyarrow: pip install 'tankcd[parquet]'"
-KINDS = ("float64", "int64", "int32", "int16", "uint8", "bool", "string", "dict", "json")
+COLUMN_TYPES = ("float64", "int64", "int32", "int16", "uint8", "bool", "string", "dict", "json")
 CONVENTIONS = ("world frame x east, y north, z up in the terrain's CRS (m); angles in degrees; attitude ROS REP 103: "
                "R = Rz(yaw) Ry(pitch) Rx(roll), yaw counter-clockwise from grid east, nose-up pitch negative, "
                "right side down roll positive; quaternion (qw, qx, qy, qz) with qw >= 0; t in s")
@@ -123,7 +123,7 @@ def _arrow_type(pa, kind: str):
 class ParquetTableWriter:
     """A Parquet file written batch by batch (a row group each), atomically.
 
-    ``schema``: (name, kind) pairs (``KINDS``); ``metadata``: str -> str, stored in the file.
+    ``schema``: (name, kind) pairs (``COLUMN_TYPES``); ``metadata``: str -> str, stored in the file.
     ``write(columns)`` takes a dict of the schema's columns, each a numpy array (N,), a list, or a
     :class:`Coded` (for ``dict`` columns); a column left out is all null. ``close()`` completes the
     file (renamed onto ``target``); ``abort()`` (or leaving a ``with`` block by an exception)
@@ -142,8 +142,8 @@ class ParquetTableWriter:
         from tankcd_cli.io.atomic import atomic_path
 
         for name, kind in schema:
-            if kind not in KINDS:
-                raise ValueError(f"column {name}: kind {kind!r} is not one of {KINDS}")
+            if kind not in COLUMN_TYPES:
+                raise ValueError(f"column {name}: kind {kind!r} is not one of {COLUMN_TYPES}")
         self.target = target
         self.kinds = dict(schema)
         self._pa = pa

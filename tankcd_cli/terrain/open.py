@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from tankcd_cli.terrain.mesh.store import MeshStore
 
 DEM_KINDS = ("grid_store", "esri_ascii", "raster", "heightmap")  # read as DEM sources (grid/sources.py)
-KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "heightmap", "mesh")
+TERRAIN_KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "heightmap", "mesh")
 
 
 class OptionError(ValueError):
@@ -43,7 +43,7 @@ class OptionError(ValueError):
 
 
 def terrain_kind(path: str, fmt: str | None = None) -> str:
-    """What the terrain input ``path`` is, one of ``KINDS``.
+    """What the terrain input ``path`` is, one of ``TERRAIN_KINDS``.
 
     fmt : the format named by the user (a suffix such as "asc", "tif", "obj", or "h5" for a
         store), which overrides what the file says; None: the file decides. Standard input

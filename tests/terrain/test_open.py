@@ -13,7 +13,7 @@ from tankcd_cli.errors import InputError
 from tankcd_cli.terrain import synthetic as S
 from tankcd_cli.terrain.grid.surface import GridSurface
 from tankcd_cli.terrain.mesh.surface import MeshSurface
-from tankcd_cli.terrain.open import KINDS, OptionError, classify_file, open_dem, open_terrain, terrain_kind
+from tankcd_cli.terrain.open import TERRAIN_KINDS, OptionError, classify_file, open_dem, open_terrain, terrain_kind
 from tankcd_cli.terrain.store import read_attrs, store_layout
 from tankcd_cli.terrain.surface import Surface
 from tests.conftest import write_asc, write_obj
@@ -58,7 +58,7 @@ def inputs(tmp_path_factory):
 @pytest.mark.parametrize("name,kind", [("esri_ascii", "esri_ascii"), ("raster", "raster"), ("folder", "raster"),
                                        ("mesh", "mesh"), ("grid_store", "grid_store"), ("mesh_store", "mesh_store")])
 def test_terrain_kind_by_what_the_file_is(inputs, name, kind):
-    assert terrain_kind(str(inputs[name])) == kind and kind in KINDS
+    assert terrain_kind(str(inputs[name])) == kind and kind in TERRAIN_KINDS
 
 
 def test_terrain_kind_by_the_format_given(inputs):
