@@ -149,7 +149,7 @@ def _ratio_pairs(ratios: np.ndarray) -> tuple[float, float, float]:
     return float(np.median(ratios)), float(ratios.min()), float(ratios.max())
 
 
-def measure_corpus(vehicle=None, progress=None) -> dict:
+def measure_corpus(vehicle=None, progress=None, pairs: int = PAIRS) -> dict:
     """Per region class and key-point matcher: attitude and height errors against the reference,
     the share of poses that fail the reference's certificate, and the time, over the whole
     corpus; and ``auto`` with its escalation against the same reference.
@@ -159,7 +159,9 @@ def measure_corpus(vehicle=None, progress=None) -> dict:
     failure costs escalated ``auto`` a reference solve, ten to twenty key-point poses; on flat
     ground every matcher's median is 0, and the cheapest matcher is not the cheapest once its
     failures go to the reference). Counts decide, not times, so the rule is the same on any
-    machine; the estimated escalated cost is in the table beside them.
+    machine; the estimated escalated cost is in the table beside them. ``pairs``: rounds of
+    escalated against plain ``auto`` behind the escalation's ratio (timing only: the counts, and
+    so the winners, do not depend on it; 0: not timed).
     Returns {"rows": [...], "winners": {class: matcher}, "auto": [...], ...}.
     """
     from tankcd_cli.matching.match import (
@@ -181,8 +183,8 @@ def measure_corpus(vehicle=None, progress=None) -> dict:
     fails = {key: [] for key in att}
     seconds = dict.fromkeys(KEY_POINT_MATCHERS + ("reference", "auto", "auto+"), 0.0)
     poses = 0
-    # escalated auto against plain, in turn on every terrain, PAIRS times: one whole-corpus ratio per round
-    rounds = np.zeros((PAIRS, 2))
+    # escalated auto against plain, in turn on every terrain, ``pairs`` times: one whole-corpus ratio per round
+    rounds = np.zeros((pairs, 2))
     for i, t in enumerate(corpus_terrains()):
         say(f"corpus: {t.name} ({i + 1}/{len(corpus_terrains())})")
         surface = build_surface(t, vehicle, seed=i)
@@ -208,7 +210,7 @@ def measure_corpus(vehicle=None, progress=None) -> dict:
                 att[c, m].append(np.degrees(np.arccos(cos[sel])))
                 dz[c, m].append(np.abs(p.position[ok, 2] - ref.position[ok, 2])[sel])
                 fails[c, m].append(failed[ok][sel])
-        for k in range(PAIRS):
+        for k in range(len(rounds)):
             for j, escalate in enumerate((False, True)):
                 s = time.perf_counter()
                 match(surface, vehicle, x, y, yaw, "auto", measure=False, escalate=escalate)
@@ -246,7 +248,8 @@ def measure_corpus(vehicle=None, progress=None) -> dict:
     return {"rows": rows, "winners": winners, "auto": auto, "poses": poses, "terrains": len(corpus_terrains()),
             "reference_us_per_pose": per_pose["reference"], "auto_us_per_pose": per_pose["auto"],
             "escalated_us_per_pose": per_pose["auto+"], "tolerance_m": tol,
-            "escalation_ratio_pairs": _ratio_pairs(rounds[:, 1] / rounds[:, 0]),
+            "escalation_ratio_pairs": _ratio_pairs(rounds[:, 1] / rounds[:, 0]) if pairs else (float("nan"),) * 3,
+            "escalation_rounds": pairs,
             "escalated_share": float(np.mean(np.concatenate([np.concatenate(fails[c, "auto+"]) for c in classes]))),
             "auto_attitude_p95_deg": _pct(every["auto"], 95), "escalated_attitude_p95_deg": _pct(every["auto+"], 95)}
 
@@ -282,12 +285,14 @@ def corpus_table(result: dict) -> str:
     from tankcd_cli.tradeoff.timing import cost_text
 
     med, lo, hi = result.get("escalation_ratio_pairs", (float("nan"),) * 3)
+    rounds = result.get("escalation_rounds", PAIRS)
+    timed = (f"in {rounds} rounds of the two in turn on every terrain, escalated auto takes "
+             f"{cost_text(med, lo, hi, 'plain auto')} over the whole corpus" if rounds else
+             "escalated auto against plain in turn: not timed in this run")
     lines += ["", f"Whole corpus: attitude p95 {result['auto_attitude_p95_deg']:.2f} deg plain, "
               f"{result['escalated_attitude_p95_deg']:.2f} deg escalated; {result['escalated_share']:.1%} of the "
               f"poses escalated; {result['auto_us_per_pose']:.2f} against {result['escalated_us_per_pose']:.2f} us "
-              f"a pose (matching alone, without the penetration and gap columns a replay adds); in {PAIRS} rounds of "
-              f"the two in turn on every terrain, escalated auto takes {cost_text(med, lo, hi, 'plain auto')} over "
-              "the whole corpus."]
+              f"a pose (matching alone, without the penetration and gap columns a replay adds); {timed}."]
     return "\n".join(lines) + "\n"
 
 

@@ -11,7 +11,9 @@ T72 = vehicle_preset("t72")
 
 
 def test_the_shipped_rule_is_the_corpus_winners():
-    result = measure_corpus(T72)
+    # the whole corpus (the winners are its counts, not its times): the escalation's five timed
+    # rounds left out
+    result = measure_corpus(T72, pairs=0)
     assert result["winners"] == AUTO_RULE, corpus_table(result)
     # every class has poses from several families: the table is not decided by a handful
     for row in result["rows"]:

@@ -1,14 +1,20 @@
 """`tankcd tradeoff --quick`: the report runs, and its numbers are sane."""
 
 import csv
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 from tankcd_cli.terrain import synthetic
-from tankcd_cli.tradeoff.stages import Point, angle_deg, tripod_planes
+from tankcd_cli.tradeoff import report as report_module
 from tankcd_cli.tradeoff.report import pareto
+from tankcd_cli.tradeoff.stages import QUICK, Point, angle_deg, tripod_planes
+
+# --quick's inputs and every stage, timed fewer times: one timed run a variant, two pairs behind a
+# ratio, a turn one call long (the assertions hold the report's shape and its counts, not its times)
+FEWER_REPEATS = dataclasses.replace(QUICK, repeats=1, pair_repeats=2, turn_seconds=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -18,7 +24,9 @@ def report(tmp_path_factory):
     from tankcd_cli.cli.main import cli
 
     out = tmp_path_factory.mktemp("tradeoff")
-    result = CliRunner().invoke(cli, ["tradeoff", "--quick", "--out", str(out)], catch_exceptions=False)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(report_module, "QUICK", FEWER_REPEATS)
+        result = CliRunner().invoke(cli, ["tradeoff", "--quick", "--out", str(out)], catch_exceptions=False)
     assert result.exit_code == 0, result.output
     with open(out / "tradeoff.csv") as fh:
         rows = list(csv.DictReader(fh))
