@@ -15,6 +15,9 @@ micrometre are bad input (a unit slip; their squares underflow the differences).
 
 from __future__ import annotations
 
+from tankcd_cli.errors import InputError, warn
+from tankcd_cli.terrain.grid.tiled_classify import FINEST_CLASS_POSTS, class_stride
+
 
 def spacing_over_track(dx: float, dy: float, track_length: float) -> float:
     """The coarser post spacing over the track length."""
@@ -28,7 +31,6 @@ def coarse_posts(grid, vehicle, source: str | None) -> bool:
     track = vehicle.track_length
     if spacing <= track / 2:
         return False
-    from tankcd_cli.errors import warn
 
     warn(source, f"posts {spacing:g} m apart are wider than half the {vehicle.name}'s {track:g} m track length: "
                  f"the classes and the poses cannot resolve the ground the tracks feel (posts at most "
@@ -43,18 +45,13 @@ def fine_posts(grid, vehicle, source: str | None) -> tuple[int, int]:
     """The (rows, cols) stride of the posts the classes come from (``tiled_classify.class_stride``):
     (1, 1), or a SetupWarning naming the spacing and what a track feels. Posts closer than
     ``MIN_POST_SPACING`` are an InputError."""
-    from tankcd_cli.terrain.grid.tiled_classify import FINEST_CLASS_POSTS, class_stride
-
     spacing = min(grid.dx, grid.dy)
     if not spacing >= MIN_POST_SPACING:
-        from tankcd_cli.errors import InputError
-
         raise InputError(source, f"posts {spacing:g} m apart are closer than {MIN_POST_SPACING:g} m (a micrometre): "
                                  "no terrain is posted so finely; the spacing is in the wrong unit")
     stride = class_stride(grid, vehicle.track_length)
     if stride == (1, 1):
         return stride
-    from tankcd_cli.errors import warn
 
     track = vehicle.track_length
     finest = track / FINEST_CLASS_POSTS

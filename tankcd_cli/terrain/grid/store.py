@@ -26,6 +26,10 @@ import numpy as np
 
 from tankcd_cli.errors import InputError
 from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.io.h5 import read_errors
+from tankcd_cli.terrain.grid.surface import GridSurface
+from tankcd_cli.terrain.grid.tiles import DEFAULT_CACHE_BYTES, TileReader
+from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION, WHAT, open_store, read_attrs
 
 TILE = 256
 OVERVIEW_MAX = 1024  # posts of the overview's longer side at most
@@ -36,8 +40,6 @@ class GridStoreWriter:
 
     def __init__(self, path: str, grid: PostGrid, height_dtype: str = "float64"):
         import h5py
-
-        from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION
 
         rows, cols = grid.rows, grid.cols
         self.rows, self.cols = rows, cols
@@ -124,11 +126,6 @@ class GridStoreWriter:
 
 def open_grid(path: str, cache_bytes: int | None = None):
     """The :class:`~tankcd_cli.terrain.grid.surface.GridSurface` of a grid store (reads no raster)."""
-    from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.grid.surface import GridSurface
-    from tankcd_cli.terrain.grid.tiles import DEFAULT_CACHE_BYTES, TileReader
-    from tankcd_cli.terrain.store import WHAT, open_store
-
     what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):
@@ -155,9 +152,6 @@ def read_overview(path: str) -> dict:
     """The overview rasters (``classes``, ``curvature``, one value per block of ``step`` x ``step``
     posts), the grid's geometry (``grid``, a PostGrid) and the root attributes (for maps)."""
     import h5py
-
-    from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.store import WHAT, read_attrs
 
     attrs = read_attrs(path)
     with read_errors(path, WHAT), h5py.File(path, "r") as h5:
