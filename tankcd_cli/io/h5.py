@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 
+import numpy as np
+
 from tankcd_cli.errors import InputError
 
 
@@ -49,8 +51,6 @@ def read_errors(path: str, what: str):
 
 def check_indices(path: str, what: str, index, size: int, name: str) -> None:
     """Every entry of ``index`` lies in [0, size) (-1 allowed where it marks a leaf), or InputError."""
-    import numpy as np
-
     index = np.asarray(index)
     if index.size and (index.min() < -1 or index.max() >= size):
         raise InputError(path, f"damaged {what}: {name} indices outside 0..{size - 1}")
