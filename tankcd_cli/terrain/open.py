@@ -33,19 +33,18 @@ from typing import Callable
 from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.io.atomic import atomic_path
 from tankcd_cli.io.h5 import is_hdf5
-from tankcd_cli.io.terrain_files import file_terrain_kind
 from tankcd_cli.names import AUTO_METHODS
-from tankcd_cli.terrain.grid.classify import classify_dem
 from tankcd_cli.terrain.grid.resolution import coarse_posts
-from tankcd_cli.terrain.grid.sources import open_source
 from tankcd_cli.terrain.grid.store import open_grid
-from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE
-from tankcd_cli.terrain.mesh.classify import classify_mesh, raw_terrain_of, read_mesh
 from tankcd_cli.terrain.mesh.store import MeshStore, read_mesh_store, write_mesh_store
 from tankcd_cli.terrain.mesh.surface import MeshSurface
 from tankcd_cli.terrain.store import read_attrs, store_layout
 from tankcd_cli.terrain.surface import Surface
 from tankcd_cli.vehicle import vehicle_preset
+
+# The readers and classifiers of DEMs and meshes (grid.sources, grid.classify, mesh.classify,
+# io.terrain_files: rasters, heightmaps, mesh formats) are imported in the branches that use
+# them: a replay over a store, the common case, loads none of them (about 0.1 s of start-up).
 
 DEM_KINDS = ("grid_store", "esri_ascii", "raster", "heightmap")  # read as DEM sources (grid/sources.py)
 KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "heightmap", "mesh")
@@ -68,6 +67,8 @@ def terrain_kind(path: str, fmt: str | None = None) -> str:
     f = (fmt or "").lower()
     if f == "h5" or (not f and path != "-" and is_hdf5(path)):  # first: a store needs no other reader
         return "grid_store" if store_layout(path) == "grid" else "mesh_store"
+    from tankcd_cli.io.terrain_files import file_terrain_kind
+
     return file_terrain_kind(path, f)
 
 
@@ -94,6 +95,7 @@ def open_dem(path: str, fmt: str | None = None, band: int | None = None, crs: st
     kind = terrain_kind(path, fmt)
     if kind not in DEM_KINDS:
         return None
+    from tankcd_cli.terrain.grid.sources import open_source
 
     return open_source(kind, str(path), fmt=fmt, band=band, crs=crs, heightmap=heightmap_of(path, heightmap))
 
@@ -154,10 +156,13 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
         return OpenedTerrain(MeshSurface.from_store(store), "mesh", path, store, path, False)
     cached = os.path.splitext(path)[0] + ".h5"
     if kind in DEM_KINDS:
+        from tankcd_cli.terrain.grid.sources import open_source
+
         # a raster takes the CRS and band a scene's [terrain] table names (HeightmapSpec.SHARED)
         crs, band = (heightmap.crs, heightmap.band) if kind != "heightmap" and heightmap is not None else (None, None)
         return _open_dem(open_source(kind, path, fmt=fmt, crs=crs, band=band, heightmap=heightmap), path,
                          cached if cache else None, vehicle, say)
+    from tankcd_cli.terrain.mesh.classify import classify_mesh, read_mesh
 
     raw = read_mesh(path, up=up, fmt=fmt)
     if cache and os.path.exists(cached) and is_hdf5(cached):
@@ -176,6 +181,8 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
 
 def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain:
     """A DEM classified into a grid store (``cached``, or a temporary file) and opened."""
+    from tankcd_cli.terrain.grid.classify import classify_dem
+
     with dem:
         if cached and os.path.exists(cached) and is_hdf5(cached):
             a = read_attrs(cached)
@@ -259,6 +266,8 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
     if kind != "heightmap":
         _refuse_heightmap_options(kind, heightmap)
     if kind in DEM_KINDS:
+        from tankcd_cli.terrain.grid.sources import open_source
+
         dem = open_source(kind, path, fmt=fmt, band=band, crs=crs, heightmap=heightmap)
         with dem:
             if up not in (None, "z"):
@@ -281,6 +290,7 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
     if method == "grid":
         raise OptionError("--method grid needs a DEM; meshes take cotan, sphere or jet")
     method = AUTO_METHODS["mesh"] if method == "auto" else method
+    from tankcd_cli.terrain.mesh.classify import classify_mesh, raw_terrain_of, read_mesh
 
     raw = raw_terrain_of(read_mesh_store(path), path) if kind == "mesh_store" else read_mesh(path, up=up, fmt=fmt)
     store = classify_mesh(raw, method=method, vehicle=vehicle, thresholds=thresholds, progress=progress)
@@ -296,6 +306,9 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
 
 def _classify_dem(dem, output, method, vehicle, thresholds, tile, jobs, scheduler, spec, tile_progress, on_grid,
                   before_commit) -> ClassifiedFile:
+    from tankcd_cli.terrain.grid.classify import classify_dem
+    from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE
+
     if on_grid:
         on_grid(dem.grid, dem.info)
     with atomic_path(output, ".h5") as tmp:

@@ -14,10 +14,10 @@ from tankcd_cli import __version__
 from tankcd_cli.errors import InputError, warn
 from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
 from tankcd_cli.terrain.grid.quantum import filter_passes, find_quantum, step_hint
-from tankcd_cli.terrain.grid.resolution import coarse_posts, fine_posts, spacing_over_track
+from tankcd_cli.terrain.grid.resolution import coarse_posts, spacing_over_track
 from tankcd_cli.terrain.grid.sources import checked_read
 from tankcd_cli.terrain.grid.store import GridStoreWriter
-from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, classify_grid_tiles
+from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, classify_grid_tiles, fine_posts
 from tankcd_cli.terrain.regions import Thresholds, default_thresholds
 from tankcd_cli.vehicle import Vehicle, vehicle_preset
 

@@ -56,6 +56,7 @@ from typing import Callable
 
 import numpy as np
 
+from tankcd_cli.errors import InputError, warn
 from tankcd_cli.geometry.post_grid import PostGrid, grid_faces
 from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, JET_DEGREE, jet_fit_numpy
 from tankcd_cli.terrain.curvature.jet_fit import jet_fit
@@ -63,6 +64,7 @@ from tankcd_cli.terrain.curvature.mean import OpenVertices, mean_curvature
 from tankcd_cli.terrain.grid import post_passes
 from tankcd_cli.terrain.grid.quantum import filter_passes, smooth_within_quantum
 from tankcd_cli.terrain.regions import NO_CLASS, Thresholds, classify_values
+from tankcd_cli.vehicle import Vehicle
 
 GRID_METHODS = ("grid", "cotan", "sphere", "jet")
 FIT_RADIUS = 12  # posts (along the coarser axis): holds the 40 nearest even at a DEM's corner (a quarter disk)
@@ -81,6 +83,31 @@ def class_stride(grid: PostGrid, track_length: float) -> tuple[int, int]:
         return 1 if h >= finest else int(math.ceil(finest / h - 1e-9))
 
     return step(float(grid.dy)), step(float(grid.dx))
+
+
+MIN_POST_SPACING = 1e-6  # m
+
+
+def fine_posts(grid: PostGrid, vehicle: Vehicle, source: str | None) -> tuple[int, int]:
+    """The (rows, cols) stride of the posts the classes come from (``class_stride``):
+    (1, 1), or a SetupWarning naming the spacing and what a track feels. Posts closer than
+    ``MIN_POST_SPACING`` are an InputError."""
+    spacing = min(grid.dx, grid.dy)
+    if not spacing >= MIN_POST_SPACING:
+        raise InputError(source, f"posts {spacing:g} m apart are closer than {MIN_POST_SPACING:g} m (a micrometre): "
+                                 "no terrain is posted so finely; the spacing is in the wrong unit")
+    stride = class_stride(grid, vehicle.track_length)
+    if stride == (1, 1):
+        return stride
+
+    track = vehicle.track_length
+    finest = track / FINEST_CLASS_POSTS
+    steps = f"{stride[0]}" if stride[0] == stride[1] else f"{stride[0]} (rows) and {stride[1]} (columns)"
+    warn(source, f"posts {spacing:g} m apart are far finer than anything the {vehicle.name}'s tracks feel "
+                 f"(1/{FINEST_CLASS_POSTS} of its {track:g} m track length is {finest:.3g} m): the classes are "
+                 f"computed on one post in {steps} ({min(grid.dx * stride[1], grid.dy * stride[0]):.3g} m apart), "
+                 "each post taking the nearest one's; heights and curvature keep every post")
+    return stride
 
 
 def use_compiled(grid: PostGrid) -> bool:
