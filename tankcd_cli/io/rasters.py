@@ -49,7 +49,6 @@ import warnings
 import zipfile
 from dataclasses import dataclass
 from xml.etree import ElementTree
-from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 
@@ -361,6 +360,8 @@ def _mosaic(tiles: list[tuple[str, str]], name: str, keep: list) -> str:
 
     All tiles must share CRS, post spacing, band count and post lattice; each keeps its own NODATA.
     """
+    from xml.sax.saxutils import escape, quoteattr  # here: it loads urllib.request, http and ssl
+
     import rasterio
     from rasterio.io import MemoryFile
 
