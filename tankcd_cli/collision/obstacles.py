@@ -19,8 +19,9 @@ from tankcd_cli.errors import InputError
 from tankcd_cli.geometry.motion import rotation_angle
 from tankcd_cli.geometry.pose import rotation_matrix
 from tankcd_cli.io.atomic import atomic_path
-from tankcd_cli.io.terrain_readers import read_terrain
-from tankcd_cli.scene import CollisionSettings, ObstacleSpec, Scene
+from tankcd_cli.io.terrain_readers import RawTerrain, read_terrain
+from tankcd_cli.scene import CollisionSettings, MeshPlacement, ObstacleSpec, Scene
+from tankcd_cli.vehicle import Vehicle
 from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
 
 
@@ -32,7 +33,7 @@ class Obstacle:
     hi: np.ndarray
 
 
-def read_mesh(path: str, up: str | None):
+def read_mesh(path: str, up: str | None) -> RawTerrain:
     """A mesh read as replay reads it (``read_terrain``); ``up`` None is the format's convention."""
     return read_terrain(path, up=up)
 
@@ -121,8 +122,8 @@ def scene_vehicle_body(scene: Scene, detail: int = 2) -> VehicleBody:
     return body_of(scene.vehicle, scene.vehicle_mesh, scene.vehicle_mesh_placement, scene.collision, detail)
 
 
-def body_of(vehicle, mesh: str | None, placement, settings: CollisionSettings = CollisionSettings(),
-            detail: int = 2) -> VehicleBody:
+def body_of(vehicle: Vehicle, mesh: str | None, placement: MeshPlacement,
+            settings: CollisionSettings = CollisionSettings(), detail: int = 2) -> VehicleBody:
     """A vehicle as moving parts: its mesh file (None: the shape generated from its dimensions)
     brought into the vehicle frame by ``placement`` (``scene.MeshPlacement``), trees built with
     ``settings`` (the scene's [collision])."""
@@ -135,7 +136,7 @@ def body_of(vehicle, mesh: str | None, placement, settings: CollisionSettings = 
                         aabb_levels=settings.aabb_levels, split=settings.split)
 
 
-def vehicle_mesh_triangles(mesh: str, placement):
+def vehicle_mesh_triangles(mesh: str, placement: MeshPlacement):
     """A vehicle mesh file: triangles (m, 3, 3) in the vehicle frame (``placement`` applied), part ids
     (m,) and names."""
     raw = read_mesh(mesh, placement.up)

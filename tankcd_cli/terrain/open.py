@@ -38,9 +38,10 @@ from tankcd_cli.terrain.grid.resolution import coarse_posts
 from tankcd_cli.terrain.grid.store import open_grid
 from tankcd_cli.terrain.mesh.store import MeshStore, read_mesh_store, write_mesh_store
 from tankcd_cli.terrain.mesh.surface import MeshSurface
+from tankcd_cli.terrain.regions import Thresholds
 from tankcd_cli.terrain.store import read_attrs, store_layout
 from tankcd_cli.terrain.surface import Surface
-from tankcd_cli.vehicle import vehicle_preset
+from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
 # The readers and classifiers of DEMs and meshes (grid.sources, grid.classify, mesh.classify,
 # io.terrain_files: rasters, heightmaps, mesh formats) are imported in the branches that use
@@ -122,7 +123,7 @@ class OpenedTerrain:
     classified: bool
 
 
-def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehicle=None,
+def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehicle: Vehicle | None = None,
                  progress: Callable[[str], None] | None = None, cache: bool = False,
                  heightmap=None) -> OpenedTerrain:
     """The surface of any terrain input: a store is opened (a grid store for windowed reads:
@@ -233,7 +234,8 @@ class ClassifiedFile:
 
 
 def classify_file(path: str, output: str, method: str = "auto", up: str | None = None, fmt: str | None = None,
-                  vehicle=None, thresholds=None, crs: str | None = None, band: int | None = None, tile=None,
+                  vehicle: Vehicle | None = None, thresholds: Thresholds | None = None, crs: str | None = None,
+                  band: int | None = None, tile=None,
                   jobs: int | None = None, scheduler: str | None = None,
                   progress: Callable[[str], None] | None = None,
                   tile_progress: Callable[[int, int, int, float], None] | None = None,

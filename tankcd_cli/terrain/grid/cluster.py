@@ -16,8 +16,10 @@ import time
 from typing import Callable
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.terrain.grid.sources import checked_read, open_source
 from tankcd_cli.terrain.grid.tiled_classify import classify_fetched, fetch_tile, tile_plan, tiles_of, use_compiled
+from tankcd_cli.terrain.regions import Thresholds
 
 _SOURCES: dict = {}  # spec -> opened DEM source, one per worker process
 _LOCK = threading.Lock()
@@ -32,7 +34,8 @@ def _source(spec: tuple):
         return _SOURCES[spec]
 
 
-def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, thresholds, smoothing=None):
+def tile_task(spec: tuple, core: tuple, grid: PostGrid, method: str, track_length: float, thresholds: Thresholds,
+              smoothing=None):
     """Classify one tile on a worker (see ``tiled_classify.classify_tile``)."""
     plan = tile_plan(grid, track_length, thresholds, smoothing)
     source = _source(spec)
@@ -41,7 +44,8 @@ def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, 
     return classify_fetched(plan, core, fetched, method, thresholds, use_compiled(grid))
 
 
-def classify_tiles_on_dask(scheduler: str, spec: tuple, grid, method: str, track_length: float, thresholds,
+def classify_tiles_on_dask(scheduler: str, spec: tuple, grid: PostGrid, method: str, track_length: float,
+                           thresholds: Thresholds,
                            tile, on_tile: Callable, progress: Callable | None = None, smoothing=None) -> None:
     """Run every tile as a task on the cluster at ``scheduler``; ``on_tile`` gets the results in
     row-major tile order (a result that arrives early waits on the cluster, not here)."""

@@ -17,6 +17,8 @@ their squares underflow the differences).
 from __future__ import annotations
 
 from tankcd_cli.errors import warn
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.vehicle import Vehicle
 
 
 def spacing_over_track(dx: float, dy: float, track_length: float) -> float:
@@ -24,7 +26,7 @@ def spacing_over_track(dx: float, dy: float, track_length: float) -> float:
     return max(dx, dy) / track_length
 
 
-def coarse_posts(grid, vehicle, source: str | None) -> bool:
+def coarse_posts(grid: PostGrid, vehicle: Vehicle, source: str | None) -> bool:
     """A SetupWarning (``errors.warn``) when the posts of ``grid`` (a PostGrid) are wider apart
     than half the vehicle's track length; whether they are."""
     spacing = max(grid.dx, grid.dy)

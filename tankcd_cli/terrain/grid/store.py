@@ -124,8 +124,8 @@ class GridStoreWriter:
             pass
 
 
-def open_grid(path: str, cache_bytes: int | None = None):
-    """The :class:`~tankcd_cli.terrain.grid.surface.GridSurface` of a grid store (reads no raster)."""
+def open_grid(path: str, cache_bytes: int | None = None) -> GridSurface:
+    """The GridSurface of a grid store (reads no raster)."""
     what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):
