@@ -13,6 +13,7 @@ source, source_sha256, placement (what the model's frame was turned and moved by
 
 from __future__ import annotations
 
+import h5py
 import numpy as np
 
 from tankcd_cli import __version__
@@ -25,8 +26,6 @@ FORMAT_VERSION = 1
 
 
 def write_tree(path: str, tree: Tree, part: np.ndarray | None = None) -> None:
-    import h5py
-
     with h5py.File(path, "w") as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["format_version"] = FORMAT_VERSION

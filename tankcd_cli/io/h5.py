@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
@@ -12,8 +13,6 @@ from tankcd_cli.errors import InputError
 def open_h5(path: str, fmt: str, version: int, what: str, remedy: str, **options):
     """An open h5py.File of format ``fmt`` and ``version``, or InputError (exit 3); ``options``
     go to h5py.File (e.g. its chunk cache)."""
-    import h5py
-
     try:
         h5 = h5py.File(path, "r", **options)
     except FileNotFoundError:

@@ -25,6 +25,7 @@ import dataclasses
 import hashlib
 import os
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
@@ -96,8 +97,6 @@ class StoreDem:
 
 
 def _h5(path):
-    import h5py
-
     return h5py.File(path, "r")
 
 

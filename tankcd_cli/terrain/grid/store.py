@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
@@ -39,8 +40,6 @@ class GridStoreWriter:
     """Create a grid store at ``path`` and fill it with classified tiles (``write``)."""
 
     def __init__(self, path: str, grid: PostGrid, height_dtype: str = "float64"):
-        import h5py
-
         rows, cols = grid.rows, grid.cols
         self.rows, self.cols = rows, cols
         self.h5 = h5py.File(path, "w")
@@ -151,8 +150,6 @@ def open_grid(path: str, cache_bytes: int | None = None) -> GridSurface:
 def read_overview(path: str) -> dict:
     """The overview rasters (``classes``, ``curvature``, one value per block of ``step`` x ``step``
     posts), the grid's geometry (``grid``, a PostGrid) and the root attributes (for maps)."""
-    import h5py
-
     attrs = read_attrs(path)
     with read_errors(path, WHAT), h5py.File(path, "r") as h5:
         h = h5["grid/height"]

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
@@ -50,8 +51,6 @@ class MeshStore:
 
 def write_mesh_store(path: str, store: MeshStore) -> None:
     """Write a store to ``path`` (callers wrap this in an atomic rename)."""
-    import h5py
-
     n = len(store.vertices)
     face_dtype = np.int32 if n < 2**31 else np.int64
     with h5py.File(path, "w") as h5:
