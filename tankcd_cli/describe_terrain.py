@@ -21,6 +21,9 @@ import os
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.heightmap import PNG_SUFFIXES, RAW_TYPES, heightmap_format
+from tankcd_cli.io.rasters import crs_name, gdal_env, gdal_message, is_gdal_error, point_scale, quiet_warnings
+from tankcd_cli.io.terrain_readers import read_terrain
 
 EVERY_POST = 1 << 20
 SAMPLE_WINDOWS = 16
@@ -74,8 +77,6 @@ def describe_raster(path: str) -> dict:
     """A raster DEM GDAL reads (GeoTIFF, ESRI ASCII, DTED, HGT, ...), by its header and a sample."""
     import rasterio
     from rasterio.windows import Window
-
-    from tankcd_cli.io.rasters import crs_name, gdal_env, gdal_message, is_gdal_error, quiet_warnings
 
     with gdal_env(), quiet_warnings():
         try:
@@ -153,8 +154,6 @@ def _point_scale(crs, bounds: tuple[float, float, float, float]) -> dict | None:
     corners and the edges' midpoints), ``ground_metres_per_crs_metre`` (1 / centre). 1 for a true
     metric grid; about 2 for Web Mercator at 60 deg. None where pyproj cannot say. The same
     figures a store records of its source (``source_point_scale``, docs/formats.md)."""
-    from tankcd_cli.io.rasters import point_scale
-
     scale = point_scale(crs, bounds)
     if scale is None:
         return None
@@ -173,8 +172,6 @@ HEIGHTMAP_NEEDS = {"spacing": "--spacing M (required: the file holds no post spa
 def describe_heightmap(path: str) -> dict:
     """A heightmap (PNG, RAW): its size, bits and channels, its values' range (a sample), and the
     options classify needs, which the file does not say."""
-    from tankcd_cli.io.heightmap import PNG_SUFFIXES, heightmap_format
-
     kind = heightmap_format(path, None)
     facts = _png_facts(path) if kind in PNG_SUFFIXES else _raw_facts(path, kind)
     facts["options"] = dict(HEIGHTMAP_NEEDS)
@@ -185,8 +182,6 @@ def describe_heightmap(path: str) -> dict:
 def _png_facts(path: str) -> dict:
     import rasterio
     from rasterio.windows import Window
-
-    from tankcd_cli.io.rasters import gdal_env, gdal_message, is_gdal_error, quiet_warnings
 
     with gdal_env(), quiet_warnings():
         try:
@@ -220,8 +215,6 @@ def _png_facts(path: str) -> dict:
 
 
 def _raw_facts(path: str, kind: str) -> dict:
-    from tankcd_cli.io.heightmap import RAW_TYPES
-
     nbytes = os.path.getsize(path)
     if nbytes == 0:
         raise InputError(path, "file is empty")
@@ -263,8 +256,6 @@ def _raw_facts(path: str, kind: str) -> dict:
 def describe_mesh(path: str) -> dict:
     """A terrain mesh as replay reads it (``io.terrain_readers.read_terrain``): its format, the up
     axis applied, vertices and triangles, bounds, parts and what was left out."""
-    from tankcd_cli.io.terrain_readers import read_terrain
-
     raw = read_terrain(path)
     v = raw.vertices
     lo, hi = (v.min(axis=0), v.max(axis=0)) if len(v) else (np.zeros(3), np.zeros(3))

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
+import warnings
 
 
 class InputError(Exception):
@@ -56,8 +58,6 @@ class SetupWarning(UserWarning):
 def warn(source: str | None, what: str) -> None:
     """Raise a :class:`SetupWarning` through Python's warnings (the caller decides what it does),
     first recorded by every ``collected_warnings`` block it is raised in."""
-    import warnings
-
     warning = SetupWarning(source, what)
     for seen in _COLLECTING.get():
         seen.add(warning.one_line())
@@ -81,8 +81,6 @@ def collected_warnings():
     whatever the warnings filters then do with it: shown (the command line prints it, ``-q`` does
     not), ignored, or raised as an error (``--strict``). So a summary built from it carries every
     warning of its run. Blocks nest: a warning is recorded by each block it is raised in."""
-    import contextlib
-
     @contextlib.contextmanager
     def block():
         seen = CollectedWarnings()

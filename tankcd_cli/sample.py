@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tankcd_cli.vehicle_mesh import box
+
 SEED = 20261122
 WIDTH, DEPTH, SPACING = 240.0, 160.0, 1.0
 UTM_ORIGIN = (500_000.0, 4_500_000.0)
@@ -104,8 +106,6 @@ def _write_obj(path: Path, tris: np.ndarray, comment: str) -> None:
 
 def obstacles(out: Path) -> None:
     """A depot beside the path and a wall across it, and the scene that places them."""
-    from tankcd_cli.vehicle_mesh import box
-
     _write_obj(out / "depot.obj", box([-6, -4, 0], [6, 4, 6], 2), "depot, z-up, origin at the centre of its floor")
     wall = box([-7, -0.3, 0], [7, 0.3, 3], 2)  # z-up: 14 m long, 0.6 m thick, 3 m high
     yup = np.stack([wall[..., 0], wall[..., 2], -wall[..., 1]], axis=-1)  # the same wall exported y-up

@@ -39,6 +39,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
+import numpy as np
+
 from tankcd_cli.names import PRESET_NAMES
 
 import math
@@ -176,8 +178,6 @@ def key_points(vehicle: Vehicle, count: int):
     6: front, middle and rear of each track's centre line.
     Order: front before rear, left before right.
     """
-    import numpy as np
-
     h, g = vehicle.track_length / 2, vehicle.track_gauge / 2
     if count == 2:
         return np.array([[h, 0.0], [-h, 0.0]])
@@ -194,8 +194,6 @@ def wheel_stations(vehicle: Vehicle):
     ends), each at both edges of the track, where a track on uneven ground bears.
     Order: left track then right, front to rear, outer edge before inner.
     """
-    import numpy as np
-
     h, g, w = vehicle.track_length / 2, vehicle.track_gauge / 2, vehicle.track_width / 2
     u = np.linspace(h, -h, vehicle.road_wheels)
     rows = [(s * (g + w), s * (g - w)) for s in (1.0, -1.0)]  # each track's outer and inner edge

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tankcd_cli.bvh.build import Tree
+from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch, collide_batch
 from tankcd_cli.geometry import kdop
 
 
@@ -34,8 +35,6 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     rotation : (N, 3, 3); translation : (N, 3), m
     all_contacts : every intersecting triangle pair (else stop at the first)
     """
-    from tankcd_cli.bvh.traverse import ALL, FIRST, collide_batch
-
     if moving.k != static.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {static.k})")
     d = kdop.directions(moving.k)
@@ -52,8 +51,6 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
 def collide_brute_force(moving_triangles: np.ndarray, static_triangles: np.ndarray, rotation, translation,
                         all_contacts: bool = False) -> np.ndarray:
     """Contacts per pose from every triangle pair (the oracle): (N,) counts."""
-    from tankcd_cli.bvh.traverse import ALL, FIRST, brute_force_batch
-
     R = np.ascontiguousarray(np.asarray(rotation, dtype=float).reshape(-1, 3, 3))
     t = np.ascontiguousarray(np.asarray(translation, dtype=float).reshape(-1, 3))
     return brute_force_batch(R, t, np.ascontiguousarray(moving_triangles, dtype=float),

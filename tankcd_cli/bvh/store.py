@@ -13,20 +13,19 @@ source, source_sha256, placement (what the model's frame was turned and moved by
 
 from __future__ import annotations
 
+import h5py
 import numpy as np
 
+from tankcd_cli import __version__
 from tankcd_cli.bvh.build import Tree
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.h5 import check_indices, open_h5, read_errors
 
 FORMAT = "tankcd-bvh"
 FORMAT_VERSION = 1
 
 
 def write_tree(path: str, tree: Tree, part: np.ndarray | None = None) -> None:
-    import h5py
-
-    from tankcd_cli import __version__
-
     with h5py.File(path, "w") as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["format_version"] = FORMAT_VERSION
@@ -45,8 +44,6 @@ def write_tree(path: str, tree: Tree, part: np.ndarray | None = None) -> None:
 
 def read_tree(path: str) -> tuple[Tree, np.ndarray | None]:
     """The tree and its per-triangle part labels (None if absent)."""
-    from tankcd_cli.io.h5 import check_indices, open_h5, read_errors
-
     what = "tankcd tree"
     with open_h5(path, FORMAT, FORMAT_VERSION, what, "build it again") as h5, read_errors(path, what):
         # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in

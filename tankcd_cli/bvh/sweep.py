@@ -45,10 +45,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tankcd_cli.bvh._sweep import chain_placements  # noqa: F401 (the compiled chain, for the callers)
+from tankcd_cli.bvh._sweep import first_contacts as kernel
 from tankcd_cli.bvh.build import Tree
 from tankcd_cli.geometry import kdop
-from tankcd_cli.bvh._sweep import chain_placements  # noqa: F401 (the compiled chain, for the callers)
 from tankcd_cli.geometry.motion import axis_rotation, quaternion_matrix, quaternion_slerp
+from tankcd_cli.geometry.triangles import tri_distance
 
 MOTION_WIDTH = 30
 PASS_SECONDS = 60e-6  # a moving query's bisection, about (two vehicles' hulls near each other)
@@ -140,8 +142,6 @@ def first_contacts(moving: Tree, other: Tree, rows_a, joints_a, rows_b, joints_b
     """The first contact of ``moving`` (motion rows_a) with ``other`` (motion rows_b) in each of N
     steps; ``rate`` (N,) bounds how far any point of either body moves per unit of s, summed
     (m). See the module's docstring for the method and its guarantees."""
-    from tankcd_cli.bvh._sweep import first_contacts as kernel
-
     if moving.k != other.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {other.k})")
     d = kdop.directions(moving.k)
@@ -162,8 +162,6 @@ def first_contacts_sampled(moving_triangles: np.ndarray, other_triangles: np.nda
     each (brute force over all pairs; where the sets' boxes are more than ``exact_below`` apart,
     the boxes' gap, a lower bound). Returns (first fraction (N,) at which the distance is at most
     ``within``, NaN where never; least distance over the step (N,))."""
-    from tankcd_cli.geometry.triangles import tri_distance
-
     rows_a, rows_b = np.atleast_2d(rows_a), np.atleast_2d(rows_b)
     n = len(rows_a)
     first = np.full(n, np.nan)

@@ -6,6 +6,8 @@ import os
 
 import click
 
+from tankcd_cli.bvh.build import build_tree
+from tankcd_cli.bvh.store import write_tree
 from tankcd_cli.cli.options import (
     Excludes,
     Needs,
@@ -14,7 +16,11 @@ from tankcd_cli.cli.options import (
     refuse_clashes,
     verbosity_options,
 )
+from tankcd_cli.collision.obstacles import cache_path, load_obstacles
+from tankcd_cli.io.atomic import atomic_path
+from tankcd_cli.io.terrain_readers import read_terrain
 from tankcd_cli.names import KDOP_KS, SPLITS, TREE_DEFAULTS, UP_AXES
+from tankcd_cli.scene import load_scene
 
 SCENE_DECIDES = "the scene's [collision] table sets how its trees are built, as replay and collide build them"
 RULES = (
@@ -65,9 +71,6 @@ def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, fmt,
     report.kernels()
     step = report.progress("bvh")
     if scene:
-        from tankcd_cli.collision.obstacles import cache_path, load_obstacles
-        from tankcd_cli.scene import load_scene
-
         sc = load_scene(scene)
         obstacles = load_obstacles(sc, cache=True, rebuild=force, progress=step)
         for spec, ob in zip(sc.obstacles, obstacles):
@@ -77,10 +80,6 @@ def bvh(report, model, output, scene, k, aabb_levels, split, leaf_size, up, fmt,
         return
     if not model:
         raise click.UsageError("give MODEL or --scene")
-    from tankcd_cli.bvh.build import build_tree
-    from tankcd_cli.bvh.store import write_tree
-    from tankcd_cli.io.atomic import atomic_path
-    from tankcd_cli.io.terrain_readers import read_terrain
 
     if model == "-" and output is None:
         raise click.UsageError("reading MODEL from stdin needs -o/--output")

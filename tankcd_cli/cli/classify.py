@@ -6,8 +6,18 @@ import os
 
 import click
 
-from tankcd_cli.cli.options import given, output_option, vehicle_option, verbosity_options
+from tankcd_cli import api
+from tankcd_cli.cli.options import given, output_option, refuse_clashes, vehicle_option, verbosity_options
+from tankcd_cli.errors import InputError
+from tankcd_cli.io.atomic import atomic_path
+from tankcd_cli.io.files import same_path
+from tankcd_cli.io.h5 import is_hdf5
+from tankcd_cli.io.heightmap import HeightmapSpec, parse_size
 from tankcd_cli.names import CURVATURE_METHODS, UP_AXES
+from tankcd_cli.plots import class_map_png, grid_map_png
+from tankcd_cli.terrain.open import OptionError
+from tankcd_cli.terrain.regions import Thresholds
+from tankcd_cli.vehicle import vehicle_preset
 
 METHOD_HELP = ("Mean-curvature estimator: auto (the default: grid on a DEM, jet on a mesh), grid (DEMs only: "
                "central differences over the 3 x 3 posts), cotan (cotangent formula with mixed Voronoi area, "
@@ -75,14 +85,7 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
     0 west. Heights quantized in steps that would show as terraces in the classes
     warn, and the curvature is taken from heights smoothed within half a step.
     """
-    from tankcd_cli import api
-    from tankcd_cli.terrain.open import OptionError
-    from tankcd_cli.terrain.regions import Thresholds
-    from tankcd_cli.vehicle import vehicle_preset
-
     if terrain != "-" and not os.path.exists(terrain):  # before -o's default is compared with it
-        from tankcd_cli.errors import InputError
-
         raise InputError(terrain, "no such file")
     explicit = output is not None
     if output is None:
@@ -116,9 +119,6 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
             return
         report.bar(None)
         if png:  # drawn from the store before it is renamed: a map that fails takes the store with it
-            from tankcd_cli.io.atomic import atomic_path
-            from tankcd_cli.plots import grid_map_png
-
             with atomic_path(png, ".png") as tmp_png:
                 grid_map_png(tmp, tmp_png, title=done.source)
 
@@ -146,9 +146,6 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
         return
     store = done.mesh_store
     if png:
-        from tankcd_cli.io.atomic import atomic_path
-        from tankcd_cli.plots import class_map_png
-
         with atomic_path(png, ".png") as tmp:
             class_map_png(store, tmp)
     for key in ("merged_vertices", "unreferenced_vertices", "degenerate_faces", "repeated_faces"):
@@ -162,8 +159,6 @@ def classify(report, terrain, output, method, up, fmt, vehicle_name, thresholds,
 def _heightmap_spec(spacing, z_scale, z_offset, z_range, origin, raw_size):
     """The HeightmapSpec the heightmap options give, or None when none is given (their values
     are checked when the heightmap is read: a bad number is bad input, exit 3)."""
-    from tankcd_cli.io.heightmap import HeightmapSpec, parse_size
-
     size = None
     if raw_size is not None:
         try:
@@ -179,10 +174,6 @@ def _heightmap_spec(spacing, z_scale, z_offset, z_range, origin, raw_size):
 def _refuse_clashes(terrain, output, png, explicit):
     """No output may be the input or the other output; a store is rewritten in place only when
     -o names it (the new store is written beside it and replaces it when complete)."""
-    from tankcd_cli.cli.options import refuse_clashes
-    from tankcd_cli.io.files import same_path
-    from tankcd_cli.io.h5 import is_hdf5
-
     in_place = terrain != "-" and same_path(output, terrain)
     if in_place and not (explicit and is_hdf5(terrain)):
         hint = " (to rewrite a store in place, name it with -o)" if is_hdf5(terrain) else ""

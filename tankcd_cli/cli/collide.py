@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import json
+
 import click
 
+from tankcd_cli import api
 from tankcd_cli.cli.options import no_parquet, no_stdin, refuse_clashes, scene_inputs, verbosity_options
+from tankcd_cli.io.atomic import output_text
 from tankcd_cli.names import EXIT_COLLISION
+from tankcd_cli.scene import load_scene
 
 
 @click.command(short_help="Test the vehicle at given poses against the scene's obstacles.")
@@ -26,12 +31,6 @@ def collide(report, scene, poses_path, events_path, all_contacts, fail_on_collis
     pose of POSES and report each obstacle it touches, one JSON event per contact, with the
     fields of replay's obstacle events (step, t, kind, a, b, point, contacts). The trees are
     built with the scene's [collision] settings, which the closing line names."""
-    import json
-
-    from tankcd_cli import api
-    from tankcd_cli.io.atomic import output_text
-    from tankcd_cli.scene import load_scene
-
     report.kernels()
     step = report.progress("collide")
     sc = load_scene(scene)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from tankcd_cli.cli.options import no_dash_directory, verbosity_options
+from tankcd_cli.replay.demo import run_demo
 
 
 @click.command(short_help="Run the whole pipeline on the sample battlefield.")
@@ -16,8 +17,6 @@ def demo(report, directory):
     the obstacles' trees, replay a patrol through a scene with a depot, a wall, and a T-72
     whose turret sweeps round over its rear drums, and draw the path over the class map
     with every collision marked (replay.png)."""
-    from tankcd_cli.replay.demo import run_demo
-
     s = run_demo(directory, progress=report.progress("demo"))
     ev = s["events"]
     report.info(f"demo: {s['rows']:,} rows replayed; obstacle {ev['obstacle']}, internal {ev['internal']}, "

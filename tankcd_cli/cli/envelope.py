@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import click
+import numpy as np
 
+from tankcd_cli import api
 from tankcd_cli.cli.options import (
     SCENE_VEHICLE,
     VEHICLE_PRESETS,
@@ -13,6 +15,11 @@ from tankcd_cli.cli.options import (
     refuse_clashes,
     verbosity_options,
 )
+from tankcd_cli.collision.internal import DRUMS, envelope_summary
+from tankcd_cli.io.atomic import atomic_path, output_text
+from tankcd_cli.plots import envelope_png
+from tankcd_cli.scene import load_scene
+from tankcd_cli.vehicle import vehicle_preset
 
 
 @click.command(short_help="Lowest safe gun elevation per turret azimuth (CSV; --png polar plot).")
@@ -36,18 +43,9 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     (the drum that sets the limit, or "gun" where the gun's own depression limit does), checked
     (every elevation above the limit was tested clear on a 0.25 degree grid). A vehicle without
     fuel drums has the gun's own limit at every azimuth, and says so."""
-    import numpy as np
-
-    from tankcd_cli import api
-    from tankcd_cli.collision.internal import DRUMS, envelope_summary
-    from tankcd_cli.io.atomic import atomic_path, output_text
-    from tankcd_cli.vehicle import vehicle_preset
-
     check_option_combinations(click.get_current_context(), (SCENE_VEHICLE,))
     refuse_clashes({"--scene": scene}, {"-o/--output": output, "--png": png})
     if scene:
-        from tankcd_cli.scene import load_scene
-
         vehicle = load_scene(scene).vehicle
     else:
         vehicle = vehicle_preset(vehicle_name)
@@ -61,8 +59,6 @@ def envelope(report, scene, vehicle_name, step_deg, method, output, png):
     with output_text(output, ".csv") as fh:
         fh.write(text)
     if png:
-        from tankcd_cli.plots import envelope_png
-
         with atomic_path(png, ".png") as tmp:
             envelope_png(vehicle, env, tmp)
     drums = _drums_say(envelope_summary(vehicle, env, step_deg))

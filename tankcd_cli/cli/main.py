@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import os
+import signal
 import sys
+import threading
+import traceback
+import warnings
 
 import click
 
 from tankcd_cli import __version__
 from tankcd_cli.cli.options import QUIET_HELP, VERBOSE_HELP, set_verbosity, strict_option
 from tankcd_cli.cli.report import Reporter
-from tankcd_cli.errors import InputError, SetupWarning
+from tankcd_cli.errors import InputError, SetupWarning, printable
+from tankcd_cli.io.exit_guard import guard_termination
 
 # command name -> (module, short help); modules are imported only when run
 COMMANDS = {
@@ -48,8 +54,6 @@ class LazyGroup(click.Group):
             formatter.write_dl(rows)
 
     def invoke(self, ctx):
-        import warnings
-
         with warnings.catch_warnings():
             # warnings print as one line each; --strict (a callback) turns them into errors
             warnings.simplefilter("error" if ctx.meta.get("tankcd.strict") else "always", SetupWarning)
@@ -89,7 +93,6 @@ class LazyGroup(click.Group):
     def _internal_error(ctx, exc):
         if _SIGNALLED:  # a signal that surfaced as some other error (a library callback swallowed it)
             _signal_exit(ctx, _SIGNALLED[-1] == "term")
-        from tankcd_cli.errors import printable
 
         first = str(exc).splitlines()[0] if str(exc) else ""
         click.echo(printable(f"tankcd: internal error: {type(exc).__name__}: {first} ")
@@ -111,8 +114,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def warnings_format(message, category, filename, lineno, line=None) -> str:
-    import warnings
-
     return warnings.formatwarning(message, category, filename, lineno, line)
 
 
@@ -124,8 +125,6 @@ def _signal_exit(ctx, terminated: bool) -> None:
 def _traceback_if_verbose(ctx) -> None:
     reporter = ctx.find_object(Reporter)
     if reporter is not None and reporter.verbosity >= 1:
-        import traceback
-
         traceback.print_exc(file=sys.stderr)
 
 
@@ -179,11 +178,8 @@ def _on_sigint(signum, frame):
 
 def main(argv=None):
     """Console-script entry point."""
-    import signal
-
     signal.signal(signal.SIGTERM, _on_sigterm)
     signal.signal(signal.SIGINT, _on_sigint)
-    from tankcd_cli.io.exit_guard import guard_termination
 
     guard_termination()  # a SIGTERM that Python cannot answer (a long compiled call) ends the run in 1 s
     try:
@@ -217,9 +213,6 @@ def console(argv=None):
 
 
 def _exit_quickly(code: int) -> None:
-    import atexit
-    import threading
-
     if threading.active_count() > 1:
         sys.exit(code)
     for stream in (sys.stdout, sys.stderr):

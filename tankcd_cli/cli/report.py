@@ -7,6 +7,8 @@ import time
 
 import click
 
+from tankcd_cli.threads import get_num_threads, openmp_enabled
+
 
 class Reporter:
     """verbosity: -1 quiet (errors only: they do not go through here; warnings are dropped where they are shown), 0 normal, 1+ detail."""
@@ -44,7 +46,6 @@ class Reporter:
         """Under -v: how the compiled kernels run here (OpenMP threads, or serially without it)."""
         if self.verbosity < 1:
             return
-        from tankcd_cli.threads import get_num_threads, openmp_enabled
 
         if openmp_enabled():
             self.detail(f"kernels: compiled with OpenMP, {get_num_threads()} threads")

@@ -7,6 +7,8 @@ import sys
 import click
 
 from tankcd_cli.cli.options import no_dash_directory, no_stdin, verbosity_options
+from tankcd_cli.tradeoff.measure import ratio_text
+from tankcd_cli.tradeoff.report import run_tradeoff
 
 
 @click.command(short_help="Measure what accuracy costs in time: tables, CSV and plots.")
@@ -30,9 +32,6 @@ def tradeoff(report, scene, trajectory, out_dir, quick):
     whole replay (the headline), and the trajectory's motion logged at 1 to 50 Hz, replayed
     along the motion and at the rows alone (what the rows miss, against the continuous check).
     Every ratio comes with its pairs' range. Writes OUT/tradeoff.md, tradeoff.csv and tradeoff.png."""
-    from tankcd_cli.tradeoff.measure import ratio_text
-    from tankcd_cli.tradeoff.report import run_tradeoff
-
     res = run_tradeoff(out_dir, scene, trajectory, quick, progress=report.progress("tradeoff"),
                        command="tankcd " + " ".join(sys.argv[1:]))
     h = res.headline

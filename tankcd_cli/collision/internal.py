@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tankcd_cli.geometry.cylinders import cylinders_intersect, projections_overlap
+from tankcd_cli.collision._internal import gun_path_contacts
+from tankcd_cli.geometry.cylinders import TOL, cylinders_intersect, projections_overlap
 from tankcd_cli.vehicle import Vehicle
 
 METHODS = ("exact", "projection")
@@ -133,9 +134,6 @@ def first_gun_contacts(vehicle: Vehicle, azimuth0, dazimuth, elevation0, delevat
     the barrel dipping a fraction of a millimetre into a drum, may go unseen). Paths that start
     touching are reported at s = 0.
     """
-    from tankcd_cli.collision._internal import gun_path_contacts
-    from tankcd_cli.geometry.cylinders import TOL
-
     az0 = np.asarray(azimuth0, dtype=float).ravel()
     tanks = drums(vehicle)
     if not tanks or len(az0) == 0:

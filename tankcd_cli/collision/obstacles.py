@@ -13,9 +13,15 @@ import numpy as np
 from tankcd_cli.bvh.build import Tree, build_tree
 from tankcd_cli.bvh.query import collide
 from tankcd_cli.bvh.store import read_tree, write_tree
-from tankcd_cli.errors import InputError
-from tankcd_cli.scene import CollisionSettings, ObstacleSpec, Scene
+from tankcd_cli.bvh.sweep import chain_placements, first_contacts, motion_rows, static_rows
 from tankcd_cli.collision.vehicle_body import VehicleBody, group_placements, vehicle_body
+from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.motion import rotation_angle
+from tankcd_cli.geometry.pose import rotation_matrix
+from tankcd_cli.io.atomic import atomic_path
+from tankcd_cli.io.terrain_readers import RawTerrain, read_terrain
+from tankcd_cli.scene import CollisionSettings, MeshPlacement, ObstacleSpec, Scene
+from tankcd_cli.vehicle import Vehicle
 from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
 
 
@@ -27,17 +33,13 @@ class Obstacle:
     hi: np.ndarray
 
 
-def read_mesh(path: str, up: str | None):
+def read_mesh(path: str, up: str | None) -> RawTerrain:
     """A mesh read as replay reads it (``read_terrain``); ``up`` None is the format's convention."""
-    from tankcd_cli.io.terrain_readers import read_terrain
-
     return read_terrain(path, up=up)
 
 
 def placement_matrix(scale, yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
     """M (3, 3) with M @ p = R(yaw, pitch, roll) @ (scale * p), R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    from tankcd_cli.geometry.pose import rotation_matrix
-
     R = rotation_matrix(np.radians(roll_deg), np.radians(pitch_deg), np.radians(yaw_deg))
     return R * np.asarray(scale, dtype=float)[None, :]
 
@@ -79,8 +81,6 @@ def load_obstacles(scene: Scene, cache: bool = True, rebuild: bool = False,
                    progress: Callable[[str], None] | None = None) -> list[Obstacle]:
     """Every obstacle's world tree: from the scene's cache when it is up to date (same mesh
     SHA-256, placement and build settings), else built (and cached when ``cache``)."""
-    from tankcd_cli.io.atomic import atomic_path
-
     say = progress or (lambda s: None)
     out = []
     for spec in scene.obstacles:
@@ -122,8 +122,8 @@ def scene_vehicle_body(scene: Scene, detail: int = 2) -> VehicleBody:
     return body_of(scene.vehicle, scene.vehicle_mesh, scene.vehicle_mesh_placement, scene.collision, detail)
 
 
-def body_of(vehicle, mesh: str | None, placement, settings: CollisionSettings = CollisionSettings(),
-            detail: int = 2) -> VehicleBody:
+def body_of(vehicle: Vehicle, mesh: str | None, placement: MeshPlacement,
+            settings: CollisionSettings = CollisionSettings(), detail: int = 2) -> VehicleBody:
     """A vehicle as moving parts: its mesh file (None: the shape generated from its dimensions)
     brought into the vehicle frame by ``placement`` (``scene.MeshPlacement``), trees built with
     ``settings`` (the scene's [collision])."""
@@ -136,7 +136,7 @@ def body_of(vehicle, mesh: str | None, placement, settings: CollisionSettings = 
                         aabb_levels=settings.aabb_levels, split=settings.split)
 
 
-def vehicle_mesh_triangles(mesh: str, placement):
+def vehicle_mesh_triangles(mesh: str, placement: MeshPlacement):
     """A vehicle mesh file: triangles (m, 3, 3) in the vehicle frame (``placement`` applied), part ids
     (m,) and names."""
     raw = read_mesh(mesh, placement.up)
@@ -263,10 +263,6 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
     obstacle the part's world box at the step's middle grown by half its group's motion bound,
     which holds it throughout the step (every point stays within half the bound of where it is
     at the middle); a step whose boxes miss every obstacle's costs those box tests alone."""
-    from tankcd_cli.bvh.sweep import chain_placements
-    from tankcd_cli.bvh.sweep import first_contacts, motion_rows, static_rows
-    from tankcd_cli.geometry.motion import rotation_angle
-
     m = len(q0)
     nparts = len(body.part_names)
     queries = 0

@@ -16,7 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tankcd_cli.collision.vehicle_body import VehicleBody
+from tankcd_cli.bvh.sweep import chain_placements, first_contacts, motion_rows
+from tankcd_cli.collision.vehicle_body import VehicleBody, group_of
+from tankcd_cli.geometry.motion import rotation_angle
 
 
 @dataclass(frozen=True)
@@ -41,15 +43,11 @@ class SpanMotion:
 
     def rows(self, body: VehicleBody, group) -> tuple[np.ndarray, np.ndarray]:
         """The sweep's motion rows (M, 30) and joint counts of one of the body's groups."""
-        from tankcd_cli.bvh.sweep import motion_rows
-
         return motion_rows(self.q0, self.c0, self.q1, self.c1, body.joints(group.kind),
                            (self.turret0, self.gun0)[:group.kind], (self.dturret, self.dgun)[:group.kind])
 
     def rate(self, group) -> np.ndarray:
         """How far any point of ``group`` moves per unit of the span's fraction, at most (m)."""
-        from tankcd_cli.geometry.motion import rotation_angle
-
         return group.bound_rate(np.linalg.norm(self.c1 - self.c0, axis=1), rotation_angle(self.q0, self.q1),
                                 self.dturret, self.dgun)
 
@@ -76,9 +74,6 @@ def first_vehicle_contacts(body_a: VehicleBody, motion_a: SpanMotion, body_b: Ve
     Broad phase per group pair: each group's box at the span's middle grown by half its motion
     bound holds it throughout the span, so a pair of groups whose grown boxes miss costs that
     test alone; the rest take the sweep with both bodies moving."""
-    from tankcd_cli.bvh.sweep import chain_placements
-    from tankcd_cli.bvh.sweep import first_contacts
-
     m = len(motion_a)
     best_s = np.full(m, np.inf)
     part_a = np.full(m, -1, dtype=np.int64)
@@ -146,8 +141,6 @@ def contact_centres(body_a: VehicleBody, motion_a: SpanMotion, body_b: VehicleBo
     segment gives its ends and a patch its corners: their mean is what the motion defines, to well
     within 1 cm.
     ``witness`` is kept where no pair is found (the placements at ``s`` no longer within the band)."""
-    from tankcd_cli.bvh.sweep import chain_placements
-
     out = np.array(witness, dtype=np.float64, copy=True)
     if len(span) == 0:
         return out
@@ -293,7 +286,6 @@ def _closing_speed(body_a, motion_a, body_b, motion_b, span, s, part_a, part_b, 
     each vehicle's group placement at s and a little later, the point carried by each."""
     if len(span) == 0:
         return np.zeros(0)
-    from tankcd_cli.bvh.sweep import chain_placements
 
     ds = 1e-4
     velocity = []
@@ -316,6 +308,4 @@ def _closing_speed(body_a, motion_a, body_b, motion_b, span, s, part_a, part_b, 
 
 
 def _group_kind(body: VehicleBody, part: int) -> int:
-    from tankcd_cli.collision.vehicle_body import group_of
-
     return group_of(body.part_names[part])

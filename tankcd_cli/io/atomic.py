@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
+import signal
 import stat
 import sys
+import tempfile
 from typing import Iterator
 
 from tankcd_cli.errors import InputError
@@ -104,8 +107,6 @@ def atomic_path(target: str, suffix: str = "") -> Iterator[str]:
     _check_target(target)
     in_place = writes_in_place(target)
     if in_place:
-        import tempfile
-
         directory = tempfile.gettempdir()
     else:
         directory = os.path.dirname(os.path.realpath(target))
@@ -179,8 +180,6 @@ def _commit(entries: list) -> None:
 
 def _copy_into(tmp: str, target: str) -> None:
     """A complete temporary file written into a target written in place (``-``: standard output)."""
-    import shutil
-
     with open(tmp, "rb") as src:
         if target == "-":
             shutil.copyfileobj(src, sys.stdout.buffer)
@@ -241,8 +240,6 @@ def _drop_group(group: list) -> None:
 @contextlib.contextmanager
 def _signals_held():
     """Hold SIGINT, SIGTERM and SIGALRM back (they are delivered on leaving) where the platform can."""
-    import signal
-
     if not hasattr(signal, "pthread_sigmask"):
         yield
         return

@@ -8,6 +8,7 @@ from typing import Iterator
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.csv_kernels import POW10, parse_table
 
 
 def numeric_chunks(fh, name: str, required: tuple, optional: tuple, chunk_rows: int,
@@ -101,8 +102,6 @@ def _well_formed_values(lines: list, width: int, cols: list):
     numbers. Anything else (blank lines or cells, text, NaN) returns None and is
     read cell by cell, which names the first bad line and column.
     """
-    from tankcd_cli.io.csv_kernels import POW10, parse_table
-
     text = "".join(lines)
     if text.isascii():
         values, ok = parse_table(np.frombuffer(text.encode("ascii"), np.uint8), len(lines), width, POW10)

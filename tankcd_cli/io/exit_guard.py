@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import os
 
+from tankcd_cli.io.atomic import pending_paths
+
 try:
     from tankcd_cli.io._exit_guard import install as _install, track as _track, tracked as _tracked, \
         untrack as _untrack
@@ -29,7 +31,6 @@ def guard_termination(grace_seconds: int = 1) -> bool:
     not built or cannot chain that handler."""
     if _install is None or not _install(grace_seconds):
         return False
-    from tankcd_cli.io.atomic import pending_paths
 
     _INSTALLED.append(True)
     for path in pending_paths():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import os
+import stat
 import sys
 
 from tankcd_cli.errors import InputError
@@ -38,8 +39,6 @@ def same_path(a: str, b: str) -> bool:
 
 def is_character_device(path: str) -> bool:
     """Whether ``path`` names a character device (/dev/null, a terminal), following links."""
-    import stat
-
     try:
         return stat.S_ISCHR(os.stat(path).st_mode)
     except OSError:

@@ -13,6 +13,7 @@ import io
 import json
 import os
 import struct
+from urllib.parse import unquote
 
 import numpy as np
 
@@ -41,8 +42,6 @@ def _gltf_header(data: bytes, fmt: str) -> dict | None:
 
 def _check_gltf_buffers(header: dict, path: str, name: str) -> None:
     """External buffers must be found: beside the file, and never from standard input."""
-    from urllib.parse import unquote
-
     buffers = header.get("buffers") or []
     for i, buf in enumerate(buffers if isinstance(buffers, list) else []):
         uri = buf.get("uri") if isinstance(buf, dict) else None

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import contextlib
 
+import h5py
+import numpy as np
+
 from tankcd_cli.errors import InputError
 
 
 def open_h5(path: str, fmt: str, version: int, what: str, remedy: str, **options):
     """An open h5py.File of format ``fmt`` and ``version``, or InputError (exit 3); ``options``
     go to h5py.File (e.g. its chunk cache)."""
-    import h5py
-
     try:
         h5 = h5py.File(path, "r", **options)
     except FileNotFoundError:
@@ -49,8 +50,6 @@ def read_errors(path: str, what: str):
 
 def check_indices(path: str, what: str, index, size: int, name: str) -> None:
     """Every entry of ``index`` lies in [0, size) (-1 allowed where it marks a leaf), or InputError."""
-    import numpy as np
-
     index = np.asarray(index)
     if index.size and (index.min() < -1 or index.max() >= size):
         raise InputError(path, f"damaged {what}: {name} indices outside 0..{size - 1}")

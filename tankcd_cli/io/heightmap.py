@@ -29,16 +29,31 @@ and a PNG's transparent colour are ignored (said under -v), as is a world file (
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 
-from tankcd_cli.errors import InputError
+from tankcd_cli.errors import InputError, warn
 from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.io.dem_source import DemSourceInfo
+from tankcd_cli.io.rasters import (
+    SCALE_TOLERANCE,
+    crs_label,
+    crs_name,
+    file_sha256,
+    gdal_env,
+    gdal_message,
+    is_gdal_error,
+    metric_crs,
+    point_scale,
+    quiet_warnings,
+)
+from tankcd_cli.io.terrain_readers import MAX_COORDINATE
 
 PNG_SUFFIXES = ("png",)
 RAW_SUFFIXES = ("raw", "r16", "r32", "r8")
@@ -191,8 +206,6 @@ def _scale_offset(spec: HeightmapSpec, name: str, dtype: np.dtype, bits: int) ->
 
 
 def _grid(spec: HeightmapSpec, rows: int, cols: int, name: str) -> PostGrid:
-    from tankcd_cli.io.terrain_readers import MAX_COORDINATE
-
     h = float(spec.spacing)
     extent = (max(rows, cols) - 1) * h
     if extent > MAX_COORDINATE:
@@ -204,8 +217,6 @@ def _grid(spec: HeightmapSpec, rows: int, cols: int, name: str) -> PostGrid:
         x0, y0 = float(spec.origin[0]), float(spec.origin[1])
     crs_wkt, crs_words = "", "local grid (no CRS)"
     if spec.crs:
-        from tankcd_cli.io.rasters import crs_name, metric_crs
-
         crs = metric_crs(spec.crs, name)
         crs_wkt, crs_words = crs.to_wkt(), crs_name(crs)
     return PostGrid(rows, cols, x0, y0, h, h, crs_wkt, crs_words)
@@ -219,8 +230,6 @@ def _crs_facts(spec: HeightmapSpec, grid: PostGrid, name: str) -> dict:
         return {}
     from rasterio.crs import CRS
 
-    from tankcd_cli.io.rasters import SCALE_TOLERANCE, crs_label, point_scale
-
     crs = CRS.from_wkt(grid.crs_wkt)
     south = grid.origin_y - (grid.rows - 1) * grid.dy
     east = grid.origin_x + (grid.cols - 1) * grid.dx
@@ -228,8 +237,6 @@ def _crs_facts(spec: HeightmapSpec, grid: PostGrid, name: str) -> dict:
     if scale is None:
         return {"source_crs_wkt": grid.crs_wkt}
     if scale.off_by > SCALE_TOLERANCE:
-        from tankcd_cli.errors import warn
-
         warn(name, f"{crs_label(crs)} metres are {1 / scale.centre:.2f} ground metres here (point scale "
                    f"{scale.centre:.2f} at the centre{scale.range_text()}): a heightmap is placed, not reprojected, "
                    "so its slopes and distances are off by that much; give --origin and --spacing in a CRS whose "
@@ -297,9 +304,6 @@ class RawHeightmap(_Heightmap):
         spec = _checked(spec, name)
         self._data = None
         if path == "-":
-            import hashlib
-            import sys
-
             data = sys.stdin.buffer.read()
             nbytes, digest = len(data), hashlib.sha256(data).hexdigest()
             self._data = data
@@ -308,7 +312,6 @@ class RawHeightmap(_Heightmap):
                 raise InputError(name, "is a directory, not a file")
             if not os.path.exists(path):
                 raise InputError(name, "no such file")
-            from tankcd_cli.io.rasters import file_sha256
 
             nbytes, digest = os.path.getsize(path), file_sha256(path, name)
         if nbytes == 0:
@@ -368,17 +371,12 @@ class PngHeightmap(_Heightmap):
     of a colour image chosen with ``band``."""
 
     def __init__(self, path: str, spec: HeightmapSpec | None, band: int | None = None):
-        from tankcd_cli.io.rasters import file_sha256, gdal_env, gdal_message, is_gdal_error, quiet_warnings
-
         name = "<stdin>" if path == "-" else path
         spec = _checked(spec, name)
         if spec.size is not None:
             raise InputError(name, "--size applies to RAW heightmaps; a PNG says its own size")
         self._keep, self._ds = [], None
         if path == "-":
-            import hashlib
-            import sys
-
             from rasterio.io import MemoryFile
 
             data = sys.stdin.buffer.read()
@@ -466,8 +464,6 @@ class PngHeightmap(_Heightmap):
     def _values(self, a0, a1, b0, b1, name=None):
         from rasterio.windows import Window
 
-        from tankcd_cli.io.rasters import gdal_env, gdal_message, is_gdal_error
-
         if self._ds is None:
             raise ValueError("read from a closed heightmap")
         with gdal_env():
@@ -480,8 +476,6 @@ class PngHeightmap(_Heightmap):
                                  f"damaged PNG (rows {a0}-{a1}): {gdal_message(exc)}") from None
 
     def close(self) -> None:
-        from tankcd_cli.io.rasters import gdal_env
-
         things = [t for t in [getattr(self, "_ds", None), *self._keep] if t is not None]
         self._ds, self._keep = None, []
         if things:

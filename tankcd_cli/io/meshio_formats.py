@@ -4,6 +4,7 @@ trimesh itself recommends for meshio's formats."""
 from __future__ import annotations
 
 import os
+import tempfile
 
 import numpy as np
 
@@ -29,8 +30,6 @@ def _cell_description(kind: str) -> str:
 def read_meshio(path: str, data: bytes, fmt: str, name: str) -> FileMesh:
     """A mesh through meshio: triangles (higher-order ones by their corners), quads and polygons
     as fans; line, vertex and volume cells left out and counted."""
-    import tempfile
-
     import meshio
 
     tmp = None

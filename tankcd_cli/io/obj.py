@@ -40,6 +40,7 @@ import re
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io._obj import scan_obj
 from tankcd_cli.io.file_mesh import DEFAULT_PART, FileMesh, compact_parts
 
 POW10 = np.array([10.0 ** k for k in range(23)])  # the scanner's powers of ten (Clinger's fast path)
@@ -141,8 +142,6 @@ def compiled_obj(data: bytes) -> FileMesh | None:
     """What ``simple_obj`` gives, read by the compiled scanner (``scan_obj``), or None when
     it declines the file (then ``simple_obj`` and ``parse_obj`` decide, as without it; a face
     index past the last vertex is declined too, and refused as before by ``_check_arrays``)."""
-    from tankcd_cli.io._obj import scan_obj
-
     scanned = scan_obj(data, POW10)
     if scanned is None:
         return None

@@ -44,6 +44,7 @@ import hashlib
 import math
 import os
 import re
+import sys
 import warnings
 import zipfile
 from dataclasses import dataclass
@@ -51,7 +52,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from tankcd_cli.errors import InputError
+from tankcd_cli.errors import InputError, warn
 from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.io.dem_source import DemSourceInfo
 
@@ -261,8 +262,6 @@ def _list_digest(entries: list[tuple[str, str]]) -> str:
 
 
 def _from_stdin(name: str, fmt: str | None, keep: list) -> tuple[str, str, str | None]:
-    import sys
-
     from rasterio.io import MemoryFile
 
     if fmt is None:
@@ -361,7 +360,7 @@ def _mosaic(tiles: list[tuple[str, str]], name: str, keep: list) -> str:
 
     All tiles must share CRS, post spacing, band count and post lattice; each keeps its own NODATA.
     """
-    from xml.sax.saxutils import escape, quoteattr
+    from xml.sax.saxutils import escape, quoteattr  # here: it loads urllib.request, http and ssl
 
     import rasterio
     from rasterio.io import MemoryFile
@@ -578,8 +577,6 @@ def _build(ds, name: str, digest: str, band: int | None, crs: str | None, keep: 
             raise InputError(name, f"CRS {crs_name(src_crs)} is in {unit}; give --crs to reproject")
     scale = point_scale(src_crs, _post_bounds(ds)) if src_crs is not None and src_crs.is_projected else None
     if dst is None and crs is None and scale is not None and scale.off_by > SCALE_TOLERANCE:
-        from tankcd_cli.errors import warn
-
         dst = _utm_zone(scale.lon, scale.lat, scale.lon_span, name)
         warn(name, f"{crs_label(src_crs)} metres are {1 / scale.centre:.2f} ground metres here (point scale "
                    f"{scale.centre:.2f} at the centre{scale.range_text()}): reprojected to {crs_label(dst)}; "
@@ -624,8 +621,6 @@ def _warn_of_chosen_scale(grid: PostGrid, crs: str, name: str) -> None:
     south, east = grid.origin_y - (grid.rows - 1) * grid.dy, grid.origin_x + (grid.cols - 1) * grid.dx
     scale = point_scale(target, (grid.origin_x, south, east, grid.origin_y))
     if scale is not None and scale.off_by > SCALE_TOLERANCE:
-        from tankcd_cli.errors import warn
-
         warn(name, f"--crs {crs}: its metres are {1 / scale.centre:.2f} ground metres here (point scale "
                    f"{scale.centre:.2f} at the centre{scale.range_text()}): kept as asked, so slopes and distances "
                    "are off by that much")

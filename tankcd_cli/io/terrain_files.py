@@ -7,6 +7,8 @@ from __future__ import annotations
 import os
 
 from tankcd_cli.io.esri_ascii import SUFFIXES as ASC_SUFFIXES
+from tankcd_cli.io.heightmap import HEIGHTMAP_SUFFIXES, is_heightmap
+from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
 
 
 def file_terrain_kind(path: str, fmt: str = "") -> str:
@@ -15,9 +17,6 @@ def file_terrain_kind(path: str, fmt: str = "") -> str:
     format given (a suffix, lower case), else by the suffix and the file's magic bytes. Standard
     input ("-") is a mesh unless ``fmt`` names a DEM. ``terrain.open.terrain_kind`` asks this
     after it has told a store by its HDF5 signature."""
-    from tankcd_cli.io.heightmap import HEIGHTMAP_SUFFIXES, is_heightmap
-    from tankcd_cli.io.rasters import RASTER_SUFFIXES, is_raster
-
     if fmt in ASC_SUFFIXES:
         return "esri_ascii"
     if fmt in HEIGHTMAP_SUFFIXES:

@@ -19,6 +19,7 @@ range, non-finite coordinates) is an InputError.
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import os
 import re
 from dataclasses import dataclass, field
@@ -84,8 +85,6 @@ class RawTerrain:
 
 
 def _collada_available() -> bool:
-    import importlib.util
-
     try:
         return importlib.util.find_spec("collada") is not None
     except (ImportError, ValueError):

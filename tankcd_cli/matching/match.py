@@ -68,6 +68,7 @@ from tankcd_cli.geometry.pose import (
     rotation_matrix,
     wrap_angle,
 )
+from tankcd_cli.geometry.support_plane import support_planes_fixed
 from tankcd_cli.names import (  # noqa: F401 (shared names)
     AUTO_RULE,
     CLASS_NAMES,
@@ -332,8 +333,6 @@ def _wheel_stations(surface, vehicle, x, y, yaw):
 def _supported(surface, x, y, yaw, pts):
     """The support plane of ground samples at ``pts`` (k, 2) in the heading frame: the facet of
     their upper convex hull above the footprint centre."""
-    from tankcd_cli.geometry.support_plane import support_planes_fixed
-
     z, ok = _heights(surface, x, y, yaw, pts)
     planes = np.full((len(x), 3), np.nan)
     if ok.any():

@@ -23,15 +23,29 @@ either); quantized heights are found and filtered when a DEM is classified
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.io.atomic import atomic_path
+from tankcd_cli.io.h5 import is_hdf5
+from tankcd_cli.names import AUTO_METHODS
+from tankcd_cli.terrain.grid.resolution import coarse_posts
+from tankcd_cli.terrain.grid.store import open_grid
+from tankcd_cli.terrain.mesh.store import MeshStore, read_mesh_store, write_mesh_store
+from tankcd_cli.terrain.mesh.surface import MeshSurface
+from tankcd_cli.terrain.regions import Thresholds
+from tankcd_cli.terrain.store import read_attrs, store_layout
 from tankcd_cli.terrain.surface import Surface
+from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
-if TYPE_CHECKING:
-    from tankcd_cli.geometry.post_grid import PostGrid
-    from tankcd_cli.terrain.mesh.store import MeshStore
+# The readers and classifiers of DEMs and meshes (grid.sources, grid.classify, mesh.classify,
+# io.terrain_files: rasters, heightmaps, mesh formats) are imported in the branches that use
+# them: a replay over a store, the common case, loads none of them (about 0.1 s of start-up).
 
 DEM_KINDS = ("grid_store", "esri_ascii", "raster", "heightmap")  # read as DEM sources (grid/sources.py)
 TERRAIN_KINDS = ("grid_store", "mesh_store", "esri_ascii", "raster", "heightmap", "mesh")
@@ -51,13 +65,11 @@ def terrain_kind(path: str, fmt: str | None = None) -> str:
     A store is recognised by its signature and its root attribute ``layout``; an HDF5 file
     that is not a terrain store is an InputError.
     """
-    from tankcd_cli.io.terrain_files import file_terrain_kind
-    from tankcd_cli.io.h5 import is_hdf5
-    from tankcd_cli.terrain.store import store_layout
-
     f = (fmt or "").lower()
-    if f == "h5" or (not f and path != "-" and is_hdf5(path)):  # first: a store imports nothing more
+    if f == "h5" or (not f and path != "-" and is_hdf5(path)):  # first: a store needs no other reader
         return "grid_store" if store_layout(path) == "grid" else "mesh_store"
+    from tankcd_cli.io.terrain_files import file_terrain_kind
+
     return file_terrain_kind(path, f)
 
 
@@ -111,7 +123,7 @@ class OpenedTerrain:
     classified: bool
 
 
-def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehicle=None,
+def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehicle: Vehicle | None = None,
                  progress: Callable[[str], None] | None = None, cache: bool = False,
                  heightmap=None) -> OpenedTerrain:
     """The surface of any terrain input: a store is opened (a grid store for windowed reads:
@@ -132,18 +144,12 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
     heightmap, path = heightmap_of(path, heightmap), str(path)  # a plain path from here on
     if kind != "heightmap":
         _refuse_heightmap_options(kind, heightmap)
-    if kind == "grid_store":  # the common case: import nothing else
-        from tankcd_cli.terrain.grid.store import open_grid
-
+    if kind == "grid_store":  # the common case
         say(f"opening grid store {path}")
         surface = open_grid(path)
         if vehicle is not None:
-            from tankcd_cli.terrain.grid.resolution import coarse_posts
-
             coarse_posts(surface.grid, vehicle, path)
         return OpenedTerrain(surface, "grid", path, None, path, False)
-    from tankcd_cli.terrain.mesh.store import read_mesh_store
-    from tankcd_cli.terrain.mesh.surface import MeshSurface
 
     if kind == "mesh_store":
         say(f"reading terrain store {path}")
@@ -158,8 +164,6 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
         return _open_dem(open_source(kind, path, fmt=fmt, crs=crs, band=band, heightmap=heightmap), path,
                          cached if cache else None, vehicle, say)
     from tankcd_cli.terrain.mesh.classify import classify_mesh, read_mesh
-    from tankcd_cli.io.h5 import is_hdf5
-    from tankcd_cli.terrain.store import read_attrs
 
     raw = read_mesh(path, up=up, fmt=fmt)
     if cache and os.path.exists(cached) and is_hdf5(cached):
@@ -170,9 +174,6 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
     say(f"classifying {path} on the fly")
     store = classify_mesh(raw, vehicle=vehicle, progress=say)
     if cache:
-        from tankcd_cli.io.atomic import atomic_path
-        from tankcd_cli.terrain.mesh.store import write_mesh_store
-
         with atomic_path(cached, ".h5") as tmp:
             write_mesh_store(tmp, store)
         say(f"cached the store as {cached}")
@@ -181,14 +182,7 @@ def open_terrain(path: str, up: str | None = None, fmt: str | None = None, vehic
 
 def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain:
     """A DEM classified into a grid store (``cached``, or a temporary file) and opened."""
-    import atexit
-    import tempfile
-
     from tankcd_cli.terrain.grid.classify import classify_dem
-    from tankcd_cli.terrain.grid.store import open_grid
-    from tankcd_cli.io.h5 import is_hdf5
-    from tankcd_cli.terrain.store import read_attrs
-    from tankcd_cli.vehicle import vehicle_preset
 
     with dem:
         if cached and os.path.exists(cached) and is_hdf5(cached):
@@ -197,13 +191,9 @@ def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain
                     and a.get("heightmap", "") == dem.info.heightmap and a.get("crs_name") == dem.grid.crs_name:
                 say(f"reading cached store {cached}")
                 surface = open_grid(cached)
-                from tankcd_cli.terrain.grid.resolution import coarse_posts
-
                 coarse_posts(surface.grid, vehicle or vehicle_preset("t72"), dem.info.source)
                 return OpenedTerrain(surface, "grid", cached, None, path, False)
         if cached:
-            from tankcd_cli.io.atomic import atomic_path
-
             say(f"classifying {dem.info.source} into {cached}")
             with atomic_path(cached, ".h5") as tmp:
                 classify_dem(dem, tmp, vehicle=vehicle)
@@ -217,8 +207,6 @@ def _open_dem(dem, path: str, cached: str | None, vehicle, say) -> OpenedTerrain
 
 
 def _remove_tree(folder: str, owner: int) -> None:
-    import shutil
-
     if os.getpid() == owner:  # a forked worker leaves the parent's files alone
         shutil.rmtree(folder, ignore_errors=True)
 
@@ -246,7 +234,8 @@ class ClassifiedFile:
 
 
 def classify_file(path: str, output: str, method: str = "auto", up: str | None = None, fmt: str | None = None,
-                  vehicle=None, thresholds=None, crs: str | None = None, band: int | None = None, tile=None,
+                  vehicle: Vehicle | None = None, thresholds: Thresholds | None = None, crs: str | None = None,
+                  band: int | None = None, tile=None,
                   jobs: int | None = None, scheduler: str | None = None,
                   progress: Callable[[str], None] | None = None,
                   tile_progress: Callable[[int, int, int, float], None] | None = None,
@@ -274,8 +263,6 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
         fails with it)
     An option that does not apply to the input is an :class:`OptionError`.
     """
-    from tankcd_cli.names import AUTO_METHODS
-
     kind = terrain_kind(path, fmt)
     heightmap, path = heightmap_of(path, heightmap), str(path)  # a plain path from here on
     if kind != "heightmap":
@@ -305,9 +292,7 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
     if method == "grid":
         raise OptionError("--method grid needs a DEM; meshes take cotan, sphere or jet")
     method = AUTO_METHODS["mesh"] if method == "auto" else method
-    from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.terrain.mesh.classify import classify_mesh, raw_terrain_of, read_mesh
-    from tankcd_cli.terrain.mesh.store import read_mesh_store, write_mesh_store
 
     raw = raw_terrain_of(read_mesh_store(path), path) if kind == "mesh_store" else read_mesh(path, up=up, fmt=fmt)
     store = classify_mesh(raw, method=method, vehicle=vehicle, thresholds=thresholds, progress=progress)
@@ -323,7 +308,6 @@ def classify_file(path: str, output: str, method: str = "auto", up: str | None =
 
 def _classify_dem(dem, output, method, vehicle, thresholds, tile, jobs, scheduler, spec, tile_progress, on_grid,
                   before_commit) -> ClassifiedFile:
-    from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.terrain.grid.classify import classify_dem
     from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.tolerances import EPS_XY
+
 
 class PatchQueries:
     """The public queries of the ground under a vehicle's patches, shared by both surfaces
@@ -28,8 +30,6 @@ class PatchQueries:
 
         ``start``: planes (N, 3) near the answer (their slopes start the search: fewer steps,
         the same planes to rounding; see ``geometry._support_plane.support_plane_from_c``)."""
-        from tankcd_cli.tolerances import EPS_XY
-
         quads = np.ascontiguousarray(quads)
         if start is None:
             return self.footprint(0, x, y, yaw, quads, np.zeros((len(quads), 3)), EPS_XY, arithmetic=exact_cells)
@@ -43,8 +43,6 @@ class PatchQueries:
 
         ``exact_cells=False`` clips every cell's triangles instead of reading full DEM cells by
         arithmetic: the oracle the arithmetic is tested against."""
-        from tankcd_cli.tolerances import EPS_XY
-
         out, covered, status = self.footprint(1, x, y, yaw, np.ascontiguousarray(quads), np.ascontiguousarray(planes),
                                               EPS_XY, arithmetic=exact_cells)
         return out[:, 0], covered, status
@@ -54,8 +52,6 @@ class PatchQueries:
         how far the ground rises above each given plane (N,; NaN where no ground is under the
         patches), the covered share (N,) and the support plane's status (N,). The search for the
         support plane starts from the given planes' slopes (see ``support_plane_under``)."""
-        from tankcd_cli.tolerances import EPS_XY
-
         planes = np.ascontiguousarray(planes)
         out, covered, status = self.footprint(2, x, y, yaw, np.ascontiguousarray(quads), planes, EPS_XY,
                                               warm=bool(np.isfinite(planes).all()))

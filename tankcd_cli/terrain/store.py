@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.io.h5 import open_h5, read_errors
+
 FORMAT = "tankcd-terrain"
 FORMAT_VERSION = 2  # 2: a root attribute ``layout`` (mesh | grid); DEMs in the grid layout (grid/store.py)
 WHAT = "tankcd terrain store"  # how messages name a store
@@ -18,15 +20,11 @@ WHAT = "tankcd terrain store"  # how messages name a store
 def open_store(path: str, **kwargs):
     """The h5py file of a terrain store, checked for the format and its version (InputError
     otherwise); ``kwargs`` go to h5py (e.g. ``rdcc_nbytes``)."""
-    from tankcd_cli.io.h5 import open_h5
-
     return open_h5(path, FORMAT, FORMAT_VERSION, WHAT, "run classify again", **kwargs)
 
 
 def read_attrs(path: str) -> dict:
     """Root attributes of a store, without reading its arrays."""
-    from tankcd_cli.io.h5 import read_errors
-
     h5 = open_store(path)
     with h5, read_errors(path, WHAT):
         # list() first: a lazily iterated h5py view holds h5py's lock while suspended, and an error in

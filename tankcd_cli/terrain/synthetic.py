@@ -11,6 +11,12 @@ from typing import Callable
 
 import numpy as np
 
+from tankcd_cli.geometry.post_grid import PostGrid, PostVertices, grid_faces
+from tankcd_cli.io.terrain_readers import RawTerrain
+from tankcd_cli.terrain.mesh.classify import classify_mesh
+from tankcd_cli.terrain.mesh.surface import MeshSurface
+from tankcd_cli.vehicle import Vehicle
+
 Array = np.ndarray
 
 
@@ -122,8 +128,6 @@ def grid_mesh(field: HeightField, half_extent: float, spacing: float,
     Returns vertices (n, 3) float64 m (shifted by ``offset``), faces (m, 3) int64,
     and the local x, y (n, 2) at which the field was sampled.
     """
-    from tankcd_cli.geometry.post_grid import grid_faces
-
     count = int(round(2 * half_extent / spacing)) + 1
     xs = -half_extent + spacing * np.arange(count)
     X, Y = np.meshgrid(xs, xs)
@@ -156,12 +160,9 @@ def _lift(field: HeightField, xy: Array, offset) -> Array:
     return np.column_stack([xy[:, 0] + offset[0], xy[:, 1] + offset[1], z + offset[2]])
 
 
-def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: str = "dem"):
+def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: str = "dem") -> RawTerrain:
     """A RawTerrain with DEM grid structure from a (rows, cols) height array (row 0 south, as a
     mesh numbers its vertices; NaN = NODATA) whose south-west post is at ``origin``."""
-    from tankcd_cli.geometry.post_grid import PostGrid, PostVertices, grid_faces
-    from tankcd_cli.io.terrain_readers import RawTerrain
-
     heights = np.asarray(heights, dtype=float)
     valid = np.isfinite(heights)
     vertex = np.full(heights.shape, -1, dtype=np.int64)
@@ -173,18 +174,13 @@ def dem_terrain(heights: Array, origin=(0.0, 0.0), spacing: float = 1.0, name: s
     return RawTerrain(vertices, grid_faces(north), grid, name, "0" * 64, "asc")
 
 
-def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh"):
+def mesh_terrain(vertices: Array, faces: Array, name: str = "mesh") -> RawTerrain:
     """A RawTerrain without grid structure (an irregular mesh)."""
-    from tankcd_cli.io.terrain_readers import RawTerrain
-
     return RawTerrain(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64), None, name, "0" * 64, "obj")
 
 
-def surface_of(raw, vehicle=None):
+def surface_of(raw: RawTerrain, vehicle: Vehicle | None = None) -> MeshSurface:
     """Classify a RawTerrain and build its MeshSurface (for tests and benchmarks)."""
-    from tankcd_cli.terrain.mesh.classify import classify_mesh
-    from tankcd_cli.terrain.mesh.surface import MeshSurface
-
     return MeshSurface.from_store(classify_mesh(raw, vehicle=vehicle))
 
 

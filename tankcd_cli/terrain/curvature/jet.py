@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.terrain.curvature import jet_fit
+
 
 JET_NEIGHBOURS = 20  # a symmetric 5x5 stencil less its corners on a regular grid
 BOUNDARY_NEIGHBOURS = 40  # a one-sided quartic needs more rows of points
@@ -48,9 +50,7 @@ def nearest_neighbours(vertices: np.ndarray, which: np.ndarray, k: int = JET_NEI
     vertices = np.asarray(vertices, dtype=np.float64)
     pool, points, sel, local, k, extra = _neighbour_pool(vertices, which, k, candidates)
     if (fast is None or fast) and len(sel) and np.isfinite(points).all():
-        from tankcd_cli.terrain.curvature.jet_fit import neighbours
-
-        return pool[neighbours(points, local, k, extra)]
+        return pool[jet_fit.neighbours(points, local, k, extra)]
     from scipy.spatial import cKDTree
 
     tree = cKDTree(points)
@@ -95,8 +95,6 @@ def jet_curvature(vertices: np.ndarray, normal: np.ndarray, which: np.ndarray, c
         vertices = np.asarray(vertices, dtype=np.float64)
         pool, points, sel, local, k, extra = _neighbour_pool(vertices, which, k, candidates)
         if np.isfinite(points).all():
-            from tankcd_cli.terrain.curvature import jet_fit
-
             H[sel] = jet_fit.jet_curvature(vertices, normal, points, pool, local, k, extra, degree)
             return H
     nbr = nearest_neighbours(vertices, which, k, candidates, fast=False)

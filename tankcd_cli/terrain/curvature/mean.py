@@ -44,6 +44,7 @@ import numpy as np
 
 from tankcd_cli.terrain.curvature.cotan import cotan_curvature, face_corners, mixed_area
 from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, BOUNDARY_RINGS, JET_DEGREE, jet_curvature
+from tankcd_cli.terrain.curvature.one_ring import cotan_accumulate, open_vertex_flags
 from tankcd_cli.terrain.curvature.sphere import sphere_curvature
 from tankcd_cli.terrain.mesh.topology import edge_topology
 from tankcd_cli.tolerances import DEFAULT, Tolerances
@@ -94,8 +95,6 @@ class OpenVertices(NamedTuple):
 def open_vertices(faces: np.ndarray, n: int, fast: bool | None = None) -> OpenVertices:
     """Find the vertices that no one-ring formula can serve."""
     if use_fast_path(n, fast):
-        from tankcd_cli.terrain.curvature.one_ring import open_vertex_flags
-
         return OpenVertices(*open_vertex_flags(faces, n, BOUNDARY_RINGS))
     topo = edge_topology(faces, n)
     nonmanifold = np.zeros(n, dtype=bool)
@@ -128,8 +127,6 @@ def mean_curvature(vertices: np.ndarray, faces: np.ndarray, method: str = "cotan
         open_verts = open_vertices(faces, n, fast)
     open_mask = open_verts.mask
     if fast:
-        from tankcd_cli.terrain.curvature.one_ring import cotan_accumulate
-
         K, normal_sum, area = cotan_accumulate(vertices, faces)
         normal = unit_or_up(normal_sum)
     else:

@@ -11,9 +11,13 @@ from typing import Callable
 import numpy as np
 
 from tankcd_cli import __version__
-from tankcd_cli.errors import InputError
+from tankcd_cli.errors import InputError, warn
+from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
+from tankcd_cli.terrain.grid.quantum import filter_passes, find_quantum, step_hint
+from tankcd_cli.terrain.grid.resolution import coarse_posts, spacing_over_track
 from tankcd_cli.terrain.grid.sources import checked_read
-from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, classify_grid_tiles
+from tankcd_cli.terrain.grid.store import GridStoreWriter
+from tankcd_cli.terrain.grid.tiled_classify import DEFAULT_TILE, classify_grid_tiles, fine_posts
 from tankcd_cli.terrain.regions import Thresholds, default_thresholds
 from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
@@ -35,10 +39,6 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
         in the same tile order as a local run.
     Returns the store's root attributes.
     """
-    from tankcd_cli.terrain.grid.store import GridStoreWriter
-
-    from tankcd_cli.terrain.grid.resolution import coarse_posts, fine_posts, spacing_over_track
-
     vehicle = vehicle or vehicle_preset("t72")
     thresholds = thresholds or default_thresholds(vehicle)
     grid, info = source.grid, source.info
@@ -59,8 +59,6 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
 
     try:
         if scheduler:
-            from tankcd_cli.terrain.grid.cluster import classify_tiles_on_dask
-
             classify_tiles_on_dask(scheduler, spec, grid, method, vehicle.track_length, thresholds, tile,
                                    writer.write, progress_of(progress, started), smoothing)
         else:
@@ -129,9 +127,6 @@ def classify_dem(source, out_path: str, method: str = "grid", vehicle: Vehicle |
 def quantized_heights(read, grid, info, thresholds: Thresholds):
     """(the Quantum found on a sample of the DEM or None, smoothing passes); a SetupWarning
     naming the step when the passes are not 0 (``quantum.py``)."""
-    from tankcd_cli.errors import warn
-    from tankcd_cli.terrain.grid.quantum import filter_passes, find_quantum, step_hint
-
     quantum = find_quantum(read, grid.rows, grid.cols, info.height_dtype)
     if quantum is None or not quantum.shows:
         return quantum, 0

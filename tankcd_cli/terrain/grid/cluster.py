@@ -10,18 +10,22 @@ when a worker is lost, Dask runs its tiles again elsewhere.
 
 from __future__ import annotations
 
+import os
 import threading
+import time
 from typing import Callable
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.terrain.grid.sources import checked_read, open_source
+from tankcd_cli.terrain.grid.tiled_classify import classify_fetched, fetch_tile, tile_plan, tiles_of, use_compiled
+from tankcd_cli.terrain.regions import Thresholds
 
 _SOURCES: dict = {}  # spec -> opened DEM source, one per worker process
 _LOCK = threading.Lock()
 
 
 def _source(spec: tuple):
-    from tankcd_cli.terrain.grid.sources import open_source
-
     with _LOCK:
         if spec not in _SOURCES:
             kind, path, fmt, band, crs, heightmap = spec
@@ -30,11 +34,9 @@ def _source(spec: tuple):
         return _SOURCES[spec]
 
 
-def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, thresholds, smoothing=None):
+def tile_task(spec: tuple, core: tuple, grid: PostGrid, method: str, track_length: float, thresholds: Thresholds,
+              smoothing=None):
     """Classify one tile on a worker (see ``tiled_classify.classify_tile``)."""
-    from tankcd_cli.terrain.grid.sources import checked_read
-    from tankcd_cli.terrain.grid.tiled_classify import classify_fetched, fetch_tile, tile_plan, use_compiled
-
     plan = tile_plan(grid, track_length, thresholds, smoothing)
     source = _source(spec)
     with _LOCK:  # one reader per DEM handle
@@ -42,15 +44,11 @@ def tile_task(spec: tuple, core: tuple, grid, method: str, track_length: float, 
     return classify_fetched(plan, core, fetched, method, thresholds, use_compiled(grid))
 
 
-def classify_tiles_on_dask(scheduler: str, spec: tuple, grid, method: str, track_length: float, thresholds,
+def classify_tiles_on_dask(scheduler: str, spec: tuple, grid: PostGrid, method: str, track_length: float,
+                           thresholds: Thresholds,
                            tile, on_tile: Callable, progress: Callable | None = None, smoothing=None) -> None:
     """Run every tile as a task on the cluster at ``scheduler``; ``on_tile`` gets the results in
     row-major tile order (a result that arrives early waits on the cluster, not here)."""
-    import os
-    import time
-
-    from tankcd_cli.terrain.grid.tiled_classify import tiles_of
-
     try:
         from distributed import Client
     except ImportError:

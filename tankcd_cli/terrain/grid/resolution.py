@@ -9,11 +9,16 @@ DTED level 1 tile, 92.6 m posts, against the T-72's 4.28 m tracks classifies nea
 At the other end, posts closer than L/100 (4.3 cm for a T-72: finer than a track link, a
 tenth of its shoe's width) hold nothing a track feels that posts L/100 apart miss, and the
 classes' disks, counted in posts, would grow as (L / spacing)^2: the classes then come from
-every s-th post (``tiled_classify.class_stride``), with a warning. Posts closer than a
-micrometre are bad input (a unit slip; their squares underflow the differences).
+every s-th post (``tiled_classify.class_stride``), with a warning (``tiled_classify.fine_posts``,
+beside the stride it reports). Posts closer than a micrometre are bad input (a unit slip;
+their squares underflow the differences).
 """
 
 from __future__ import annotations
+
+from tankcd_cli.errors import warn
+from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.vehicle import Vehicle
 
 
 def spacing_over_track(dx: float, dy: float, track_length: float) -> float:
@@ -21,46 +26,15 @@ def spacing_over_track(dx: float, dy: float, track_length: float) -> float:
     return max(dx, dy) / track_length
 
 
-def coarse_posts(grid, vehicle, source: str | None) -> bool:
+def coarse_posts(grid: PostGrid, vehicle: Vehicle, source: str | None) -> bool:
     """A SetupWarning (``errors.warn``) when the posts of ``grid`` (a PostGrid) are wider apart
     than half the vehicle's track length; whether they are."""
     spacing = max(grid.dx, grid.dy)
     track = vehicle.track_length
     if spacing <= track / 2:
         return False
-    from tankcd_cli.errors import warn
 
     warn(source, f"posts {spacing:g} m apart are wider than half the {vehicle.name}'s {track:g} m track length: "
                  f"the classes and the poses cannot resolve the ground the tracks feel (posts at most "
                  f"{track / 2:.3g} m apart would)")
     return True
-
-
-MIN_POST_SPACING = 1e-6  # m
-
-
-def fine_posts(grid, vehicle, source: str | None) -> tuple[int, int]:
-    """The (rows, cols) stride of the posts the classes come from (``tiled_classify.class_stride``):
-    (1, 1), or a SetupWarning naming the spacing and what a track feels. Posts closer than
-    ``MIN_POST_SPACING`` are an InputError."""
-    from tankcd_cli.terrain.grid.tiled_classify import FINEST_CLASS_POSTS, class_stride
-
-    spacing = min(grid.dx, grid.dy)
-    if not spacing >= MIN_POST_SPACING:
-        from tankcd_cli.errors import InputError
-
-        raise InputError(source, f"posts {spacing:g} m apart are closer than {MIN_POST_SPACING:g} m (a micrometre): "
-                                 "no terrain is posted so finely; the spacing is in the wrong unit")
-    stride = class_stride(grid, vehicle.track_length)
-    if stride == (1, 1):
-        return stride
-    from tankcd_cli.errors import warn
-
-    track = vehicle.track_length
-    finest = track / FINEST_CLASS_POSTS
-    steps = f"{stride[0]}" if stride[0] == stride[1] else f"{stride[0]} (rows) and {stride[1]} (columns)"
-    warn(source, f"posts {spacing:g} m apart are far finer than anything the {vehicle.name}'s tracks feel "
-                 f"(1/{FINEST_CLASS_POSTS} of its {track:g} m track length is {finest:.3g} m): the classes are "
-                 f"computed on one post in {steps} ({min(grid.dx * stride[1], grid.dy * stride[0]):.3g} m apart), "
-                 "each post taking the nearest one's; heights and curvature keep every post")
-    return stride

@@ -21,14 +21,23 @@ grid, so a window may reach past any edge.
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import os
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
 from tankcd_cli.geometry.post_grid import PostGrid
 from tankcd_cli.io.dem_source import DemSourceInfo
+from tankcd_cli.io.esri_ascii import esri_ascii_posts
+from tankcd_cli.io.files import read_bytes
+from tankcd_cli.io.heightmap import HeightmapSpec, open_heightmap
+from tankcd_cli.io.rasters import open_raster
 from tankcd_cli.io.terrain_readers import MAX_COORDINATE
+from tankcd_cli.terrain.grid.store import open_grid
+from tankcd_cli.terrain.store import read_attrs
 
 
 class ArrayDem:
@@ -62,9 +71,6 @@ class StoreDem:
     """The heights of a grid store, read by tile."""
 
     def __init__(self, path: str):
-        from tankcd_cli.terrain.grid.store import open_grid
-        from tankcd_cli.terrain.store import read_attrs
-
         self.surface = open_grid(path)
         self.grid = self.surface.grid
         a = read_attrs(path)
@@ -91,8 +97,6 @@ class StoreDem:
 
 
 def _h5(path):
-    import h5py
-
     return h5py.File(path, "r")
 
 
@@ -109,10 +113,6 @@ def open_source(kind: str, path: str, fmt: str | None = None, band: int | None =
     if kind not in SOURCE_KINDS:
         raise ValueError(f"not a DEM kind: {kind!r}; one of {', '.join(SOURCE_KINDS)}")
     if kind == "heightmap":
-        import dataclasses
-
-        from tankcd_cli.io.heightmap import HeightmapSpec, open_heightmap
-
         spec = heightmap or HeightmapSpec()
         if crs and not spec.crs:
             spec = dataclasses.replace(spec, crs=crs)
@@ -123,7 +123,6 @@ def open_source(kind: str, path: str, fmt: str | None = None, band: int | None =
         return StoreDem(path)
     if kind == "esri_ascii" and crs is None and band in (None, 1) and (path == "-" or _size(path) < ASC_OWN_MAX_BYTES):
         return ascii_dem(path)
-    from tankcd_cli.io.rasters import open_raster
 
     return open_raster(path, band=band, crs=crs, fmt=fmt)
 
@@ -137,11 +136,6 @@ def _size(path: str) -> int:
 
 def ascii_dem(path: str) -> ArrayDem:
     """An ESRI ASCII grid through tankcd's own parser."""
-    import hashlib
-
-    from tankcd_cli.io.esri_ascii import esri_ascii_posts
-    from tankcd_cli.io.files import read_bytes
-
     name = "<stdin>" if path == "-" else path
     data = read_bytes(path, name)
     if not data.strip():

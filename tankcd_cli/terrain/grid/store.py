@@ -22,10 +22,15 @@ from __future__ import annotations
 
 import math
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
 from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.io.h5 import read_errors
+from tankcd_cli.terrain.grid.surface import GridSurface
+from tankcd_cli.terrain.grid.tiles import DEFAULT_CACHE_BYTES, TileReader
+from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION, WHAT, open_store, read_attrs
 
 TILE = 256
 OVERVIEW_MAX = 1024  # posts of the overview's longer side at most
@@ -35,10 +40,6 @@ class GridStoreWriter:
     """Create a grid store at ``path`` and fill it with classified tiles (``write``)."""
 
     def __init__(self, path: str, grid: PostGrid, height_dtype: str = "float64"):
-        import h5py
-
-        from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION
-
         rows, cols = grid.rows, grid.cols
         self.rows, self.cols = rows, cols
         self.h5 = h5py.File(path, "w")
@@ -122,13 +123,8 @@ class GridStoreWriter:
             pass
 
 
-def open_grid(path: str, cache_bytes: int | None = None):
-    """The :class:`~tankcd_cli.terrain.grid.surface.GridSurface` of a grid store (reads no raster)."""
-    from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.grid.surface import GridSurface
-    from tankcd_cli.terrain.grid.tiles import DEFAULT_CACHE_BYTES, TileReader
-    from tankcd_cli.terrain.store import WHAT, open_store
-
+def open_grid(path: str, cache_bytes: int | None = None) -> GridSurface:
+    """The GridSurface of a grid store (reads no raster)."""
     what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):
@@ -154,11 +150,6 @@ def open_grid(path: str, cache_bytes: int | None = None):
 def read_overview(path: str) -> dict:
     """The overview rasters (``classes``, ``curvature``, one value per block of ``step`` x ``step``
     posts), the grid's geometry (``grid``, a PostGrid) and the root attributes (for maps)."""
-    import h5py
-
-    from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.terrain.store import WHAT, read_attrs
-
     attrs = read_attrs(path)
     with read_errors(path, WHAT), h5py.File(path, "r") as h5:
         h = h5["grid/height"]

@@ -28,6 +28,14 @@ from collections import OrderedDict
 import numpy as np
 
 from tankcd_cli.geometry.post_grid import PostGrid
+from tankcd_cli.terrain.footprint import PostGround, footprint_batch
+from tankcd_cli.terrain.grid.post_queries import (
+    grid_heights_at_offsets,
+    grid_heights_slopes,
+    grid_highest_above_plane_bound,
+    grid_worst_class,
+)
+from tankcd_cli.terrain.grid.tiles import TileReader
 from tankcd_cli.terrain.patches import PatchQueries
 from tankcd_cli.terrain.regions import NO_CLASS, UNEVEN
 
@@ -63,8 +71,6 @@ class GridSurface(PatchQueries):
     def from_arrays(cls, height: np.ndarray, classes: np.ndarray, grid: PostGrid) -> "GridSurface":
         """From rasters (rows, cols) in memory (row 0 north; NaN / 255 at NODATA) over ``grid``;
         a store's surface: ``grid.store.open_grid``."""
-        from tankcd_cli.terrain.grid.tiles import TileReader
-
         if np.shape(height) != (grid.rows, grid.cols) or np.shape(classes) != (grid.rows, grid.cols):
             raise ValueError(f"rasters {np.shape(height)} and {np.shape(classes)} for a {grid.rows} x {grid.cols} grid")
         tiles = TileReader(arrays={"grid/height": height, "classes/grid": classes})
@@ -145,8 +151,6 @@ class GridSurface(PatchQueries):
 
     def height_slope(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m and gradient dz/dx, dz/dy (N,) at world points; NaN off the terrain."""
-        from tankcd_cli.terrain.grid.post_queries import grid_heights_slopes
-
         lx, ly = self.to_local(x, y)
         shape = np.shape(lx)
         lx, ly = np.ravel(lx), np.ravel(ly)
@@ -161,8 +165,6 @@ class GridSurface(PatchQueries):
     def heights_at(self, x, y, yaw, points) -> np.ndarray:
         """Ground heights (N, k) m at points (k, 2) in each pose's heading frame; NaN off the
         terrain (``height_slope`` at those points, by one kernel that does not form them)."""
-        from tankcd_cli.terrain.grid.post_queries import grid_heights_at_offsets
-
         lx, ly = self.to_local(x, y)
         lx, ly = np.ravel(lx), np.ravel(ly)
         points = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -191,8 +193,6 @@ class GridSurface(PatchQueries):
         The rectangle (length along the heading, width across, centred on x, y) is
         sampled at the post spacing, corners included; each sample takes its nearest post's class.
         """
-        from tankcd_cli.terrain.grid.post_queries import grid_worst_class
-
         step = float(self.spacing.min())
         nu = max(2, int(np.ceil(length / step)) + 1)
         nv = max(2, int(np.ceil(width / step)) + 1)
@@ -214,8 +214,6 @@ class GridSurface(PatchQueries):
         polygons ``quads`` (N, ..., 2) in the heading frame (planes (N, 3): a + b u + c v); -inf
         where no ground is under them. Costs a pass over the posts of their bounding box, a
         fraction of the exact footprint pass: poses it clears need no exact pass."""
-        from tankcd_cli.terrain.grid.post_queries import grid_highest_above_plane_bound
-
         lx, ly = self.to_local(x, y)
         lx, ly = np.ravel(lx), np.ravel(ly)
         n = len(lx)
@@ -235,8 +233,6 @@ class GridSurface(PatchQueries):
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True, warm: bool = False):
         """The exact footprint pass (see ``terrain.footprint.footprint_batch``) on the posts."""
-        from tankcd_cli.terrain.footprint import PostGround, footprint_batch
-
         lx, ly = self.to_local(x, y)
         n = len(lx)
         out = np.full((n, 4 if mode == 2 else 3), np.nan)

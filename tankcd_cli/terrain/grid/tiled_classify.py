@@ -48,15 +48,23 @@ disk sum, a fit or a triangle), so a small DEM is not padded with a halo of NaN.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
-from tankcd_cli.geometry.post_grid import PostGrid
-from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, JET_DEGREE
+from tankcd_cli.errors import InputError, warn
+from tankcd_cli.geometry.post_grid import PostGrid, grid_faces
+from tankcd_cli.terrain.curvature.jet import BOUNDARY_NEIGHBOURS, JET_DEGREE, jet_fit_numpy
+from tankcd_cli.terrain.curvature.jet_fit import jet_fit
+from tankcd_cli.terrain.curvature.mean import OpenVertices, mean_curvature
+from tankcd_cli.terrain.grid import post_passes
+from tankcd_cli.terrain.grid.quantum import filter_passes, smooth_within_quantum
 from tankcd_cli.terrain.regions import NO_CLASS, Thresholds, classify_values
+from tankcd_cli.vehicle import Vehicle
 
 GRID_METHODS = ("grid", "cotan", "sphere", "jet")
 FIT_RADIUS = 12  # posts (along the coarser axis): holds the 40 nearest even at a DEM's corner (a quarter disk)
@@ -77,6 +85,31 @@ def class_stride(grid: PostGrid, track_length: float) -> tuple[int, int]:
     return step(float(grid.dy)), step(float(grid.dx))
 
 
+MIN_POST_SPACING = 1e-6  # m
+
+
+def fine_posts(grid: PostGrid, vehicle: Vehicle, source: str | None) -> tuple[int, int]:
+    """The (rows, cols) stride of the posts the classes come from (``class_stride``):
+    (1, 1), or a SetupWarning naming the spacing and what a track feels. Posts closer than
+    ``MIN_POST_SPACING`` are an InputError."""
+    spacing = min(grid.dx, grid.dy)
+    if not spacing >= MIN_POST_SPACING:
+        raise InputError(source, f"posts {spacing:g} m apart are closer than {MIN_POST_SPACING:g} m (a micrometre): "
+                                 "no terrain is posted so finely; the spacing is in the wrong unit")
+    stride = class_stride(grid, vehicle.track_length)
+    if stride == (1, 1):
+        return stride
+
+    track = vehicle.track_length
+    finest = track / FINEST_CLASS_POSTS
+    steps = f"{stride[0]}" if stride[0] == stride[1] else f"{stride[0]} (rows) and {stride[1]} (columns)"
+    warn(source, f"posts {spacing:g} m apart are far finer than anything the {vehicle.name}'s tracks feel "
+                 f"(1/{FINEST_CLASS_POSTS} of its {track:g} m track length is {finest:.3g} m): the classes are "
+                 f"computed on one post in {steps} ({min(grid.dx * stride[1], grid.dy * stride[0]):.3g} m apart), "
+                 "each post taking the nearest one's; heights and curvature keep every post")
+    return stride
+
+
 def use_compiled(grid: PostGrid) -> bool:
     """Whether to run the compiled twins (the same bits as the numpy passes, which are their oracle)."""
     return grid.rows * grid.cols >= FAST_MIN_POSTS
@@ -85,8 +118,6 @@ def use_compiled(grid: PostGrid) -> bool:
 def _passes(fast: bool):
     """(central differences, post areas, disk sum): the compiled twins or the numpy ones."""
     if fast:
-        from tankcd_cli.terrain.grid import post_passes
-
         return post_passes.fd_mean_curvature, post_passes.post_areas, _disk_sum
     return grid_mean_curvature_fd, post_areas, _disk_sum
 
@@ -290,10 +321,7 @@ def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: fl
     (``curvature.nearest_neighbours``: distances to 1e-9 of the 57th, then vertex order).
     Coordinates come from whole-grid indices (row0, col0: the window's first post), so the
     fit does not depend on the window. ``fast``: the compiled fit (the mesh layout's), else numpy."""
-    if fast:
-        from tankcd_cli.terrain.curvature.jet_fit import jet_fit as fit
-    else:
-        from tankcd_cli.terrain.curvature.jet import jet_fit_numpy as fit
+    fit = jet_fit if fast else jet_fit_numpy
 
     H = np.zeros(z.shape)
     rr_all, cc_all = np.nonzero(which)
@@ -344,9 +372,6 @@ def one_sided_fit(z: np.ndarray, which: np.ndarray, row0: int, col0: int, dx: fl
 def _mesh_interior(z: np.ndarray, method: str, row0: int, col0: int, dx: float, dy: float,
                    fast: bool = False) -> np.ndarray:
     """H by a mesh estimator on the window's implicit triangulation (values at open posts unused)."""
-    from tankcd_cli.geometry.post_grid import grid_faces
-    from tankcd_cli.terrain.curvature.mean import OpenVertices, mean_curvature
-
     south = z[::-1]  # the mesh layout numbers posts from the south row
     valid = np.isfinite(south)
     vertex = np.full(south.shape, -1, dtype=np.int64)
@@ -440,8 +465,6 @@ def _core_fields(z_window, core, window_origin, grid, st, method, fast, smoothin
     band = (max(min(r0 - wr, wr1 - r1) - st.reach_rows, 0), max(min(c0 - wc, wc1 - c1) - st.reach_cols, 0))
     z_fields = z_window
     if smoothing is not None and smoothing[1] > 0:
-        from tankcd_cli.terrain.grid.quantum import smooth_within_quantum
-
         z_fields = smooth_within_quantum(z_window, smoothing[0], smoothing[1])
     H, area, field = window_fields(z_fields, wr, wc, grid, st, method, band, fast)
     sl = np.s_[r0 - wr:r1 - wr, c0 - wc:c1 - wc]
@@ -482,7 +505,6 @@ def tile_plan(grid: PostGrid, track_length: float, thresholds: Thresholds,
     sr, sc = class_stride(grid, track_length)
     if (sr, sc) == (1, 1):
         return TilePlan(grid, stencils(grid, track_length, passes), smoothing)
-    import dataclasses
 
     fit = fit_offsets(grid.dx, grid.dy)
     own = np.zeros((1, 2), dtype=np.int64)
@@ -492,8 +514,6 @@ def tile_plan(grid: PostGrid, track_length: float, thresholds: Thresholds,
                                  dx=grid.dx * sc, dy=grid.dy * sr)
     coarse_smoothing = None
     if smoothing:
-        from tankcd_cli.terrain.grid.quantum import filter_passes
-
         coarse_passes = filter_passes(smoothing[0], coarse.dx, coarse.dy, thresholds.flat)
         coarse_smoothing = (smoothing[0], coarse_passes) if coarse_passes else None
     coarse_st = stencils(coarse, track_length, coarse_smoothing[1] if coarse_smoothing else 0)
@@ -594,7 +614,6 @@ def classify_grid_tiles(read: Callable[[int, int, int, int], np.ndarray], grid: 
         for core in cores:
             deliver(work(core, *fetch(core)))
         return
-    from concurrent.futures import ThreadPoolExecutor
 
     pool = ThreadPoolExecutor(max_workers=jobs)
     try:

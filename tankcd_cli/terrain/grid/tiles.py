@@ -17,6 +17,9 @@ from collections import OrderedDict
 
 import numpy as np
 
+from tankcd_cli.errors import InputError
+from tankcd_cli.terrain.store import open_store
+
 DEFAULT_CACHE_BYTES = 64 << 20  # tiles kept per reader; a replay's footprints touch a few dozen at most
 
 
@@ -44,8 +47,6 @@ class TileReader:
         if self.arrays is not None:
             return self.arrays[name]
         if self._h5 is None or self._pid != os.getpid():
-            from tankcd_cli.terrain.store import open_store
-
             # HDF5's own chunk cache off: whole tiles are read once into ours
             self._h5 = open_store(self.path, rdcc_nbytes=0)
             self._pid = os.getpid()
@@ -73,8 +74,6 @@ class TileReader:
         try:
             block = np.asarray(ds[tr * t:min((tr + 1) * t, rows), tc * t:min((tc + 1) * t, cols)])
         except (OSError, RuntimeError, ValueError) as exc:  # a damaged chunk: bad input, not a bug
-            from tankcd_cli.errors import InputError
-
             first = str(exc).splitlines()[0][:160] if str(exc) else type(exc).__name__
             raise InputError(self.path, f"damaged tankcd terrain store: {name} tile ({tr}, {tc}): {first}") from None
         self.tiles_read += 1

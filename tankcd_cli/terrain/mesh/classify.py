@@ -9,10 +9,11 @@ from typing import Callable
 import numpy as np
 
 from tankcd_cli import __version__
-from tankcd_cli.io.terrain_readers import RawTerrain
+from tankcd_cli.errors import InputError, warn
+from tankcd_cli.io.terrain_readers import RawTerrain, read_terrain
 from tankcd_cli.names import AUTO_METHODS
 from tankcd_cli.terrain.curvature.mean import mean_curvature, open_vertices
-from tankcd_cli.terrain.mesh.clean import CleanMesh, clean_mesh
+from tankcd_cli.terrain.mesh.clean import CleanMesh, clean_mesh, height_field_problems
 from tankcd_cli.terrain.mesh.footprint_average import class_shares, footprint_curvature, vertex_areas
 from tankcd_cli.terrain.mesh.locate import build_buckets
 from tankcd_cli.terrain.mesh.store import MeshStore
@@ -39,8 +40,6 @@ def classify_mesh(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | None
         say("cleaning mesh")
         mesh = clean_mesh(raw.vertices, raw.faces, tol)
         if len(mesh.faces) == 0:
-            from tankcd_cli.errors import InputError
-
             raise InputError(raw.source, "no usable faces: every face is degenerate (zero area)")
         grid = None
     else:
@@ -102,8 +101,6 @@ def classify_mesh(raw: RawTerrain, method: str = "auto", vehicle: Vehicle | None
 def read_mesh(path: str, up: str | None = None, fmt: str | None = None) -> RawTerrain:
     """A terrain file read as a mesh (``io.terrain_readers.read_terrain``); a mesh that does not
     look like a terrain seen from above is a warning (``warn_if_not_a_height_field``)."""
-    from tankcd_cli.io.terrain_readers import read_terrain
-
     raw = read_terrain(path, up=up, fmt=fmt)
     if raw.grid is None:
         warn_if_not_a_height_field(raw)
@@ -121,9 +118,6 @@ def raw_terrain_of(store: MeshStore, path: str) -> RawTerrain:
 def warn_if_not_a_height_field(raw: RawTerrain) -> None:
     """A warning when a mesh read as a terrain does not look like one (see ``height_field_problems``),
     saying whether the other up axis would make it one."""
-    from tankcd_cli.errors import warn
-    from tankcd_cli.terrain.mesh.clean import height_field_problems
-
     problems = height_field_problems(raw.vertices, raw.faces)
     if not problems:
         return

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tankcd_cli.terrain.curvature.jet_fit import neighbours
 from tankcd_cli.tolerances import DEFAULT, Tolerances
 
 
@@ -111,8 +112,6 @@ def _merge_representatives(vertices: np.ndarray, distance: float) -> np.ndarray:
     # centre first: the k-d tree then works on small numbers even at UTM offsets
     pts = vertices - vertices.mean(axis=0)
     if n <= SMALL_MESH_VERTICES and np.isfinite(pts).all():
-        from tankcd_cli.terrain.curvature.jet_fit import neighbours
-
         nearest = neighbours(pts, np.arange(n), 1, 2)[:, 0]  # each vertex's nearest other (cKDTree's distances)
         if not (np.linalg.norm(pts[nearest] - pts, axis=1) <= distance).any():
             return np.arange(n)

@@ -21,10 +21,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import h5py
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.geometry.post_grid import PostVertices
+from tankcd_cli.geometry.post_grid import PostGrid, PostVertices
+from tankcd_cli.io.h5 import check_indices, read_errors
 from tankcd_cli.terrain.mesh.locate import TriangleBuckets
 from tankcd_cli.terrain.store import FORMAT, FORMAT_VERSION, WHAT, open_store, plain_value
 
@@ -49,8 +51,6 @@ class MeshStore:
 
 def write_mesh_store(path: str, store: MeshStore) -> None:
     """Write a store to ``path`` (callers wrap this in an atomic rename)."""
-    import h5py
-
     n = len(store.vertices)
     face_dtype = np.int32 if n < 2**31 else np.int64
     with h5py.File(path, "w") as h5:
@@ -86,8 +86,6 @@ def write_mesh_store(path: str, store: MeshStore) -> None:
 
 def read_mesh_store(path: str) -> MeshStore:
     """Read a whole mesh-layout store into memory (a grid-layout one is an InputError)."""
-    from tankcd_cli.io.h5 import read_errors
-    from tankcd_cli.geometry.post_grid import PostGrid
     what = WHAT
     h5 = open_store(path)
     with h5, read_errors(path, what):
@@ -121,8 +119,6 @@ def read_mesh_store(path: str) -> MeshStore:
 
 def _check_store(path: str, what: str, s: MeshStore) -> None:
     """Shapes and indices that the compiled kernels trust without bounds checks."""
-    from tankcd_cli.io.h5 import check_indices
-
     n = len(s.vertices)
     if s.vertices.ndim != 2 or s.vertices.shape[1] != 3 or s.faces.ndim != 2 or s.faces.shape[1] != 3:
         raise InputError(path, f"damaged {what}: mesh arrays have the wrong shape")

@@ -18,6 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tankcd_cli.terrain.footprint import MeshGround, PostGround, footprint_batch
+from tankcd_cli.terrain.grid.post_queries import grid_worst_class
+from tankcd_cli.terrain.mesh.point_queries import heights_slopes, highest_above, locate_faces
 from tankcd_cli.terrain.patches import PatchQueries
 
 
@@ -83,8 +86,6 @@ class MeshSurface(PatchQueries):
 
     def locate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Face under each world point (N,), -1 where off the terrain (the highest face on overhangs)."""
-        from tankcd_cli.terrain.mesh.point_queries import locate_faces
-
         lx, ly = self.to_local(x, y)
         return locate_faces(np.ravel(lx), np.ravel(ly), self.vertices, self.faces, self.plane, self.cell_origin,
                             self.cell_size, self.cell_shape[0], self.cell_shape[1], self.cell_start,
@@ -92,8 +93,6 @@ class MeshSurface(PatchQueries):
 
     def height_slope(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Height (N,) m and gradient dz/dx, dz/dy (N,) at world points; NaN off the terrain."""
-        from tankcd_cli.terrain.mesh.point_queries import heights_slopes
-
         lx, ly = self.to_local(x, y)
         shape = np.shape(lx)
         z, gx, gy = heights_slopes(np.ravel(lx), np.ravel(ly), self.post_z, self.post_origin, self.post_size,
@@ -104,8 +103,6 @@ class MeshSurface(PatchQueries):
     def ground_above(self, rotation: np.ndarray, position: np.ndarray, points: np.ndarray) -> np.ndarray:
         """How far the ground rises above body points (k, 3) placed at poses (rotation (N, 3, 3),
         world position (N, 3)), m (N,): the largest ground - z over the points on terrain (-inf if none)."""
-        from tankcd_cli.terrain.mesh.point_queries import highest_above
-
         local = np.asarray(position, dtype=float) - [self.origin[0], self.origin[1], 0.0]
         return highest_above(np.ascontiguousarray(rotation, dtype=float), np.ascontiguousarray(local),
                              np.ascontiguousarray(points, dtype=float), self.post_z, self.post_origin, self.post_size,
@@ -127,8 +124,6 @@ class MeshSurface(PatchQueries):
                   arithmetic: bool = True, warm: bool = False):
         """The exact footprint pass (see ``terrain.footprint.footprint_batch``); ``arithmetic``
         lets full DEM cells be read from the posts (False: clip every triangle, the oracle)."""
-        from tankcd_cli.terrain.footprint import footprint_batch
-
         lx, ly = self.to_local(x, y)
         posts = self.post_ground() if arithmetic and self.post_z.size else None
         return footprint_batch(mode, lx, ly, np.ascontiguousarray(yaw, dtype=float), quads, planes_in, eps,
@@ -136,8 +131,6 @@ class MeshSurface(PatchQueries):
 
     def mesh_ground(self):
         """The faces and their locator, as the footprint pass reads them."""
-        from tankcd_cli.terrain.footprint import MeshGround
-
         # a DEM's faces each sit in one locator cell; an irregular mesh's may span several
         return MeshGround(self.vertices, self.faces, self.plane, self.cell_origin, self.cell_size,
                           self.cell_shape[0], self.cell_shape[1], self.cell_start, self.cell_face,
@@ -145,8 +138,6 @@ class MeshSurface(PatchQueries):
 
     def post_ground(self):
         """A DEM mesh's posts, as the footprint pass reads them."""
-        from tankcd_cli.terrain.footprint import PostGround
-
         return PostGround(self.post_z, self.post_origin, self.post_size)
 
     def height_normal(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -165,8 +156,6 @@ class MeshSurface(PatchQueries):
         The rectangle (length along the heading, width across, centred on x, y)
         is sampled at the class raster's resolution, corners included.
         """
-        from tankcd_cli.terrain.grid.post_queries import grid_worst_class
-
         nu = max(2, int(np.ceil(length / self.class_cell)) + 1)
         nv = max(2, int(np.ceil(width / self.class_cell)) + 1)
         su, sv = np.meshgrid(np.linspace(-length / 2, length / 2, nu), np.linspace(-width / 2, width / 2, nv))
