@@ -468,7 +468,7 @@ def _absolute_t(columns: dict) -> tuple[dict, float | None]:
     if t.dtype.kind != "M":
         return columns, None
     from tankcd_cli.errors import InputError
-    from tankcd_cli.io.trajectory_csv import epoch_seconds
+    from tankcd_cli.io.trajectory.csv_rows import epoch_seconds
 
     ns = t.astype("datetime64[ns]").astype(np.int64)
     bad = np.flatnonzero(np.isnat(t))
