@@ -5,8 +5,8 @@ summary, fleet.json).
 
 What a file is comes from its content where its name does not decide: an HDF5 store or tree by its
 signature and attributes, Parquet by its magic number and its ``tankcd.table``, JSON by the keys of
-its first object, a trajectory by the trajectory reader's own detection
-(``io.trajectory.formats``, its registry of input formats), a terrain by the terrain readers' (``terrain.open.terrain_kind``).
+its first object, a trajectory by the trajectory reader's registry of input formats
+(``io.trajectory.formats``), a terrain by the terrain readers' (``terrain.open.terrain_kind``).
 
 Facts are ordered dicts of plain values (numbers, strings, lists, nested dicts)
 with snake_case keys: ``info --json`` prints them as they are, the text output

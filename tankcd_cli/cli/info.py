@@ -7,6 +7,8 @@ import json
 import click
 
 from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.describe import describe_store
+from tankcd_cli.errors import printable
 from tankcd_cli.io.trajectory.formats import FAMILIES
 
 
@@ -60,8 +62,6 @@ INFO_HELP = """Describe FILE: a terrain store written by classify (source, count
 @click.pass_obj
 def info(report, file, as_json, scene):
     """``tankcd info`` (its help: ``INFO_HELP``)."""
-    from tankcd_cli.describe import describe_store
-
     facts = describe_store(file, scene)
     if as_json:
         click.echo(json.dumps(facts, indent=2, default=_plain))
@@ -189,6 +189,4 @@ def _fmt(value, key: str = "") -> str:
     if isinstance(value, dict):
         return ", ".join(f"{_label(k)} " + (f"[{_fmt(v, k)}]" if isinstance(v, (list, tuple)) else _fmt(v, k))
                          for k, v in value.items())
-    from tankcd_cli.errors import printable
-
     return printable(str(value))
