@@ -13,6 +13,7 @@ from datetime import datetime, timedelta, timezone
 import numpy as np
 
 from tankcd_cli.io.csv_kernels import entity_order
+from tankcd_cli.io.dis import CaptureCounts
 
 REQUIRED = ("t", "x", "y", "yaw_deg")
 OPTIONAL = ("turret_deg", "gun_deg")
@@ -116,7 +117,7 @@ class ReadState:
     start: datetime | None = None
     time_origin: float | None = None
     skipped: dict = field(default_factory=dict)
-    counts: object = None
+    counts: CaptureCounts | None = None
     columns: tuple = ()
 
 
