@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
+from decimal import ROUND_FLOOR, Decimal
 
 import numpy as np
 
@@ -146,8 +147,6 @@ def utc_text(origin: float | None) -> str | None:
     """Seconds since 1970 -> ISO 8601 UTC (``2026-05-04T10:00:00.05Z``), None for None. The fraction is
     the float's shortest decimal (``repr``'s: 7 digits at most at today's dates), so that
     ``csv_rows.iso_seconds`` and ``epoch_seconds`` read it back into the same float64."""
-    from decimal import ROUND_FLOOR, Decimal
-
     if origin is None:
         return None
     exact = Decimal(repr(float(origin)))

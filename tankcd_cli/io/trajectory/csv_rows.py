@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from datetime import datetime
+from decimal import Decimal
 
 import numpy as np
 
@@ -52,8 +54,6 @@ def iso_seconds(text: bytes):
     """An ISO 8601 time as this reader takes it (``YYYY-MM-DD``, ``T`` or a space, ``hh:mm:ss``, an optional
     fraction of 1-9 digits, an optional zone ``Z`` or ``+hh:mm``, ``+hhmm``, ``+hh``; no zone is UTC) ->
     (whole seconds since 1970 UTC, nanoseconds), or None. The compiled reader's rule, in Python."""
-    from datetime import datetime
-
     m = _ISO.fullmatch(text)
     if m is None:
         return None
@@ -75,8 +75,6 @@ def iso_seconds(text: bytes):
 def epoch_seconds(seconds: int, ns: int) -> float:
     """(whole seconds since 1970, nanoseconds) -> the float64 nearest to their exact sum (the decimal
     ``utc_text`` writes is read back into the float it came from)."""
-    from decimal import Decimal
-
     return float(Decimal(int(seconds)) + Decimal(int(ns)).scaleb(-9))
 
 
