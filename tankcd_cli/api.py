@@ -468,7 +468,7 @@ def _absolute_t(columns: dict) -> tuple[dict, float | None]:
     if t.dtype.kind != "M":
         return columns, None
     from tankcd_cli.errors import InputError
-    from tankcd_cli.io.trajectory_csv import epoch_seconds
+    from tankcd_cli.io.trajectory.csv_rows import epoch_seconds
 
     ns = t.astype("datetime64[ns]").astype(np.int64)
     bad = np.flatnonzero(np.isnat(t))
@@ -531,9 +531,11 @@ def _geographic_columns(columns: dict, crs: str | None) -> dict:
 
 
 def _entity_codes(values, n: int) -> tuple[tuple, np.ndarray]:
-    """Entity names (in order of first appearance) and each row's code into them; a name must be
-    text without a comma, quote or line break (it becomes a CSV cell), not empty."""
+    """Entity names (in order of first appearance) and each row's code into them; a name must be an
+    entity id once blanks around it are taken off (``io.trajectory.names.entity_id_fault``: not
+    empty, no comma, quote or control character such as a line break: it becomes a CSV cell)."""
     from tankcd_cli.errors import InputError
+    from tankcd_cli.io.trajectory.names import entity_id_fault
 
     ids = np.asarray(values, dtype=object).ravel()
     if ids.shape != (n,):
@@ -541,10 +543,7 @@ def _entity_codes(values, n: int) -> tuple[tuple, np.ndarray]:
     # the distinct ids first (few), then each checked once: no Python loop over the rows
     raw, first_raw, raw_inverse = np.unique(ids.astype(str), return_index=True, return_inverse=True)
     stripped = np.char.strip(raw)
-    held = np.zeros(len(raw), dtype=bool)
-    for c in (",", '"', "\n", "\r"):
-        held |= np.char.find(stripped, c) >= 0
-    wrong = np.flatnonzero(held | (np.char.str_len(stripped) == 0))
+    wrong = np.flatnonzero([entity_id_fault(str(name)) is not None for name in stripped.tolist()])
     if len(wrong):
         row = int(first_raw[wrong].min())
         raise InputError("trajectory", f"entity {str(ids[row]).strip()!r} is empty or holds a comma, quote or line "

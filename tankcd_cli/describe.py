@@ -5,8 +5,8 @@ summary, fleet.json).
 
 What a file is comes from its content where its name does not decide: an HDF5 store or tree by its
 signature and attributes, Parquet by its magic number and its ``tankcd.table``, JSON by the keys of
-its first object, a trajectory by the trajectory reader's own detection
-(``io.trajectory.trajectory_format``), a terrain by the terrain readers' (``terrain.open.terrain_kind``).
+its first object, a trajectory by the trajectory reader's registry of input formats
+(``io.trajectory.formats``), a terrain by the terrain readers' (``terrain.open.terrain_kind``).
 
 Facts are ordered dicts of plain values (numbers, strings, lists, nested dicts)
 with snake_case keys: ``info --json`` prints them as they are, the text output
@@ -20,10 +20,12 @@ from __future__ import annotations
 import os
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.trajectory.formats import DEFAULT_FORMAT, FAMILIES, input_format, trajectory_format
+from tankcd_cli.io.trajectory.info import trajectory_info
 
 
 WHAT_INFO_DESCRIBES = ("not a file tankcd reads or writes: not a terrain store, a tree, a scene, a trajectory "
-                       "(CSV, GPX, DIS capture), a DEM, a heightmap, a terrain mesh, events, poses, Parquet "
+                       f"({', '.join(FAMILIES)}), a DEM, a heightmap, a terrain mesh, events, poses, Parquet "
                        "poses or events, a replay summary or fleet.json")
 
 
@@ -117,9 +119,7 @@ def _describe_other(path: str, scene: str | None) -> dict:
 
         return {"raster": describe_terrain.describe_raster, "esri_ascii": describe_terrain.describe_raster,
                 "heightmap": describe_terrain.describe_heightmap, "mesh": describe_terrain.describe_mesh}[terrain](path)
-    from tankcd_cli.io.trajectory import trajectory_format
-
-    if trajectory_format(path) != "csv":  # the trajectory reader knows it (GPX, a capture)
+    if trajectory_format(path) != DEFAULT_FORMAT:  # the trajectory reader knows it by name or bytes (GPX, a capture)
         return describe_trajectory(path, scene)
     if kind == "json":  # JSON, and no mesh either (a glTF is JSON too)
         return outputs.describe_json(path, kind)
@@ -292,12 +292,10 @@ def _classes(a: dict) -> dict:
 
 
 def describe_trajectory(path: str, scene: str | None = None) -> dict:
-    """A trajectory input read once (``io.trajectory.trajectory_info``): its format and coordinates,
+    """A trajectory input read once (``io.trajectory.info.trajectory_info``): its format and coordinates,
     rows and time span, its entities (rows or updates, time span, pieces of motion, and with a
     scene the vehicle each is), and what was skipped (a capture's other packets and PDUs)."""
     import math
-
-    from tankcd_cli.io.trajectory import trajectory_info
 
     info = trajectory_info(path)
     kinds = None
@@ -307,7 +305,7 @@ def describe_trajectory(path: str, scene: str | None = None) -> dict:
         sc = load_scene(scene)
         labels = ["[vehicle] " + sc.vehicle.name] + [f"[[entity]] {t.label}: {t.vehicle.name}" for t in sc.entities]
         kinds = lambda name: labels[sc.entity_vehicle(name)]  # noqa: E731
-    kind = {"pcap": "DIS capture", "pcapng": "DIS capture", "gpx": "GPX track"}.get(info.format, "trajectory")
+    kind = input_format(info.format).kind
     finite = lambda v: None if v is None or not math.isfinite(v) else round(float(v), 6)  # noqa: E731
     entities = []
     for e in info.entities:

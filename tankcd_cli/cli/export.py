@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import click
 
+from tankcd_cli import api
 from tankcd_cli.cli.options import no_parquet, no_stdin, refuse_clashes, verbosity_options
-from tankcd_cli.io.input_formats import FORMAT_NAMES
+from tankcd_cli.io.trajectory.formats import FAMILIES, FORMAT_NAMES
 from tankcd_cli.names import UP_AXES
 
 
-@click.command(short_help="Write a trajectory (CSV, GPX, DIS capture) as the CSV replay reads.")
+@click.command(short_help=f"Write a trajectory ({', '.join(FAMILIES)}) as the CSV replay reads.")
 @click.argument("trajectory", type=click.Path(dir_okay=False), callback=no_stdin)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True), default="-", show_default=True,
               callback=no_parquet(".csv"), help="The trajectory CSV (- for stdout).")
@@ -35,8 +36,6 @@ def export(report, trajectory, output, scene, terrain, crs, fmt, up):
     kept in a '# time_origin:' line before the header. For inspection, and
     for other tools: replaying the export gives the same poses as replaying
     the input. Written beside OUTPUT and renamed when complete."""
-    from tankcd_cli import api
-
     if sum(v is not None for v in (scene, terrain, crs)) > 1:
         raise click.UsageError("give at most one of --scene, --terrain and --crs")
     refuse_clashes({"TRAJECTORY": trajectory, "--scene": scene, "--terrain": terrain}, {"--output": output})

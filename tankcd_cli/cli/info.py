@@ -7,6 +7,9 @@ import json
 import click
 
 from tankcd_cli.cli.options import verbosity_options
+from tankcd_cli.describe import describe_store
+from tankcd_cli.errors import printable
+from tankcd_cli.io.trajectory.formats import FAMILIES
 
 
 def _a_file(ctx, param, value):
@@ -16,22 +19,14 @@ def _a_file(ctx, param, value):
     return value
 
 
-@click.command(short_help="Describe any file tankcd reads or writes (stores, terrains, outputs).")
-@click.argument("file", type=click.Path(allow_dash=True), callback=_a_file)
-@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
-@click.option("--scene", type=click.Path(), default=None,
-              help="With a trajectory: which vehicle of this scene each entity is.")
-@verbosity_options
-@click.pass_obj
-def info(report, file, as_json, scene):
-    """Describe FILE: a terrain store written by classify (source, counts,
+INFO_HELP = """Describe FILE: a terrain store written by classify (source, counts,
     extent, curvature method, thresholds, area share of each class), a tree
     written by bvh (depth, node counts per level and type, leaf sizes, bounds),
     a scene: every file it names is read as replay reads it (a file replay
     cannot read fails here too, exit 3) and each obstacle is shown placed
     (position, angles, scale, triangles, world bounds, whether it lies over
-    the terrain), with the effects the scene enables; or a trajectory (CSV,
-    GPX, DIS capture): its rows, time span and entities (rows or updates,
+    the terrain), with the effects the scene enables; or a trajectory
+    ({families}): its rows, time span and entities (rows or updates,
     time span, pieces of motion; with --scene, the vehicle each is), and
     what was skipped.
 
@@ -54,9 +49,19 @@ def info(report, file, as_json, scene):
     --json prints the same facts as one JSON object with snake_case keys: points, sizes
     and spacings as [x, y] or [x, y, z], extents as [min, max], bounds as {min, max},
     grid shapes as {rows, columns}, area shares as fractions from 0 to 1
-    (area_fraction_flat, ...)."""
-    from tankcd_cli.describe import describe_store
+    (area_fraction_flat, ...)."""  # {families}: the trajectory inputs, as their registry names them
 
+
+@click.command(short_help="Describe any file tankcd reads or writes (stores, terrains, outputs).",
+               help=INFO_HELP.replace("{families}", ", ".join(FAMILIES)))
+@click.argument("file", type=click.Path(allow_dash=True), callback=_a_file)
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
+@click.option("--scene", type=click.Path(), default=None,
+              help="With a trajectory: which vehicle of this scene each entity is.")
+@verbosity_options
+@click.pass_obj
+def info(report, file, as_json, scene):
+    """``tankcd info`` (its help: ``INFO_HELP``)."""
     facts = describe_store(file, scene)
     if as_json:
         click.echo(json.dumps(facts, indent=2, default=_plain))
@@ -184,6 +189,4 @@ def _fmt(value, key: str = "") -> str:
     if isinstance(value, dict):
         return ", ".join(f"{_label(k)} " + (f"[{_fmt(v, k)}]" if isinstance(v, (list, tuple)) else _fmt(v, k))
                          for k, v in value.items())
-    from tankcd_cli.errors import printable
-
     return printable(str(value))

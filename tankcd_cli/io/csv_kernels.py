@@ -11,7 +11,7 @@ name the bad line and column.
 ``width`` comma-separated decimals from ``buf`` (uint8 text) with ``pow10 = POW10``;
 returns ((rows, width) float64 values, ok).
 
-The trajectory reader's kernels (``io.trajectory`` and ``io.trajectory_csv`` document them):
+The trajectory reader's kernels (``io.trajectory.csv_input`` and ``io.trajectory.csv_rows`` document them):
 ``parse_rows`` (rows of a chunk of bytes: numbers, ISO times, the text column's spans),
 ``Interner`` (entity ids to codes in order of first appearance), ``entity_order`` (each entity's
 time order) and ``carry`` (a value carried forward per entity).

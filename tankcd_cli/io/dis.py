@@ -45,7 +45,7 @@ from typing import Iterator
 import numpy as np
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.io.input_formats import PCAP_MAGIC, PCAPNG_SHB, open_trajectory_input
+from tankcd_cli.io.input_bytes import PCAP_MAGIC, PCAPNG_SHB, open_trajectory_input
 
 # the fixed part of an Entity State PDU (IEEE 1278.1 5.3.2 / 7.2.2): big-endian, 144 bytes
 ES_DTYPE = np.dtype([
@@ -305,7 +305,7 @@ class DisCapture:
     ``block_pdus`` PDUs (the last fewer), reading ``chunk_bytes`` of the file at a time: memory is
     bounded by those two, whatever the capture's size. ``counts`` (a :class:`CaptureCounts`) is
     complete once the blocks are exhausted; ``format`` is ``pcap`` or ``pcapng``. ``path``: a file, or
-    '-' for standard input; gzip-compressed or not (``io.input_formats``). Raises
+    '-' for standard input; gzip-compressed or not (``io.input_bytes``). Raises
     InputError for a file that is not a capture, a capture cut inside a packet, a PDU whose
     length lies, a bad location, and (at the end) a capture without any Entity State PDU.
     """
@@ -346,6 +346,13 @@ class DisCapture:
         if self.counts.entity_states == 0:
             skipped = ", ".join(f"{k} {v}" for k, v in self.counts.skipped().items()) or "nothing else"
             raise InputError(self.name, f"no DIS Entity State PDU in {self.counts.packets} packets ({skipped})")
+
+    def first_packet_time(self) -> tuple[int, float] | None:
+        """The capture's first packet time (what ``t`` counts from) as (whole seconds since 1970, the
+        fraction of a second), or None before a packet with a timestamp has been read."""
+        if self._first_sec[0] < 0:
+            return None
+        return int(self._first_sec[0]), float(self._first_frac[0])
 
     def read(self) -> EntityStates:
         """Every Entity State PDU of the capture in one record (memory grows with the capture)."""

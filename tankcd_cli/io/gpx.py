@@ -19,6 +19,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.input_bytes import open_trajectory_input
 
 GPX_NAMESPACES = ("http://www.topografix.com/GPX/1/1", "http://www.topografix.com/GPX/1/0", "")
 STILL = 0.05  # m: a step shorter than this does not give a heading
@@ -112,8 +113,6 @@ def read_gpx(path: str) -> GpxTrack:
     parser.StartElementHandler = points.start
     parser.EndElementHandler = points.end
     parser.CharacterDataHandler = points.text
-    from tankcd_cli.io.input_formats import open_trajectory_input
-
     try:
         name, fh = open_trajectory_input(path)  # '-' standard input; gzip decompressed as it is read
         with fh:

@@ -237,24 +237,25 @@ def test_unknown_or_unreadable_files_exit_3_in_one_line(run, tmp_path):
     assert result.exit_code == 3 and "is a directory" in result.stderr
 
 
-def test_a_trajectory_is_what_the_trajectory_reader_says(run, tmp_path, monkeypatch):
-    """info asks io.trajectory.trajectory_format, not a list of its own: a .cap capture is a capture
-    exactly when the reader reads it as one."""
-    import tankcd_cli.io.trajectory as trajectory
+def test_a_trajectory_is_what_the_input_registry_says(run, tmp_path):
+    """info tells a trajectory by the reader's registry (io.trajectory.formats.INPUT_FORMATS), not by a
+    list of its own: a Wireshark .cap is a DIS capture, pcap or pcapng by its magic, as replay reads it;
+    a .cap holding neither is refused as the capture reader refuses it; and every registered format's
+    kind is the one info names."""
+    from tankcd_cli.io.trajectory.formats import INPUT_FORMATS, trajectory_format
+    from tests.io import captures as C
+    from tests.io.test_dis import T0, ecef
 
-    seen = []
-    real = trajectory.trajectory_format
-
-    def reader_says(path, fmt=None):
-        seen.append(path)
-        return "pcap" if str(path).endswith(".cap") else real(path, fmt)
-
-    monkeypatch.setattr(trajectory, "trajectory_format", reader_says)
-    monkeypatch.setattr(trajectory, "trajectory_info", lambda path, fmt=None: (_ for _ in ()).throw(
-        RuntimeError(f"read {path} as a trajectory")))
-    (tmp_path / "exercise.cap").write_bytes(b"\xd4\xc3\xb2\xa1" + bytes(20))
-    from tankcd_cli.describe import describe_store
-
-    with pytest.raises(RuntimeError, match="exercise.cap as a trajectory"):
-        describe_store(str(tmp_path / "exercise.cap"))
-    assert str(tmp_path / "exercise.cap") in seen
+    frame = C.ethernet(C.ipv4(C.udp(C.es_dis7(1, 2, 3, ecef(10, 50), (0.1, 0.2, 0.3)))))
+    files = {"exercise.cap": (C.pcap([(T0, frame), (T0 + 1, frame)]), "pcap"),
+             "merged.cap": (C.pcapng([(1, None, 0)], [(0, T0 * 10**6, frame)]), "pcapng")}
+    kinds = {f.name: f.kind for f in INPUT_FORMATS}
+    assert set(kinds) == {"csv", "gpx", "pcap", "pcapng"}
+    for name, (data, fmt) in files.items():
+        (tmp_path / name).write_bytes(data)
+        assert trajectory_format(str(tmp_path / name)) == fmt
+        facts = json.loads(run("info", tmp_path / name, "--json").stdout)
+        assert (facts["kind"], facts["format"], facts["rows"]) == (kinds[fmt], fmt, 2 if fmt == "pcap" else 1)
+    (tmp_path / "junk.cap").write_bytes(b"neither capture")
+    result = run("info", tmp_path / "junk.cap")
+    assert result.exit_code == 3 and "not a pcap or pcapng capture (it starts with bytes 6e 65 69 74" in result.stderr

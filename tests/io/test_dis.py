@@ -459,3 +459,16 @@ def test_dis_5_is_decoded_and_dis_4_counted(tmp_path):
     states, counts = read_capture(_write(tmp_path, C.pcap([(T0, C.ethernet(C.ipv4(C.udp(v5 + v4))))])))
     assert states.entity.tolist() == ["1:1:5"] and states.version.tolist() == [5]
     assert counts.entity_states_v4 == 1 and counts.skipped() == {"entity_states_v4": 1}
+
+
+def test_the_first_packet_time_is_known_once_a_packet_is_read(tmp_path):
+    """DisCapture.first_packet_time: what t counts from, (seconds since 1970, fraction), None before."""
+    from tankcd_cli.io.dis import DisCapture
+
+    pdu = C.es_dis7(1, 2, 3, ecef(10, 50), (0, 0, 0))
+    frame = C.ethernet(C.ipv4(C.udp(pdu)))
+    path = _write(tmp_path, C.pcap([((T0, 0.25), C.arp()), ((T0 + 2, 0.5), frame)]))
+    cap = DisCapture(path)
+    assert cap.first_packet_time() is None
+    states = cap.read()
+    assert cap.first_packet_time() == (T0, 0.25) and states.t.tolist() == [2.25]

@@ -1,4 +1,5 @@
-"""Trajectory input formats told in one place (tankcd_cli.io.input_formats): by the format given, the suffix
+"""Trajectory input formats told in one place (tankcd_cli.io.trajectory.formats, by the names
+tankcd_cli.io.input_formats keeps): by the format given, the suffix
 (after .gz) or the first bytes; gzip-compressed inputs and standard input read as the same rows as the plain
 file."""
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.io import trajectory_csv
+from tankcd_cli.io.trajectory import csv_rows as trajectory_csv
 from tankcd_cli.io.trajectory import (TrajectoryChunk, TrajectoryReader, export_trajectory, lead_row, read_trajectory,
                                       split_trajectory, trajectory_info)
 
@@ -285,7 +285,7 @@ def test_iso_times_count_seconds_from_the_first_row_as_datetime_does(tmp_path):
 
 def test_the_compiled_and_the_python_iso_readings_agree():
     from tankcd_cli.io._csv_kernels import iso_time
-    from tankcd_cli.io.trajectory_csv import iso_seconds
+    from tankcd_cli.io.trajectory.csv_rows import iso_seconds
 
     bad = ["2026-02-29T00:00:00Z", "2026-05-04T24:00:00Z", "2026-05-04T10:60:00Z", "2026-05-04T10:00:60Z",
            "2026-05-04T10:00:00.1234567890Z", "2026-05-04T10:00:00.Z", "2026-05-04T10:00:00+24:00",

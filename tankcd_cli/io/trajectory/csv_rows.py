@@ -26,13 +26,16 @@ The rules (each refusal one line naming the file and the line):
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass
+from datetime import datetime
+from decimal import Decimal
 
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.csv_kernels import POW10, Interner, parse_rows
+from tankcd_cli.io.trajectory.names import entity_id_fault
 
 SEPARATORS = (",", ";", "\t")
 SEP_NAMES = {",": "a comma", ";": "a semicolon", "\t": "a tab"}
@@ -51,8 +54,6 @@ def iso_seconds(text: bytes):
     """An ISO 8601 time as this reader takes it (``YYYY-MM-DD``, ``T`` or a space, ``hh:mm:ss``, an optional
     fraction of 1-9 digits, an optional zone ``Z`` or ``+hh:mm``, ``+hhmm``, ``+hh``; no zone is UTC) ->
     (whole seconds since 1970 UTC, nanoseconds), or None. The compiled reader's rule, in Python."""
-    from datetime import datetime
-
     m = _ISO.fullmatch(text)
     if m is None:
         return None
@@ -74,22 +75,7 @@ def iso_seconds(text: bytes):
 def epoch_seconds(seconds: int, ns: int) -> float:
     """(whole seconds since 1970, nanoseconds) -> the float64 nearest to their exact sum (the decimal
     ``utc_text`` writes is read back into the float it came from)."""
-    from decimal import Decimal
-
     return float(Decimal(int(seconds)) + Decimal(int(ns)).scaleb(-9))
-
-
-def stem_name(path: str) -> str:
-    """The entity name of a file without an entity column: its stem ('stdin' for '-'), without the
-    characters an entity id may not hold (commas, quotes, control characters: '_' instead); a
-    compressed file's without its ``.gz`` too (``run.csv.gz``: ``run``)."""
-    if path == "-":
-        return "stdin"
-    base = os.path.basename(path)
-    if base.lower().endswith(".gz"):
-        base = base[:-3]
-    stem = os.path.splitext(base)[0] or "trajectory"
-    return re.sub(r"[,\"'\x00-\x1f\x7f]", "_", stem)
 
 
 @dataclass
@@ -315,8 +301,6 @@ class CsvRows:
     ``names``: the entity names in code order (a list, grown as new ids appear; codes from 0)."""
 
     def __init__(self, layout: Layout, src: ByteSource, chunk_rows: int, line0: int):
-        from tankcd_cli.io.csv_kernels import Interner
-
         self.lay = layout
         self.src = src
         self.chunk_rows = max(1, int(chunk_rows))
@@ -328,9 +312,6 @@ class CsvRows:
         self.first = True
 
     def next_rows(self) -> RawRows | None:
-        from tankcd_cli.io.csv_kernels import parse_rows
-        from tankcd_cli.io.csv_kernels import POW10
-
         if self.done:
             return None
         lay, src, m = self.lay, self.src, self.chunk_rows
@@ -536,17 +517,18 @@ def _entity_cell(cell: bytes, start: int, name: str, where: str):
     lead = len(cell) - len(cell.lstrip(b" \t"))
     value = cell.strip(b" \t")
     at = f"{where} column entity"
-    if not value:
+    text = value.decode()
+    fault = entity_id_fault(text)
+    if fault == "empty":
         raise InputError(name, "empty entity id (every row of a file with an entity column names its entity)",
                          where=at)
-    text = value.decode()
-    if '"' in text or "'" in text:
+    if fault == "quote":
         raise InputError(name, f"entity id {text[:40]!r} holds a quote (an id is text without quotes or commas)",
                          where=at)
-    if "," in text:
+    if fault == "comma":
         raise InputError(name, f"entity id {text[:40]!r} holds a comma (an id is text without quotes or commas)",
                          where=at)
-    if any(ord(ch) < 32 or ord(ch) == 127 for ch in text):
+    if fault == "control":
         raise InputError(name, f"entity id {text[:40]!r} holds a control character", where=at)
     return start + lead, start + lead + len(value)
 
