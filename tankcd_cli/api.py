@@ -288,11 +288,12 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
                    terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto", discrete: bool = False,
                    escalate: bool | None = None, tolerance: float | None = None, window_seconds: float = 60.0,
                    scheduler: str | None = None, world=None, up: str | None = None,
-                   progress: Callable[[int], None] | None = None, attitude_tolerance: float | None = None):
+                   progress: Callable[[int], None] | None = None, attitude_tolerance: float | None = None,
+                   jobs: int = 1):
     """Replay an exercise (one trajectory file, usually with an ``entity`` column) by time windows of
-    ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
-    ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
-    lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
+    ``window_seconds``, each a task: one after the other here, in ``jobs`` forked processes, or on
+    the Dask cluster at ``scheduler`` (each worker loads the scene or terrain from its path; a
+    window whose worker is lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
     ``replay.windows``; Parquet for a name ending in ``.parquet``, the same tables and metadata);
     memory follows the window. Returns the closing summary
     (``replay.records.ReplaySummary``). ``progress(rows)`` as windows are written."""
@@ -300,7 +301,8 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
 
     from tankcd_cli.errors import InputError
     from tankcd_cli.replay.records import ReplayOutputs
-    from tankcd_cli.replay.windows import SparseTime, in_process, on_dask, plan_windows, run_windows
+    from tankcd_cli.replay.executor import Executor, TaskWorld
+    from tankcd_cli.replay.windows import SparseTime, plan_windows, run_windows, window_runner
 
     if not isinstance(trajectory, str) or trajectory == "-":
         raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
@@ -312,7 +314,6 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
     check_writable(poses, events)  # Parquet without pyarrow: before any work
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
     if scheduler:
-        from tankcd_cli.replay.fleet import FleetWorld
         from tankcd_cli.replay.world import WorldSpec
 
         import dataclasses
@@ -322,11 +323,11 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         # workers elsewhere may run in another directory
         spec = dataclasses.replace(spec, **{k: os.path.abspath(getattr(spec, k)) for k in ("scene", "terrain", "store")
                                             if getattr(spec, k)})
-        runner = on_dask(FleetWorld(spec, options), scheduler)
+        runner = window_runner(TaskWorld(spec, options), Executor(scheduler=scheduler))
         path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
     else:
         loaded = _world(world, scene, terrain, vehicle, up, False, None)
-        runner = in_process(loaded, options)
+        runner = window_runner(TaskWorld(loaded.spec, options), Executor(jobs=jobs or 1), loaded=loaded)
         path = trajectory
     # here, an input that is no CSV (a capture, GPX) is decoded and converted once for all the windows
     try:
@@ -360,7 +361,8 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     import os
 
     from tankcd_cli.io.parquet import check_writable
-    from tankcd_cli.replay.fleet import FleetWorld, expand_trajectories, plan_tasks, run_fleet, write_summary
+    from tankcd_cli.replay.executor import TaskWorld
+    from tankcd_cli.replay.fleet import expand_trajectories, plan_tasks, run_fleet, write_summary
     from tankcd_cli.replay.world import WorldSpec, classify_once
 
     paths = expand_trajectories(list(trajectories))
@@ -373,7 +375,7 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
         spec = classify_once(spec, out_dir, progress)
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
-    fleet = run_fleet(FleetWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
+    fleet = run_fleet(TaskWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     return fleet
 
