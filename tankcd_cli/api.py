@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 __all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
-           "replay_fleet", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
+           "replay_fleet", "replay_mode", "run_replay", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -378,6 +378,71 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     fleet = run_fleet(TaskWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     return fleet
+
+
+REPLAY_MODES = ("one", "together", "windows", "fleet")
+
+
+def replay_mode(trajectories, out_dir: str | None = None, window_seconds: float | None = None,
+                together: bool = False, jobs: int | None = None, scheduler: str | None = None) -> str:
+    """Which replay ``run_replay`` runs for these inputs and options (``REPLAY_MODES``):
+
+    - ``together``: several files as one exercise (``together``), into one poses and one events output;
+    - ``windows``: one exercise by time windows (``window_seconds``), here, in ``jobs`` processes or
+      on the cluster at ``scheduler``;
+    - ``fleet``: each trajectory into ``out_dir`` (given, or named by several trajectories, a glob
+      or an ``@list``, or ``jobs`` or ``scheduler`` without windows);
+    - ``one``: one trajectory in one piece.
+    """
+    from tankcd_cli.replay.fleet import names_a_fleet
+
+    items = [trajectories] if isinstance(trajectories, str) else list(trajectories)
+    if together:
+        return "together"
+    if window_seconds is not None and out_dir is None and not names_a_fleet(items):
+        return "windows"
+    if out_dir is not None or names_a_fleet(items) or (window_seconds is None and (jobs is not None or scheduler)):
+        return "fleet"
+    return "one"
+
+
+def run_replay(trajectories, poses: str | None = "-", events: str | None = None, out_dir: str | None = None,
+               window_seconds: float | None = None, together: bool = False, jobs: int | None = None,
+               scheduler: str | None = None, world=None, scene: str | None = None, terrain: str | None = None,
+               vehicle: str = "t72", up: str | None = None, cache: bool = False, matcher: str = "auto",
+               discrete: bool = False, escalate: bool | None = None, tolerance: float | None = None,
+               attitude_tolerance: float | None = None, fmt: str | None = None, split_lines: int | None = 1_000_000,
+               out_format: str = "csv", progress: Callable[[int], None] | None = None,
+               say: Callable[[str], None] | None = None, on_result: Callable | None = None,
+               observe: Callable | None = None):
+    """Run any replay, the one ``replay_mode`` names for these inputs and options: one trajectory
+    (or several ``together``) into ``poses`` and ``events`` (``replay_to_files``), one exercise by
+    time windows (``replay_windows``), or a fleet into ``out_dir`` (``replay_fleet``; ``say``
+    its progress lines, ``on_result`` each task's result). Returns the ``ReplaySummary``, or the
+    fleet's ``FleetSummary``. ``trajectories``: a path, or a list of paths, globs and ``@lists``;
+    ``progress(rows)`` and ``observe`` as ``replay_to_files`` takes them."""
+    mode = replay_mode(trajectories, out_dir, window_seconds, together, jobs, scheduler)
+    items = [trajectories] if isinstance(trajectories, str) else list(trajectories)
+    how = dict(matcher=matcher, discrete=discrete, escalate=escalate, tolerance=tolerance,
+               attitude_tolerance=attitude_tolerance)
+    if mode == "fleet":
+        if out_dir is None:
+            raise ValueError("a fleet needs out_dir (one poses and one events file per trajectory)")
+        return replay_fleet(items, out_dir, scene=scene, terrain=terrain, vehicle=vehicle, up=up, jobs=jobs,
+                            scheduler=scheduler, split_lines=split_lines, progress=say, on_result=on_result,
+                            out_format=out_format, **how)
+    if mode == "windows":
+        return replay_windows(_with_format(items[0], fmt), poses, events, scene=scene, terrain=terrain,
+                              vehicle=vehicle, up=up, world=world, window_seconds=window_seconds,
+                              scheduler=scheduler, jobs=jobs or 1, progress=progress, **how)
+    if mode == "together":
+        from tankcd_cli.replay.fleet import expand_trajectories
+
+        trajectory = expand_trajectories(items)
+    else:
+        trajectory = items[0]
+    return replay_to_files(trajectory, poses, events, scene=scene, terrain=terrain, vehicle=vehicle, world=world,
+                           up=up, cache=cache, progress=progress, observe=observe, fmt=fmt, **how)
 
 
 def trajectory_chunks(columns: dict, chunk_rows: int = 65536, crs: str | None = None):

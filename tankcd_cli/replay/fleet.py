@@ -42,14 +42,29 @@ class Task:
     whole_events: str | None = None
 
 
+def is_listing(item: str) -> bool:
+    """Whether a trajectory argument is a list file (``@runs.txt``), not a file of that name."""
+    return item.startswith("@") and not os.path.exists(item)
+
+
+def is_pattern(item: str) -> bool:
+    """Whether a trajectory argument is a glob (``runs/*.csv``), not a file of that name."""
+    return any(ch in item for ch in "*?[") and not os.path.exists(item)
+
+
+def names_a_fleet(items) -> bool:
+    """Whether trajectory arguments name a fleet by themselves: several, or a glob or a list file
+    (``replay_mode``'s rule; ``--out-dir`` and the rest say it too)."""
+    items = list(items)
+    return len(items) > 1 or any(is_listing(t) or is_pattern(t) for t in items)
+
+
 def expand_trajectories(items: list[str]) -> list[str]:
     """Paths, globs (``runs/*.csv``) and list files (``@runs.txt``: one path per line, relative to
     the list, ``#`` comments) into a list of trajectory paths, in the order given, without repeats."""
     out: list[str] = []
     for item in items:
-        if os.path.exists(item):  # a file whose name happens to hold * ? [ or @ is that file
-            found = [item]
-        elif item.startswith("@"):
+        if is_listing(item):  # a file whose name happens to hold * ? [ or @ is that file
             listing = item[1:]
             try:
                 with open(listing, encoding="utf-8-sig") as fh:
@@ -59,7 +74,7 @@ def expand_trajectories(items: list[str]) -> list[str]:
             base = os.path.dirname(os.path.abspath(listing))
             found = [os.path.join(base, ln) if not os.path.isabs(ln) else ln for ln in lines
                      if ln and not ln.startswith("#")]
-        elif any(ch in item for ch in "*?["):
+        elif is_pattern(item):
             found = sorted(glob.glob(item, recursive=True))
             if not found:
                 raise InputError(item, "the pattern matches no file")
