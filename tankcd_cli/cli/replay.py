@@ -2,20 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 import click
 
-from tankcd_cli.cli.options import (
-    REPLAY_VEHICLE_HELP,
-    check_replay_options,
-    no_dash_directory,
-    no_stdin,
-    refuse_clashes,
-    vehicle_option,
-    verbosity_options,
-)
 from tankcd_cli import api
+from tankcd_cli.cli.options import (REPLAY_VEHICLE_HELP, check_replay_options, no_dash_directory, no_stdin,
+                                    refuse_clashes, vehicle_option, verbosity_options)
 from tankcd_cli.errors import collected_warnings
 from tankcd_cli.io.atomic import atomic_path, check_folders, committed_together, output_text
 from tankcd_cli.io.input_formats import FORMAT_NAMES, with_format
@@ -23,13 +17,7 @@ from tankcd_cli.replay.drawing import ReplayDrawing
 from tankcd_cli.replay.fleet import expand_trajectories
 from tankcd_cli.replay.outputs import OUTPUT_FORMATS, check_writable
 from tankcd_cli.replay.world import WorldSpec, world_inputs
-from tankcd_cli.names import (
-    EXIT_BAD_INPUT,
-    EXIT_COLLISION,
-    EXIT_INTERNAL,
-    MATCHER_CHOICES,
-    UP_AXES,
-)
+from tankcd_cli.names import EXIT_BAD_INPUT, EXIT_COLLISION, EXIT_INTERNAL, MATCHER_CHOICES, UP_AXES
 
 SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
@@ -147,19 +135,16 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
     world, loading = None, []
-    if mode == "windows":
-        if not scheduler:  # on a cluster the workers load it
-            world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache,
-                                   progress=step)
-    else:
-        with collected_warnings() as loading:  # the world's warnings belong in the summary too
+    if not (mode == "windows" and scheduler):  # on a cluster the workers load it
+        # one piece's summary lists the world's warnings too
+        with collected_warnings() if mode != "windows" else contextlib.nullcontext([]) as loading:
             world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache,
                                    progress=step)
     drawing = ReplayDrawing(colour_by=png_colour) if png else None
     with committed_together():  # poses, events, picture and summary: all of them or none
-        result = api.run_replay(trajectory, poses_path, events_path, window_seconds=window_seconds, jobs=jobs,
-                                scheduler=scheduler, world=world, scene=scene, terrain=terrain, vehicle=vehicle_name,
-                                up=up, progress=lambda n: report.bar(f"replay: {n:,} rows"),
+        result = api.run_replay(trajectory, poses_path, events_path, window_seconds=window_seconds, together=together,
+                                jobs=jobs, scheduler=scheduler, world=world, scene=scene, terrain=terrain,
+                                vehicle=vehicle_name, up=up, progress=lambda n: report.bar(f"replay: {n:,} rows"),
                                 observe=drawing.observe if drawing else None, **how)
         report.bar(None)
         result.warnings = list(loading) + result.warnings
