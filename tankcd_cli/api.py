@@ -248,7 +248,7 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
     ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk.
     ``fmt``: the inputs' format (csv, gpx, pcap, pcapng) where neither name nor content says
     (docs/formats.md, "Trajectory inputs: formats")."""
-    from tankcd_cli.io.parquet import check_writable
+    from tankcd_cli.replay.outputs import check_writable
     from tankcd_cli.replay.records import ReplayOutputs
     from tankcd_cli.replay.run import run_replay
 
@@ -309,7 +309,7 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
                                           "its own rows), not standard input or arrays")
     if not (np.isfinite(window_seconds) and window_seconds > 0):
         raise ValueError(f"window_seconds must be a positive finite number, not {window_seconds!r}")
-    from tankcd_cli.io.parquet import check_writable
+    from tankcd_cli.replay.outputs import check_writable
 
     check_writable(poses, events)  # Parquet without pyarrow: before any work
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
@@ -360,7 +360,7 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     trajectory does not stop the others (its result says why)."""
     import os
 
-    from tankcd_cli.io.parquet import check_writable
+    from tankcd_cli.replay.outputs import check_writable
     from tankcd_cli.replay.executor import TaskWorld
     from tankcd_cli.replay.fleet import expand_trajectories, plan_tasks, run_fleet, write_summary
     from tankcd_cli.replay.world import WorldSpec, classify_once
