@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 __all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
-           "replay_fleet", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
+           "replay_fleet", "replay_mode", "run_replay", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -248,7 +248,7 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
     ``progress(rows)`` after every chunk; ``observe(chunk, poses, events)`` sees every chunk.
     ``fmt``: the inputs' format (csv, gpx, pcap, pcapng) where neither name nor content says
     (docs/formats.md, "Trajectory inputs: formats")."""
-    from tankcd_cli.io.parquet import check_writable
+    from tankcd_cli.replay.outputs import check_writable
     from tankcd_cli.replay.records import ReplayOutputs
     from tankcd_cli.replay.run import run_replay
 
@@ -288,11 +288,12 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
                    terrain: str | None = None, vehicle: str = "t72", matcher: str = "auto", discrete: bool = False,
                    escalate: bool | None = None, tolerance: float | None = None, window_seconds: float = 60.0,
                    scheduler: str | None = None, world=None, up: str | None = None,
-                   progress: Callable[[int], None] | None = None, attitude_tolerance: float | None = None):
+                   progress: Callable[[int], None] | None = None, attitude_tolerance: float | None = None,
+                   jobs: int = 1):
     """Replay an exercise (one trajectory file, usually with an ``entity`` column) by time windows of
-    ``window_seconds``, each a task: one after the other here, or on the Dask cluster at
-    ``scheduler`` (each worker loads the scene or terrain from its path; a window whose worker is
-    lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
+    ``window_seconds``, each a task: one after the other here, in ``jobs`` forked processes, or on
+    the Dask cluster at ``scheduler`` (each worker loads the scene or terrain from its path; a
+    window whose worker is lost runs again). The poses and events written are ``replay_to_files``'s, byte for byte (see
     ``replay.windows``; Parquet for a name ending in ``.parquet``, the same tables and metadata);
     memory follows the window. Returns the closing summary
     (``replay.records.ReplaySummary``). ``progress(rows)`` as windows are written."""
@@ -300,19 +301,19 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
 
     from tankcd_cli.errors import InputError
     from tankcd_cli.replay.records import ReplayOutputs
-    from tankcd_cli.replay.windows import SparseTime, in_process, on_dask, plan_windows, run_windows
+    from tankcd_cli.replay.executor import Executor, TaskWorld
+    from tankcd_cli.replay.windows import SparseTime, plan_windows, run_windows, window_runner
 
     if not isinstance(trajectory, str) or trajectory == "-":
         raise InputError(str(trajectory), "a replay by time windows reads a trajectory file (each window reads "
                                           "its own rows), not standard input or arrays")
     if not (np.isfinite(window_seconds) and window_seconds > 0):
         raise ValueError(f"window_seconds must be a positive finite number, not {window_seconds!r}")
-    from tankcd_cli.io.parquet import check_writable
+    from tankcd_cli.replay.outputs import check_writable
 
     check_writable(poses, events)  # Parquet without pyarrow: before any work
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
     if scheduler:
-        from tankcd_cli.replay.fleet import FleetWorld
         from tankcd_cli.replay.world import WorldSpec
 
         import dataclasses
@@ -322,11 +323,11 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
         # workers elsewhere may run in another directory
         spec = dataclasses.replace(spec, **{k: os.path.abspath(getattr(spec, k)) for k in ("scene", "terrain", "store")
                                             if getattr(spec, k)})
-        runner = on_dask(FleetWorld(spec, options), scheduler)
+        runner = window_runner(TaskWorld(spec, options), Executor(scheduler=scheduler))
         path = os.path.abspath(trajectory)  # workers elsewhere may run in another directory
     else:
         loaded = _world(world, scene, terrain, vehicle, up, False, None)
-        runner = in_process(loaded, options)
+        runner = window_runner(TaskWorld(loaded.spec, options), Executor(jobs=jobs or 1), loaded=loaded)
         path = trajectory
     # here, an input that is no CSV (a capture, GPX) is decoded and converted once for all the windows
     try:
@@ -359,8 +360,9 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     trajectory does not stop the others (its result says why)."""
     import os
 
-    from tankcd_cli.io.parquet import check_writable
-    from tankcd_cli.replay.fleet import FleetWorld, expand_trajectories, plan_tasks, run_fleet, write_summary
+    from tankcd_cli.replay.outputs import check_writable
+    from tankcd_cli.replay.executor import TaskWorld
+    from tankcd_cli.replay.fleet import expand_trajectories, plan_tasks, run_fleet, write_summary
     from tankcd_cli.replay.world import WorldSpec, classify_once
 
     paths = expand_trajectories(list(trajectories))
@@ -373,9 +375,74 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
         spec = classify_once(spec, out_dir, progress)
     options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
-    fleet = run_fleet(FleetWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
+    fleet = run_fleet(TaskWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     return fleet
+
+
+REPLAY_MODES = ("one", "together", "windows", "fleet")
+
+
+def replay_mode(trajectories, out_dir: str | None = None, window_seconds: float | None = None,
+                together: bool = False, jobs: int | None = None, scheduler: str | None = None) -> str:
+    """Which replay ``run_replay`` runs for these inputs and options (``REPLAY_MODES``):
+
+    - ``together``: several files as one exercise (``together``), into one poses and one events output;
+    - ``windows``: one exercise by time windows (``window_seconds``), here, in ``jobs`` processes or
+      on the cluster at ``scheduler``;
+    - ``fleet``: each trajectory into ``out_dir`` (given, or named by several trajectories, a glob
+      or an ``@list``, or ``jobs`` or ``scheduler`` without windows);
+    - ``one``: one trajectory in one piece.
+    """
+    from tankcd_cli.replay.fleet import names_a_fleet
+
+    items = [trajectories] if isinstance(trajectories, str) else list(trajectories)
+    if together:
+        return "together"
+    if window_seconds is not None and out_dir is None and not names_a_fleet(items):
+        return "windows"
+    if out_dir is not None or names_a_fleet(items) or (window_seconds is None and (jobs is not None or scheduler)):
+        return "fleet"
+    return "one"
+
+
+def run_replay(trajectories, poses: str | None = "-", events: str | None = None, out_dir: str | None = None,
+               window_seconds: float | None = None, together: bool = False, jobs: int | None = None,
+               scheduler: str | None = None, world=None, scene: str | None = None, terrain: str | None = None,
+               vehicle: str = "t72", up: str | None = None, cache: bool = False, matcher: str = "auto",
+               discrete: bool = False, escalate: bool | None = None, tolerance: float | None = None,
+               attitude_tolerance: float | None = None, fmt: str | None = None, split_lines: int | None = 1_000_000,
+               out_format: str = "csv", progress: Callable[[int], None] | None = None,
+               say: Callable[[str], None] | None = None, on_result: Callable | None = None,
+               observe: Callable | None = None):
+    """Run any replay, the one ``replay_mode`` names for these inputs and options: one trajectory
+    (or several ``together``) into ``poses`` and ``events`` (``replay_to_files``), one exercise by
+    time windows (``replay_windows``), or a fleet into ``out_dir`` (``replay_fleet``; ``say``
+    its progress lines, ``on_result`` each task's result). Returns the ``ReplaySummary``, or the
+    fleet's ``FleetSummary``. ``trajectories``: a path, or a list of paths, globs and ``@lists``;
+    ``progress(rows)`` and ``observe`` as ``replay_to_files`` takes them."""
+    mode = replay_mode(trajectories, out_dir, window_seconds, together, jobs, scheduler)
+    items = [trajectories] if isinstance(trajectories, str) else list(trajectories)
+    how = dict(matcher=matcher, discrete=discrete, escalate=escalate, tolerance=tolerance,
+               attitude_tolerance=attitude_tolerance)
+    if mode == "fleet":
+        if out_dir is None:
+            raise ValueError("a fleet needs out_dir (one poses and one events file per trajectory)")
+        return replay_fleet(items, out_dir, scene=scene, terrain=terrain, vehicle=vehicle, up=up, jobs=jobs,
+                            scheduler=scheduler, split_lines=split_lines, progress=say, on_result=on_result,
+                            out_format=out_format, **how)
+    if mode == "windows":
+        return replay_windows(_with_format(items[0], fmt), poses, events, scene=scene, terrain=terrain,
+                              vehicle=vehicle, up=up, world=world, window_seconds=window_seconds,
+                              scheduler=scheduler, jobs=jobs or 1, progress=progress, **how)
+    if mode == "together":
+        from tankcd_cli.replay.fleet import expand_trajectories
+
+        trajectory = expand_trajectories(items)
+    else:
+        trajectory = items[0]
+    return replay_to_files(trajectory, poses, events, scene=scene, terrain=terrain, vehicle=vehicle, world=world,
+                           up=up, cache=cache, progress=progress, observe=observe, fmt=fmt, **how)
 
 
 def trajectory_chunks(columns: dict, chunk_rows: int = 65536, crs: str | None = None):

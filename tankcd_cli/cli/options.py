@@ -167,6 +167,22 @@ class Excludes(NamedTuple):
     why: str
 
 
+class Refused(NamedTuple):
+    """``option`` given with any of ``others`` (or alone, ``others`` empty): a usage error saying
+    ``message`` as it is."""
+
+    option: str
+    others: tuple
+    message: str
+
+
+class OneOf(NamedTuple):
+    """Not exactly one of ``options`` given: a usage error saying ``message``."""
+
+    options: tuple
+    message: str
+
+
 class Positive(NamedTuple):
     """``option``'s value, when given, a positive finite number, else bad input (exit 3, one line
     naming the option): NaN and infinity pass click's ``FloatRange`` and would reach the work.
@@ -225,8 +241,14 @@ def check_option_combinations(ctx: click.Context, rules, conditions: dict | None
         return name if name in conditions else option_label(ctx, name)
 
     for rule in rules:
+        if isinstance(rule, OneOf):
+            if sum(holds(name) for name in rule.options) != 1:
+                raise click.UsageError(rule.message)
+            continue
         if not holds(rule.option):
             continue
+        if isinstance(rule, Refused) and (not rule.others or any(holds(other) for other in rule.others)):
+            raise click.UsageError(rule.message)
         if isinstance(rule, Needs) and not holds(rule.needed):
             raise click.UsageError(f"{label(rule.option)} needs {label(rule.needed)}: {rule.why}")
         if isinstance(rule, Excludes) and holds(rule.other):
@@ -240,13 +262,27 @@ SCENE_VEHICLE = Excludes("vehicle_name", "scene", "the scene's [vehicle] table d
 FLEET = "fleet mode (--out-dir, or several trajectories)"
 ESCALATION = "escalation (--escalate, or --matcher auto without --no-escalate)"
 SCHEDULED = "--out-dir or --window-seconds"
+STDIN = "standard input (-) among the trajectories"
+NO_OUT_DIR = "no --out-dir"
+POSES_TO_STDOUT = "one replay's poses to standard output"
+EVENTS_TO_STDOUT = "one replay's events to standard output"
+SUMMARY_TO_STDOUT = "the summary to standard output"
+# checked first: what decides the replay's inputs and world
+REPLAY_FIRST_RULES = (
+    Refused("together", ("out_dir", "jobs", "scheduler"), "--together replays the files as one world into --poses "
+                                                        "and --events: not with --out-dir, --jobs or --scheduler"),
+    Refused("together", (STDIN,), "--together reads files, not standard input"),
+    OneOf(("scene", "terrain"), "give --scene or --terrain (one of them)"),
+    SCENE_VEHICLE,
+)
 REPLAY_RULES = (
     Needs("png_colour", "png", "it colours the path --png draws"),
     Needs("allow_off_terrain", "fail_on_collision", "it keeps rows off the terrain from failing the run"),
     *(Needs(name, ESCALATION, "it is the certificate's tolerance, which only escalation checks")
       for name in ("tolerance", "attitude_tolerance")),
-    *(Needs(name, "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
-                             "trajectory there") for name in ("jobs", "split_lines")),
+    Needs("jobs", SCHEDULED, "it sets how many processes run a fleet's trajectories or an exercise's time windows"),
+    Needs("split_lines", "out_dir", "it sets how a fleet runs, and a fleet writes one poses and one events file per "
+                                    "trajectory there"),
     Needs("out_format", "out_dir", "it sets the format of the files a fleet writes there (one replay writes Parquet "
                                    "to --poses and --events ending in .parquet)"),
     Needs("scheduler", SCHEDULED, "it runs a fleet's trajectories or an exercise's time windows on the cluster"),
@@ -260,6 +296,19 @@ REPLAY_RULES = (
                                    "--out-format parquet)"),
     Excludes("cache", FLEET, "a fleet does not save its terrain beside it (classify it first with tankcd classify)"),
 )
+# checked after the values and the terrain: what the mode chosen cannot do
+REPLAY_LAST_RULES = (
+    Refused("fmt", (FLEET,), "--format names one input's format (or --together's inputs'): a fleet's files are each "
+                             "told by their name and first bytes"),
+    Refused("png", (FLEET,), "--png draws one replay; a fleet writes its files to --out-dir"),
+    Refused(FLEET, (NO_OUT_DIR,), "several trajectories need --out-dir (one poses and one events file each)"),
+    Refused(FLEET, (STDIN,), "a fleet reads files, not standard input"),
+    Refused(POSES_TO_STDOUT, (EVENTS_TO_STDOUT, SUMMARY_TO_STDOUT),
+            "poses already go to stdout: give --poses FILE to send events or the summary there"),
+    Refused(EVENTS_TO_STDOUT, (SUMMARY_TO_STDOUT,), "events already go to stdout: give --summary FILE"),
+    Refused("window_seconds", (STDIN,), "--window-seconds reads a trajectory file (each window reads its own rows), "
+                                        "not standard input"),
+)
 REPLAY_VALUES = (
     Positive("window_seconds", "a window's length in seconds"),
     Positive("tolerance", "a height tolerance in metres"),
@@ -267,16 +316,32 @@ REPLAY_VALUES = (
 )
 
 
-def check_replay_options(ctx: click.Context, fleet: bool) -> None:
-    """replay's options that only make sense with (or without) another: a usage error each.
+def check_replay_options(ctx: click.Context, mode: str) -> None:
+    """replay's options that only make sense with (or without) another, in the replay ``mode``
+    (``api.replay_mode``): a usage error each (a value out of range: bad input).
 
     --cache and --up also need a terrain classified on the fly: given a store (by --terrain or as
     the scene's terrain), they are refused too."""
     p = ctx.params
-    escalation = bool(p.get("escalate") or (p.get("escalate") is None and p.get("matcher") == "auto"))
-    scheduled = given(ctx, "out_dir") or given(ctx, "window_seconds")
-    check_option_combinations(ctx, REPLAY_RULES, {FLEET: fleet, ESCALATION: escalation, SCHEDULED: scheduled})
+    fleet = mode == "fleet"
+    one = not fleet
+    summary = p.get("summary_path")
+    conditions = {
+        FLEET: fleet, SCHEDULED: given(ctx, "out_dir") or given(ctx, "window_seconds"),
+        ESCALATION: bool(p.get("escalate") or (p.get("escalate") is None and p.get("matcher") == "auto")),
+        STDIN: "-" in (p.get("trajectories") or ()), NO_OUT_DIR: p.get("out_dir") is None,
+        POSES_TO_STDOUT: one and p.get("poses_path") == "-", EVENTS_TO_STDOUT: one and p.get("events_path") == "-",
+        SUMMARY_TO_STDOUT: one and summary == "-",
+    }
+    check_option_combinations(ctx, REPLAY_FIRST_RULES + REPLAY_RULES, conditions)
     check_option_values(ctx, REPLAY_VALUES)
+    _check_store_options(ctx)
+    check_option_combinations(ctx, REPLAY_LAST_RULES, conditions)
+
+
+def _check_store_options(ctx: click.Context) -> None:
+    """--cache and --up refused for a store's terrain."""
+    p = ctx.params
     if not (given(ctx, "cache") or given(ctx, "up")):
         return
     from tankcd_cli.io.h5 import is_hdf5

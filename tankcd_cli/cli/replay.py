@@ -2,25 +2,22 @@
 
 from __future__ import annotations
 
+import contextlib
+import json
+
 import click
 
-from tankcd_cli.cli.options import (
-    REPLAY_VEHICLE_HELP,
-    check_replay_options,
-    no_dash_directory,
-    no_stdin,
-    refuse_clashes,
-    vehicle_option,
-    verbosity_options,
-)
-from tankcd_cli.io.input_formats import FORMAT_NAMES
-from tankcd_cli.names import (
-    EXIT_BAD_INPUT,
-    EXIT_COLLISION,
-    EXIT_INTERNAL,
-    MATCHER_CHOICES,
-    UP_AXES,
-)
+from tankcd_cli import api
+from tankcd_cli.cli.options import (REPLAY_VEHICLE_HELP, check_replay_options, no_dash_directory, no_stdin,
+                                    refuse_clashes, vehicle_option, verbosity_options)
+from tankcd_cli.errors import collected_warnings
+from tankcd_cli.io.atomic import atomic_path, check_folders, committed_together, output_text
+from tankcd_cli.io.input_formats import FORMAT_NAMES, with_format
+from tankcd_cli.replay.drawing import ReplayDrawing
+from tankcd_cli.replay.fleet import expand_trajectories
+from tankcd_cli.replay.outputs import OUTPUT_FORMATS, check_writable
+from tankcd_cli.replay.world import WorldSpec, world_inputs
+from tankcd_cli.names import EXIT_BAD_INPUT, EXIT_COLLISION, EXIT_INTERNAL, MATCHER_CHOICES, UP_AXES
 
 SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 
@@ -80,16 +77,17 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
 @click.option("--out-dir", type=click.Path(file_okay=False), default=None, callback=no_dash_directory,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
-@click.option("--out-format", type=click.Choice(["csv", "parquet"]), default="csv", show_default=True,
+@click.option("--out-format", type=click.Choice(list(OUTPUT_FORMATS)), default="csv", show_default=True,
               help="Fleet mode: the per-trajectory files as NAME.poses.csv and NAME.events.jsonl, or as "
                    "NAME.poses.parquet and NAME.events.parquet (pip install 'tankcd[parquet]').")
 @click.option("--jobs", type=click.IntRange(1, 512), default=None,
-              help="Fleet mode: parallel processes (default: the number of cores).")
+              help="Fleet mode: parallel processes (default: the number of cores); with --window-seconds: the "
+                   "processes running the windows (default: 1, here).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Fleet mode on a Dask cluster (tcp://host:8786; pip install 'tankcd[dask]').")
 @click.option("--window-seconds", type=float, default=None, metavar="S",
               help="Replay one exercise by time windows of about S seconds (a whole number of the 2 s contact "
-                   "windows), each a task: here one after the other, or on the Dask cluster at --scheduler; the "
+                   "windows), each a task: here one after the other, in --jobs processes, or on the Dask cluster at --scheduler; the "
                    "poses and events of a run in one piece, byte for byte.")
 @click.option("--split-lines", type=click.IntRange(1000, None), default=1_000_000, show_default=True,
               help="Fleet mode: replay a longer trajectory as parts of this many lines on several workers.")
@@ -116,57 +114,18 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
 
     Headings: yaw_deg is measured from east (+x), counter-clockwise (90 = north), as in the
     poses; a compass bearing (from north, clockwise) is 90 - bearing."""
-    import os
-
-    fleet_mode = out_dir is not None or jobs is not None or (scheduler is not None and window_seconds is None) \
-        or len(trajectories) > 1 \
-        or any((t.startswith("@") or any(ch in t for ch in "*?[")) and not os.path.exists(t) for t in trajectories)
-    if together:
-        if out_dir is not None or jobs is not None or scheduler is not None:
-            raise click.UsageError("--together replays the files as one world into --poses and --events: not with "
-                                   "--out-dir, --jobs or --scheduler")
-        if "-" in trajectories:
-            raise click.UsageError("--together reads files, not standard input")
-        fleet_mode = False
-    if (scene is None) == (terrain is None):
-        raise click.UsageError("give --scene or --terrain (one of them)")
     ctx = click.get_current_context()
-    if scene is not None and ctx.get_parameter_source("vehicle_name") == click.core.ParameterSource.COMMANDLINE:
-        raise click.UsageError("--vehicle does not apply with --scene: the scene's [vehicle] table decides the "
-                               "vehicle (set its preset there)")
-    check_replay_options(ctx, fleet_mode)
+    mode = api.replay_mode(trajectories, out_dir, window_seconds, together, jobs, scheduler)
+    check_replay_options(ctx, mode)
     if fmt is not None:
-        if fleet_mode:
-            raise click.UsageError("--format names one input's format (or --together's inputs'): a fleet's files "
-                                   "are each told by their name and first bytes")
-        from tankcd_cli.io.input_formats import with_format
-
         trajectories = tuple(with_format(t, fmt) for t in trajectories)
-    if fleet_mode:
-        if png:
-            raise click.UsageError("--png draws one replay; a fleet writes its files to --out-dir")
-        return _fleet(report, trajectories, scene, terrain, dict(matcher=matcher, escalate=escalate,
-                                                                 tolerance=tolerance, discrete=discrete,
-                                                                 attitude_tolerance=attitude_tolerance),
-                      vehicle_name, up, out_dir, out_format, jobs, scheduler, fail_on_collision, allow_off_terrain,
-                      summary_path, split_lines)
-    from tankcd_cli import api
-
-    trajectory = trajectories[0]
-    if together:
-        from tankcd_cli.replay.fleet import expand_trajectories
-
-        trajectory = expand_trajectories(list(trajectories))
-    from tankcd_cli.io.atomic import atomic_path, check_folders, committed_together
-    from tankcd_cli.replay.world import WorldSpec, world_inputs
-
-    if poses_path == "-" and "-" in (events_path, summary_path):
-        raise click.UsageError("poses already go to stdout: give --poses FILE to send events or the summary there")
-    if events_path == "-" and summary_path == "-":
-        raise click.UsageError("events already go to stdout: give --summary FILE")
+    how = dict(matcher=matcher, escalate=escalate, tolerance=tolerance, discrete=discrete,
+               attitude_tolerance=attitude_tolerance)
+    if mode == "fleet":
+        return _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
+                      fail_on_collision, allow_off_terrain, summary_path, split_lines)
+    trajectory = expand_trajectories(list(trajectories)) if mode == "together" else trajectories[0]
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
-    from tankcd_cli.io.parquet import check_writable
-
     check_writable(poses_path, events_path)  # before the world is loaded
     check_folders(poses_path, events_path, png, summary_file)  # every output's folder, before any work
     report.kernels()
@@ -175,25 +134,18 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     refuse_clashes({**({f"TRAJECTORY {p}": p for p in trajectory} if together else {"TRAJECTORY": trajectory}),
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
-    if window_seconds is not None:
-        return _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher,
-                        discrete, escalate, (tolerance, attitude_tolerance), window_seconds, scheduler, summary_path,
-                        fail_on_collision, allow_off_terrain, step)
-    from tankcd_cli.errors import collected_warnings
-
-    with collected_warnings() as loading:  # the world's warnings belong in the summary too
-        world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache, progress=step)
-    drawing = None
-    if png:
-        from tankcd_cli.replay.drawing import ReplayDrawing
-
-        drawing = ReplayDrawing(colour_by=png_colour)
+    world, loading = None, []
+    if not (mode == "windows" and scheduler):  # on a cluster the workers load it
+        # one piece's summary lists the world's warnings too
+        with collected_warnings() if mode != "windows" else contextlib.nullcontext([]) as loading:
+            world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache,
+                                   progress=step)
+    drawing = ReplayDrawing(colour_by=png_colour) if png else None
     with committed_together():  # poses, events, picture and summary: all of them or none
-        result = api.replay_to_files(trajectory, poses_path, events_path, world=world, matcher=matcher,
-                                     discrete=discrete, escalate=escalate, tolerance=tolerance,
-                                     attitude_tolerance=attitude_tolerance,
-                                     progress=lambda n: report.bar(f"replay: {n:,} rows"),
-                                     observe=drawing.observe if drawing else None)
+        result = api.run_replay(trajectory, poses_path, events_path, window_seconds=window_seconds, together=together,
+                                jobs=jobs, scheduler=scheduler, world=world, scene=scene, terrain=terrain,
+                                vehicle=vehicle_name, up=up, progress=lambda n: report.bar(f"replay: {n:,} rows"),
+                                observe=drawing.observe if drawing else None, **how)
         report.bar(None)
         result.warnings = list(loading) + result.warnings
         result.seconds = round(report.elapsed(), 3)  # the whole command's, as the summary has always said
@@ -209,32 +161,6 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 
-def _windows(report, trajectory, scene, terrain, vehicle_name, up, cache, poses_path, events_path, matcher, discrete,
-             escalate, tolerances, window_seconds, scheduler, summary_path, fail_on_collision, allow_off_terrain, step):
-    """--window-seconds: one exercise by time windows, here or on the cluster (replay.windows);
-    ``tolerances`` the certificate's (height m, attitude deg)."""
-    from tankcd_cli import api
-
-    if trajectory == "-":
-        raise click.UsageError("--window-seconds reads a trajectory file (each window reads its own rows), not "
-                               "standard input")
-    world = None if scheduler else api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
-                                                  cache=cache, progress=step)
-    from tankcd_cli.io.atomic import committed_together
-
-    with committed_together():  # poses, events and summary: all of them or none
-        result = api.replay_windows(trajectory, poses_path, events_path, scene=scene, terrain=terrain,
-                                    vehicle=vehicle_name, up=up, world=world, matcher=matcher, discrete=discrete,
-                                    escalate=escalate, tolerance=tolerances[0], attitude_tolerance=tolerances[1],
-                                    window_seconds=window_seconds,
-                                    scheduler=scheduler, progress=lambda n: report.bar(f"replay: {n:,} rows"))
-        report.bar(None)
-        result.seconds = round(report.elapsed(), 3)
-        _write_summary(summary_path, result.as_dict())
-    _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows, written=True)
-    _exit_on_failures(result, fail_on_collision, allow_off_terrain)
-
-
 def _store_of(surface):
     """What the map draws the classes from: a grid store's path, or a mesh store read again."""
     path = getattr(getattr(surface, "tiles", None), "path", None)
@@ -245,10 +171,6 @@ def _store_of(surface):
 
 def _write_summary(summary_path, result: dict) -> None:
     """--summary FILE or - (stdout): the summary as JSON."""
-    import json
-
-    from tankcd_cli.io.atomic import output_text
-
     if summary_path in (None, SUMMARY_STDERR):
         return
     with output_text(summary_path, ".json") as fh:
@@ -256,8 +178,6 @@ def _write_summary(summary_path, result: dict) -> None:
 
 
 def _report_summary(report, result: dict, summary_path, effects: dict, rows: int, written: bool = False) -> None:
-    import json
-
     if not written:  # (``written``: the command wrote the summary with its other outputs)
         _write_summary(summary_path, result)
     if summary_path == SUMMARY_STDERR:
@@ -290,14 +210,6 @@ def _exit_on_failures(result, fail_on_collision: bool, allow_off_terrain: bool) 
 
 def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
            fail_on_collision, allow_off_terrain, summary_path, split_lines):
-    import json
-
-    from tankcd_cli import api
-
-    if out_dir is None:
-        raise click.UsageError("several trajectories need --out-dir (one poses and one events file each)")
-    if "-" in trajectories:
-        raise click.UsageError("a fleet reads files, not standard input")
     report.kernels()
     step = report.progress("replay")
     finished = []
@@ -306,9 +218,9 @@ def _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir,
         finished.append(r)
         report.bar(f"replay: {len(finished)} tasks done")
 
-    fleet = api.replay_fleet(list(trajectories), out_dir, scene=scene, terrain=terrain, vehicle=vehicle_name, up=up,
-                             jobs=jobs, scheduler=scheduler, split_lines=split_lines, progress=step,
-                             on_result=on_result, out_format=out_format, **how)
+    fleet = api.run_replay(list(trajectories), out_dir=out_dir, scene=scene, terrain=terrain, vehicle=vehicle_name,
+                           up=up, jobs=jobs, scheduler=scheduler, split_lines=split_lines, say=step,
+                           on_result=on_result, out_format=out_format, **how)
     report.bar(None)
     for failure in fleet.failures:
         click.echo(f"tankcd: error: {failure['error']}", err=True)

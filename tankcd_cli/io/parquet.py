@@ -28,6 +28,8 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.io.pose_table import TYPES as POSE_TYPES
+from tankcd_cli.io.pose_table import pose_table
 
 PYARROW_MISSING = "Parquet output needs pyarrow: pip install 'tankcd[parquet]'"
 COLUMN_TYPES = ("float64", "int64", "int32", "int16", "uint8", "bool", "string", "dict", "json")
@@ -304,10 +306,8 @@ class ParquetTableWriter:
 
 
 # -- poses ------------------------------------------------------------------------------------------------
-POSE_SCHEMA = (("step", "int64"), ("t", "float64"), ("x", "float64"), ("y", "float64"), ("z", "float64"),
-               ("roll_deg", "float64"), ("pitch_deg", "float64"), ("yaw_deg", "float64"), ("qw", "float64"),
-               ("qx", "float64"), ("qy", "float64"), ("qz", "float64"), ("region", "dict"), ("matcher", "dict"),
-               ("penetration", "float64"), ("gap", "float64"), ("status", "dict"))
+# the pose table's columns (``io.pose_table``), its coded ones dictionary-encoded
+POSE_SCHEMA = tuple((name, "dict" if kind == "coded" else kind) for name, kind in POSE_TYPES.items())
 
 
 def pose_schema(entity: bool = False) -> tuple:
@@ -316,36 +316,15 @@ def pose_schema(entity: bool = False) -> tuple:
 
 
 def pose_columns(step, t, poses, matcher_names, status_names, entity=None) -> dict:
-    """The columns of a chunk of poses, as ``poses_csv.format_rows`` writes them: a row without a pose
-    (numbers not finite) keeps step, t, x, y and yaw_deg, the rest null; penetration and gap null
-    where not measured; region names (``unknown`` outside the classes); matcher ``none`` for a row
-    whose status is ``off``. Numbers at full precision (the CSV rounds them to its decimals)."""
-    from tankcd_cli.io.poses_csv import REGION_LABELS
-    from tankcd_cli.names import NO_MATCHER
-
-    step = np.asarray(step, dtype=np.int64)
-    pos = np.asarray(poses.position, dtype=np.float64)
-    q = np.asarray(poses.quaternion, dtype=np.float64)
-    t = np.asarray(t, dtype=np.float64)
-    numbers = {"t": t, "x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2], "roll_deg": np.degrees(poses.roll),
-               "pitch_deg": np.degrees(poses.pitch), "yaw_deg": np.degrees(poses.yaw), "qw": q[:, 0], "qx": q[:, 1],
-               "qy": q[:, 2], "qz": q[:, 3]}
-    finite = {name: np.isfinite(v) for name, v in numbers.items()}
-    posed = np.logical_and.reduce(list(finite.values()))
-    measured = np.isfinite(poses.penetration) & np.isfinite(poses.gap)
-    out = {"step": step}
-    for name, values in numbers.items():
-        # a row without a pose keeps t, x, y and yaw_deg (the CSV prints them), each null if not finite
-        out[name] = Masked(values, ~finite[name] if name in ("t", "x", "y", "yaw_deg") else ~posed)
-    region = np.asarray(poses.region, dtype=np.int64)
-    status = np.asarray(poses.status, dtype=np.int64)
-    matcher = np.where(status == list(status_names).index("off"), len(matcher_names),
-                       np.asarray(poses.matcher, dtype=np.int64))
-    out["region"] = Coded(np.where((region >= 0) & (region < 3), region, 3), REGION_LABELS)
-    out["matcher"] = Coded(matcher, [*matcher_names, NO_MATCHER])
-    out["penetration"] = Masked(np.asarray(poses.penetration, dtype=np.float64), ~(measured & posed))
-    out["gap"] = Masked(np.asarray(poses.gap, dtype=np.float64), ~(measured & posed))
-    out["status"] = Coded(status, list(status_names))
+    """The columns of a chunk of poses: the pose table's cells (``io.pose_table``), a cell without a
+    value null, numbers at full precision (the CSV rounds them to its decimals), the coded columns
+    as their codes and labels; ``entity`` as given."""
+    table = pose_table(step, t, poses, matcher_names, status_names)
+    out = {"step": table.step}
+    for name, values in table.numbers.items():
+        out[name] = Masked(values, ~np.isfinite(values))
+    for name, codes in table.codes.items():
+        out[name] = Coded(codes, list(table.labels[name]))
     if entity is not None:
         out["entity"] = entity
     return out

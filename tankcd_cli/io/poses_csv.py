@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from tankcd_cli.names import CLASS_NAMES, NO_CLASS, NO_CLASS_NAME, NO_MATCHER
+from tankcd_cli.io.fixed_text import table_text
+from tankcd_cli.io.pose_table import COLUMNS, pose_table
+from tankcd_cli.names import CLASS_NAMES, NO_CLASS, NO_CLASS_NAME, NO_MATCHER, PLACED_BY, STATUS
 
-COLUMNS = ("step", "t", "x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz",
-           "region", "matcher", "penetration", "gap", "status")
 REGION_NAMES = {**dict(enumerate(CLASS_NAMES)), NO_CLASS: NO_CLASS_NAME}
 
 
@@ -22,7 +22,7 @@ _ROW_NO_MEASURE = "%d,%.6f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.8f,%.8f,%.8f,%.8f,%s,
 
 
 _DECIMALS = np.array([0, 6, 4, 4, 4, 5, 5, 5, 8, 8, 8, 8, 4, 4])
-REGION_LABELS = CLASS_NAMES + (NO_CLASS_NAME,)
+_NUMBERS = ("t", "x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg", "qw", "qx", "qy", "qz", "penetration", "gap")
 # output columns in COLUMNS order: (0, j) is number j, (1, j) label column j (region, matcher, status)
 _LAYOUT = np.array([(0, j) for j in range(12)] + [(1, 0), (1, 1), (0, 12), (0, 13), (1, 2)])
 
@@ -33,21 +33,11 @@ def format_rows(step, t, poses, matcher_names, status_names, entity=None, entity
     ``entity`` (N,) codes into ``entity_names``: the ``entity`` column after ``step``.
     ``row_ends``: an (N,) int64 array that gets each row's end in the text, in characters (entity
     names are any text: UTF-8 in a file)."""
-    from tankcd_cli.io.fixed_text import table_text
-
-    deg = np.degrees
-    numbers = np.column_stack([np.asarray(step, dtype=np.float64), t, poses.position, deg(poses.roll),
-                               deg(poses.pitch), deg(poses.yaw), poses.quaternion, poses.penetration, poses.gap])
-    posed = np.isfinite(numbers[:, 1:12]).all(axis=1)
-    numbers[~posed] = np.where(np.isin(np.arange(14), [0, 1, 2, 3, 7]), numbers[~posed], np.nan)
-    numbers[~np.isfinite(numbers[:, 12:14]).all(axis=1), 12:14] = np.nan
-    region = np.asarray(poses.region, dtype=np.int64)
-    status = np.asarray(poses.status, dtype=np.int64)
-    # a row without a pose was placed by no matcher
-    matcher = np.where(status == status_names.index("off"), len(matcher_names), np.asarray(poses.matcher, dtype=np.int64))
-    labels = [*REGION_LABELS, *matcher_names, NO_MATCHER, *status_names]
-    columns = [np.where((region >= 0) & (region < 3), region, 3), len(REGION_LABELS) + matcher,
-               len(REGION_LABELS) + len(matcher_names) + 1 + status]
+    table = pose_table(step, t, poses, matcher_names, status_names)  # the cells (``io.pose_table``)
+    numbers = np.column_stack([table.step.astype(np.float64)] + [table.numbers[c] for c in _NUMBERS])
+    labels = [*table.labels["region"], *table.labels["matcher"], *table.labels["status"]]
+    columns = [table.codes["region"], len(table.labels["region"]) + table.codes["matcher"],
+               len(table.labels["region"]) + len(table.labels["matcher"]) + table.codes["status"]]
     layout = _LAYOUT
     if entity is not None:
         columns.append(len(labels) + np.asarray(entity, dtype=np.int64))
@@ -151,33 +141,19 @@ def _trajectory_hint(header: list, missing: list) -> str:
 
 
 def pose_columns(step, t, poses, entity_names=None) -> dict:
-    """The poses CSV's columns of a chunk as plain arrays (N,) each, keyed by ``COLUMNS``: numbers
-    at full precision (NaN where the CSV leaves a cell empty: no pose, or not measured), and
-    region, matcher and status as their names (str arrays). ``poses`` None gives empty columns.
-    ``entity_names`` (N,) str: an ``entity`` column after ``step``."""
-    from tankcd_cli.names import NO_MATCHER, PLACED_BY, STATUS
-
+    """The poses CSV's columns of a chunk as plain arrays (N,) each, keyed by ``COLUMNS``: the pose
+    table's cells (``io.pose_table``) at full precision (NaN where the CSV leaves a cell empty: no
+    pose, or not measured), and region, matcher and status as their names (str arrays). ``poses``
+    None gives empty columns. ``entity_names`` (N,) str: an ``entity`` column after ``step``."""
     if poses is None:
         empty = {c: np.zeros(0) for c in COLUMNS}
         empty["step"] = np.zeros(0, dtype=np.int64)
         for c in ("region", "matcher", "status"):
             empty[c] = np.zeros(0, dtype=str)
         return empty
-    step = np.asarray(step, dtype=np.int64)
-    pos = np.asarray(poses.position, dtype=np.float64)
-    q = np.asarray(poses.quaternion, dtype=np.float64)
-    out = {"step": step, "t": np.asarray(t, dtype=np.float64), "x": pos[:, 0].copy(), "y": pos[:, 1].copy(),
-           "z": pos[:, 2].copy(), "roll_deg": np.degrees(poses.roll), "pitch_deg": np.degrees(poses.pitch),
-           "yaw_deg": np.degrees(poses.yaw), "qw": q[:, 0].copy(), "qx": q[:, 1].copy(), "qy": q[:, 2].copy(),
-           "qz": q[:, 3].copy()}
-    region = np.asarray(poses.region, dtype=np.int64)
-    status = np.asarray(poses.status, dtype=np.int64)
-    out["region"] = np.array(REGION_LABELS)[np.where((region >= 0) & (region < 3), region, 3)]
-    names = np.array([*PLACED_BY, NO_MATCHER])
-    out["matcher"] = names[np.where(status == STATUS.index("off"), len(PLACED_BY), np.asarray(poses.matcher))]
-    out["penetration"] = np.asarray(poses.penetration, dtype=np.float64).copy()
-    out["gap"] = np.asarray(poses.gap, dtype=np.float64).copy()
-    out["status"] = np.array(STATUS)[status]
+    table = pose_table(step, t, poses, PLACED_BY, STATUS)
+    out = {c: table.step if c == "step" else table.named(c) if c in table.codes else table.numbers[c]
+           for c in COLUMNS}
     if entity_names is not None:
         out = {"step": out.pop("step"), "entity": np.asarray(entity_names, dtype=str), **out}
     return out

@@ -1,14 +1,11 @@
 """Replay fleets of trajectories: in parallel processes on one machine, or on a Dask cluster.
 
-The world (terrain surface, vehicle, scene, obstacle trees) is loaded once per
-process, never shipped with a task: a task is three strings (trajectory,
-poses path, events path) plus the world's description. On one machine the
-parent loads the world and forks its workers, which share its arrays
-copy-on-write (read-only: no page is copied); on a cluster every worker loads
-the world from the shared path once and keeps it for all its tasks.
+The tasks run where ``replay.executor`` runs them (the world loaded once per process, never
+shipped with a task: a task is three strings, trajectory, poses path, events path, plus the
+world's description, ``TaskWorld``).
 
-Outputs are written atomically, one poses and one events file per trajectory (CSV and JSON
-Lines, or both Parquet: ``OUT_FORMATS``),
+Outputs are written atomically, one poses and one events file per trajectory (in one of
+``replay.outputs.OUTPUT_FORMATS``: CSV and JSON Lines, or both Parquet),
 so a task that dies (worker lost, killed) leaves no partial file, and the
 retry writes the whole file again: no row is lost or written twice.
 """
@@ -18,32 +15,18 @@ from __future__ import annotations
 import glob
 import json
 import os
-import threading
 import time
 import dataclasses
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Callable
 
-from tankcd_cli.errors import InputError
-from tankcd_cli.replay.records import KINDS, ReplayOptions
-from tankcd_cli.replay.world import WorldSpec
-
-
-# a fleet's output formats: the suffixes of NAME.poses and NAME.events
-OUT_FORMATS = {"csv": (".poses.csv", ".events.jsonl"), "parquet": (".poses.parquet", ".events.parquet")}
-
-
-@dataclass(frozen=True)
-class FleetWorld:
-    """What every task of a fleet replays against, as text (it travels to the workers): the world's
-    spec and the replay's options."""
-
-    spec: WorldSpec
-    options: ReplayOptions = ReplayOptions()
-
-    def describe(self) -> dict:
-        """fleet.json's ``world``: the spec's fields and the options'."""
-        return {**asdict(self.spec), **{k: v for k, v in asdict(self.options).items() if k != "chunk_rows"}}
+from tankcd_cli.errors import InputError, warn
+from tankcd_cli.io.atomic import atomic_path
+from tankcd_cli.io.trajectory import has_entity_column, split_trajectory
+from tankcd_cli.replay.executor import Executor, TaskWorld, load_world_once, worker_threads
+from tankcd_cli.replay.outputs import OUTPUT_FORMATS, output_format
+from tankcd_cli.replay.records import KINDS, ReplayOutputs
+from tankcd_cli.replay.run import joined_summary, run_replay
 
 
 @dataclass(frozen=True)
@@ -59,14 +42,29 @@ class Task:
     whole_events: str | None = None
 
 
+def is_listing(item: str) -> bool:
+    """Whether a trajectory argument is a list file (``@runs.txt``), not a file of that name."""
+    return item.startswith("@") and not os.path.exists(item)
+
+
+def is_pattern(item: str) -> bool:
+    """Whether a trajectory argument is a glob (``runs/*.csv``), not a file of that name."""
+    return any(ch in item for ch in "*?[") and not os.path.exists(item)
+
+
+def names_a_fleet(items) -> bool:
+    """Whether trajectory arguments name a fleet by themselves: several, or a glob or a list file
+    (``replay_mode``'s rule; ``--out-dir`` and the rest say it too)."""
+    items = list(items)
+    return len(items) > 1 or any(is_listing(t) or is_pattern(t) for t in items)
+
+
 def expand_trajectories(items: list[str]) -> list[str]:
     """Paths, globs (``runs/*.csv``) and list files (``@runs.txt``: one path per line, relative to
     the list, ``#`` comments) into a list of trajectory paths, in the order given, without repeats."""
     out: list[str] = []
     for item in items:
-        if os.path.exists(item):  # a file whose name happens to hold * ? [ or @ is that file
-            found = [item]
-        elif item.startswith("@"):
+        if is_listing(item):  # a file whose name happens to hold * ? [ or @ is that file
             listing = item[1:]
             try:
                 with open(listing, encoding="utf-8-sig") as fh:
@@ -76,14 +74,12 @@ def expand_trajectories(items: list[str]) -> list[str]:
             base = os.path.dirname(os.path.abspath(listing))
             found = [os.path.join(base, ln) if not os.path.isabs(ln) else ln for ln in lines
                      if ln and not ln.startswith("#")]
-        elif any(ch in item for ch in "*?["):
+        elif is_pattern(item):
             found = sorted(glob.glob(item, recursive=True))
             if not found:
                 raise InputError(item, "the pattern matches no file")
             written = [p for p in found if written_by_tankcd(p)]
             if written:
-                from tankcd_cli.errors import warn
-
                 warn(item, f"skipped {len(written)} file{'s' if len(written) > 1 else ''} tankcd wrote (poses, not "
                            f"trajectories), such as {written[0]}")
                 found = [p for p in found if p not in written]
@@ -144,9 +140,9 @@ def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = 
     (read on their own, joined in order when all are done), so that one huge log can use many
     workers.
     """
-    if out_format not in OUT_FORMATS:
-        raise ValueError(f"unknown output format {out_format!r}; choose one of {', '.join(OUT_FORMATS)}")
-    poses_suffix, events_suffix = OUT_FORMATS[out_format]
+    if out_format not in OUTPUT_FORMATS:
+        raise ValueError(f"unknown output format {out_format!r}; choose one of {', '.join(OUTPUT_FORMATS)}")
+    poses_suffix, events_suffix = OUTPUT_FORMATS[out_format].fleet_suffixes
     stems = [os.path.splitext(os.path.basename(p))[0] for p in trajectories]
     tasks = []
     for path, stem in zip(trajectories, stems):
@@ -166,8 +162,6 @@ def plan_tasks(trajectories: list[str], out_dir: str, split_lines: int | None = 
 
 
 def _split(task: Task, split_lines: int) -> list[Task]:
-    from tankcd_cli.io.trajectory import has_entity_column, split_trajectory
-
     try:
         big = os.path.getsize(task.trajectory) > split_lines * 16  # no row is shorter than "t,x,y,yaw" + digits
     except OSError:
@@ -183,27 +177,11 @@ def _split(task: Task, split_lines: int) -> list[Task]:
     if len(parts) < 2:
         return [task]
     folder = os.path.join(os.path.dirname(task.poses), ".parts")
-    poses_suffix, events_suffix = next(s for s in OUT_FORMATS.values() if task.poses.endswith(s[0]))
+    poses_suffix, events_suffix = output_format(task.poses).fleet_suffixes
     stem = os.path.basename(task.poses)[: -len(poses_suffix)]
     return [Task(task.trajectory, os.path.join(folder, f"{stem}.{k:05d}{poses_suffix}"),
                  os.path.join(folder, f"{stem}.{k:05d}{events_suffix}"), part, task.poses, task.events)
             for k, part in enumerate(parts)]
-
-
-# --- the per-process world ----------------------------------------------------------------
-
-_LOADED: dict = {}  # WorldSpec -> World: one per process, loaded on first use
-_LOADING = threading.Lock()  # a Dask worker runs tasks in threads: one of them loads, the others wait
-
-
-def load_world_once(spec: WorldSpec, progress: Callable[[str], None] | None = None):
-    """The world of ``spec``, loaded once per process (a new spec replaces the old one)."""
-    with _LOADING:
-        if spec not in _LOADED:
-            world = spec.load(progress)
-            _LOADED.clear()
-            _LOADED[spec] = world
-        return _LOADED[spec]
 
 
 @dataclass
@@ -243,18 +221,15 @@ class TaskResult:
         return out
 
 
-def run_task(world: FleetWorld, task: Task, kernel_threads: int | None = None) -> TaskResult:
+def run_task(world: TaskWorld, task: Task, kernel_threads: int | None = None) -> TaskResult:
     """Replay one trajectory of the fleet (``replay.run.run_replay``); never raises: a failure is
     reported in the result.
 
     kernel_threads : threads for the compiled kernels of this task (OpenMP's setting is per calling
     thread, and a Dask worker runs tasks in its own threads); None keeps the process's setting.
     """
-    from tankcd_cli.replay.records import ReplayOutputs
-    from tankcd_cli.replay.run import run_replay
-
     if kernel_threads is not None:
-        _worker_threads(kernel_threads)
+        worker_threads(kernel_threads)
     start = time.perf_counter()
     result = TaskResult(task.trajectory, task.poses, task.events, pid=os.getpid())
     try:
@@ -326,27 +301,23 @@ class FleetSummary:
 
 # --- fan-out ------------------------------------------------------------------------------
 
-def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: str | None = None,
+def run_fleet(world: TaskWorld, tasks: list[Task], jobs: int = 1, scheduler: str | None = None,
               progress: Callable[[str], None] | None = None,
               on_result: Callable[[TaskResult], None] | None = None) -> FleetSummary:
     """Run every task (in-process, in ``jobs`` forked processes, or on the Dask cluster at
-    ``scheduler``) and return the fleet summary."""
+    ``scheduler``: ``replay.executor``) and return the fleet summary."""
     start = time.perf_counter()
-    say = progress or (lambda s: None)
     done = on_result or (lambda r: None)
     results = []
-    if scheduler:
-        results = _on_dask(world, tasks, scheduler, say, done)
-        how = f"dask at {scheduler}"
-    elif jobs <= 1 or len(tasks) == 1:
-        load_world_once(world.spec, say)
-        for task in tasks:
-            results.append(run_task(world, task))
-            done(results[-1])
-        how = "1 process"
-    else:
-        results = _on_processes(world, tasks, jobs, say, done)
-        how = f"{jobs} processes"
+
+    def consume(result: TaskResult) -> None:
+        results.append(result)
+        done(result)
+
+    executor = Executor(jobs=1 if len(tasks) == 1 else jobs, scheduler=scheduler)
+    executor.run(run_task, world, tasks, consume, lost=_lost,
+                 key=lambda t, k: f"tankcd-{os.path.basename(t.poses)}-{k}", say=progress)
+    how = executor.ran_on
     results = _join_parts(tasks, results)
     order = {path: k for k, path in enumerate(dict.fromkeys(t.trajectory for t in tasks))}
     results.sort(key=lambda r: order[r.trajectory])
@@ -355,8 +326,6 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
     rows = sum(r.summary.rows for r in ok)
     warnings = list(dict.fromkeys(w for r in ok for w in r.summary.warnings))
     if scheduler:  # said on the workers, where no one reads them: here, each once
-        from tankcd_cli.errors import warn
-
         for line in warnings:
             warn(None, line)
     seconds = time.perf_counter() - start
@@ -375,9 +344,6 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
 def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult]:
     """Join the parts of split trajectories, in order, into their whole outputs (atomically), after
     checking that time does not go back across a cut; one result per trajectory."""
-    from tankcd_cli.io.atomic import atomic_path, committed_together
-    from tankcd_cli.io.parquet import is_parquet, join_files
-
     by_poses = {r.poses: r for r in results}
     part_outputs = {t.poses for t in tasks if t.part is not None}
     whole = [r for r in results if r.poses not in part_outputs]
@@ -405,18 +371,8 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
                             pid=sorted({r.pid for r in rs if r.pid is not None}))
         try:
             if error is None:
-                if is_parquet(target):  # the parts' row groups, in order (their schema is one)
-                    sources = _whole_trajectory_sources(parts[0].poses)
-                    with committed_together():
-                        join_files(target, [t.poses for t in parts], sources)
-                        join_files(first.whole_events, [t.events for t in parts], sources)
-                else:
-                    with committed_together(), atomic_path(target, ".csv") as tmp_poses, \
-                            atomic_path(first.whole_events, ".jsonl") as tmp_events:
-                        for k, t in enumerate(parts):
-                            _append(tmp_poses, t.poses, skip_header=k > 0)
-                            _append(tmp_events, t.events, skip_header=False)
-                joined.summary = _joined_summary([r.summary for r in rs])
+                output_format(target).join(target, first.whole_events, [(t.poses, t.events) for t in parts])
+                joined.summary = joined_summary([r.summary for r in rs])
                 joined.first_line, joined.t_first, joined.t_last = rs[0].first_line, rs[0].t_first, rs[-1].t_last
             else:
                 joined.status, joined.error, joined.traceback = status, error, trace
@@ -436,74 +392,6 @@ def _join_parts(tasks: list[Task], results: list[TaskResult]) -> list[TaskResult
     return whole
 
 
-def _whole_trajectory_sources(part_output: str) -> dict:
-    """A joined Parquet output's ``tankcd.sources``: the part's, the trajectory's SHA-256 added (a
-    part does not hash the whole file it reads a part of: the join hashes it once)."""
-    from tankcd_cli.io.parquet import file_metadata, sha256_of
-
-    sources = json.loads(file_metadata(part_output).get("tankcd.sources", "[]"))
-    for source in sources:
-        if source.get("role") == "trajectory" and "sha256" not in source:
-            source["sha256"] = sha256_of(source["path"])
-    return {"tankcd.sources": json.dumps(sources)}
-
-
-def _joined_summary(summaries: list):
-    """One summary of a trajectory's parts, built from their counts summed as a run in one piece
-    builds its own (``replay.run.summary_of``): seconds and the checks between rows summed, the
-    warnings of all (each once), the rest as the first part's."""
-    from tankcd_cli.replay.records import ReplayCounts
-    from tankcd_cli.replay.run import summary_of
-
-    first = summaries[0]
-    counts = ReplayCounts()
-    for s in summaries:
-        counts.merge(ReplayCounts.of_summary(s))
-    motion = dict(first.motion)
-    for key in ("intervals", "substeps"):
-        if key in motion:
-            motion[key] = sum(s.motion.get(key, 0) for s in summaries)
-    by_effect = {k: sum(s.seconds_by_effect.get(k, 0.0) for s in summaries) for k in first.seconds_by_effect}
-    built = summary_of(counts, first.mode == "continuous", first.effects, by_effect,
-                       sum(s.seconds for s in summaries), motion, first.entities)
-    summed = ("rows", "collisions", "off_terrain", "matchers", "seconds", "seconds_by_effect", "between", "motion",
-              "vehicle_contacts")
-    return dataclasses.replace(first, **{k: getattr(built, k) for k in summed},
-                               warnings=list(dict.fromkeys(w for s in summaries for w in s.warnings)))
-
-
-def _append(target: str, source: str, skip_header: bool) -> None:
-    import shutil
-
-    with open(source, "rb") as src, open(target, "ab") as dst:
-        if skip_header:
-            src.readline()
-        shutil.copyfileobj(src, dst, 1 << 20)
-
-
-def _on_processes(world, tasks, jobs, say, done):
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    # the parent loads the world with numpy only (no compiled kernel has started threads yet),
-    # then forks: the workers see the same arrays, shared copy-on-write and never written
-    load_world_once(world.spec, say)
-    context = multiprocessing.get_context("fork")
-    results = []
-    threads = max(1, (os.cpu_count() or 1) // jobs)
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_worker_threads,
-                             initargs=(threads,)) as pool:
-        futures = {pool.submit(run_task, world, t): t for t in tasks}
-        for fut in as_completed(futures):
-            try:
-                result = fut.result()
-            except Exception as exc:  # noqa: BLE001 - a worker process died (killed, out of memory)
-                result = _lost(futures[fut], exc)
-            results.append(result)
-            done(result)
-    return results
-
-
 def _lost(task: Task, exc: BaseException) -> TaskResult:
     """The result of a task whose worker died under it."""
     import traceback
@@ -513,45 +401,8 @@ def _lost(task: Task, exc: BaseException) -> TaskResult:
                       traceback="".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
 
 
-def _worker_threads(threads: int) -> None:
-    """Each of N workers gets cores / N compiled-kernel threads: no oversubscription."""
-    from tankcd_cli.threads import set_num_threads
-
-    set_num_threads(threads)
-
-
-def _on_dask(world, tasks, scheduler, say, done):
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
-    say(f"connecting to the Dask scheduler at {scheduler}")
-    try:
-        client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as exc:
-        raise InputError(scheduler, f"cannot reach the Dask scheduler: {exc}") from None
-    results = []
-    with client:
-        # a task is a few strings; the world is loaded by each worker from the shared path, once;
-        # a worker lost mid-task has its tasks run again elsewhere (atomic outputs: no partial file)
-        # one task per worker thread and one kernel thread per task: a cluster runs a worker thread per core
-        futures = client.map(run_task, [world] * len(tasks), tasks, [1] * len(tasks), pure=False, retries=2,
-                             key=[f"tankcd-{os.path.basename(t.poses)}-{k}-{time.time_ns()}" for k, t in enumerate(tasks)])
-        task_of = dict(zip(futures, tasks))
-        for fut in as_completed(futures):
-            try:
-                result = fut.result()
-            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the task failed on every worker tried
-                result = _lost(task_of[fut], exc)
-            results.append(result)
-            done(result)
-    return results
-
-
 def write_summary(path: str, fleet: FleetSummary) -> None:
     """fleet.json, written atomically."""
-    from tankcd_cli.io.atomic import atomic_path
-
     with atomic_path(path, ".json") as tmp:
         with open(tmp, "w") as fh:
             json.dump(fleet.as_dict(), fh, indent=2, default=str)

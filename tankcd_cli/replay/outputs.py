@@ -1,16 +1,36 @@
-"""Where a replay's poses and events go, chosen by each output's name: the poses CSV and the events
-JSON Lines (``-``: standard output), or Parquet for a name ending in ``.parquet`` (``io.parquet``:
-typed columns, a row group per batch, the CRS, conventions and sources in the file's metadata).
+"""Where a replay's poses and events go, chosen by each output's name (``OUTPUT_FORMATS``, by
+suffix: ``output_format``): the poses CSV and the events JSON Lines (any other name; ``-``:
+standard output), or Parquet for a name ending in ``.parquet`` (``io.parquet``: typed columns, a
+row group per batch, the CRS, conventions and sources in the file's metadata).
 
-``replay_outputs`` opens both under temporary names and renames them into place together when the
-block completes (``io.atomic.committed_together``): an error or a signal leaves neither.
+A format is a pair of writers (poses, events), each ``write`` per batch and ``finish`` after the
+last, and how a fleet joins the parts of a trajectory it split. ``replay_outputs`` opens both
+under temporary names and renames them into place together when the block completes
+(``io.atomic.committed_together``): an error or a signal leaves neither.
 """
 
 from __future__ import annotations
 
 import contextlib
-from typing import Callable, Iterator
+import json
+import shutil
+from dataclasses import dataclass
+from typing import Callable, Iterator, Sequence
 
+from tankcd_cli.io.atomic import atomic_path, committed_together, output_text
+from tankcd_cli.io.events import event_line
+from tankcd_cli.io.parquet import (
+    Coded,
+    EventsParquetWriter,
+    PosesParquetWriter,
+    file_metadata,
+    join_files,
+    output_metadata,
+    pyarrow_modules,
+    sha256_of,
+)
+from tankcd_cli.io import poses_csv
+from tankcd_cli.names import PLACED_BY, STATUS
 from tankcd_cli.replay.records import ReplayOutputs
 
 # events are few against poses: a row group holds this many, not one chunk's handful
@@ -25,22 +45,22 @@ class PosesText:
         self.fh = fh
         self.headed = False
 
-    def write(self, chunk, poses) -> None:
-        from tankcd_cli.io.poses_csv import format_rows, header
-        from tankcd_cli.matching.match import PLACED_BY, STATUS
+    @staticmethod
+    def open(stack: contextlib.ExitStack, path: str | None, entity: bool, metadata: Callable[[], dict]):
+        fh = stack.enter_context(output_text(path, ".csv", newline=""))
+        return PosesText(fh) if fh is not None else None
 
+    def write(self, chunk, poses) -> None:
         if not self.headed:
-            self.fh.write(header(entity=chunk.has_entity))
+            self.fh.write(poses_csv.header(entity=chunk.has_entity))
             self.headed = True
         entity = chunk.entity if chunk.has_entity else None
-        self.fh.write(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names))
+        self.fh.write(poses_csv.format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names))
         self.fh.flush()
 
     def finish(self) -> None:
-        from tankcd_cli.io.poses_csv import header
-
         if not self.headed:  # no rows: the header alone
-            self.fh.write(header())
+            self.fh.write(poses_csv.header())
             self.headed = True
 
 
@@ -51,10 +71,11 @@ class PosesParquet:
     def __init__(self, writer):
         self.writer = writer
 
-    def write(self, chunk, poses) -> None:
-        from tankcd_cli.io.parquet import Coded
-        from tankcd_cli.matching.match import PLACED_BY, STATUS
+    @staticmethod
+    def open(stack: contextlib.ExitStack, path: str | None, entity: bool, metadata: Callable[[], dict]):
+        return PosesParquet(stack.enter_context(PosesParquetWriter(path, metadata(), entity=entity)))
 
+    def write(self, chunk, poses) -> None:
         entity = Coded(chunk.entity, list(chunk.entity_names)) if chunk.has_entity else None
         self.writer.write_chunk(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity)
 
@@ -68,9 +89,12 @@ class EventsText:
     def __init__(self, fh):
         self.fh = fh
 
-    def write(self, events) -> None:
-        from tankcd_cli.io.events import event_line
+    @staticmethod
+    def open(stack: contextlib.ExitStack, path: str | None, entity: bool, metadata: Callable[[], dict]):
+        fh = stack.enter_context(output_text(path, ".jsonl"))
+        return EventsText(fh) if fh is not None else None
 
+    def write(self, events) -> None:
         if events:
             self.fh.write("".join(event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra) for e in events))
 
@@ -85,6 +109,10 @@ class EventsParquet:
         self.writer = writer
         self.pending: list = []
 
+    @staticmethod
+    def open(stack: contextlib.ExitStack, path: str | None, entity: bool, metadata: Callable[[], dict]):
+        return EventsParquet(stack.enter_context(EventsParquetWriter(path, metadata())))
+
     def write(self, events) -> None:
         self.pending.extend(events)
         if len(self.pending) >= EVENT_ROWS_PER_GROUP:
@@ -98,6 +126,83 @@ class EventsParquet:
         self._flush()
 
 
+def _join_text(poses: str, events: str, parts: Sequence[tuple[str, str]]) -> None:
+    """The parts' poses CSVs (one header) and events JSON Lines, in order, into ``poses`` and ``events``."""
+    with committed_together(), atomic_path(poses, ".csv") as tmp_poses, atomic_path(events, ".jsonl") as tmp_events:
+        for k, (part_poses, part_events) in enumerate(parts):
+            _append(tmp_poses, part_poses, skip_header=k > 0)
+            _append(tmp_events, part_events, skip_header=False)
+
+
+def _append(target: str, source: str, skip_header: bool) -> None:
+    with open(source, "rb") as src, open(target, "ab") as dst:
+        if skip_header:
+            src.readline()
+        shutil.copyfileobj(src, dst, 1 << 20)
+
+
+def _join_parquet(poses: str, events: str, parts: Sequence[tuple[str, str]]) -> None:
+    """The parts' row groups, in order (their schema is one), into ``poses`` and ``events``; the
+    trajectory's SHA-256 added to the sources (a part does not hash the whole file it reads a part
+    of: the join hashes it once)."""
+    sources = json.loads(file_metadata(parts[0][0]).get("tankcd.sources", "[]"))
+    for source in sources:
+        if source.get("role") == "trajectory" and "sha256" not in source:
+            source["sha256"] = sha256_of(source["path"])
+    meta = {"tankcd.sources": json.dumps(sources)}
+    with committed_together():
+        join_files(poses, [p for p, _ in parts], meta)
+        join_files(events, [e for _, e in parts], meta)
+
+
+def _needs_nothing(path: str | None) -> None:
+    pass
+
+
+@dataclass(frozen=True)
+class OutputFormat:
+    """One output format: the name's ending that asks for it (None: any other name), its writers
+    (``open(stack, path, entity, metadata)`` -> a writer with ``write`` and ``finish``, or None for
+    no output), a fleet's NAME.poses and NAME.events suffixes, how a fleet joins a split
+    trajectory's parts (``join(poses, events, [(part poses, part events), ...])``), and ``check(path)``
+    raising an ``InputError`` before any work when what it needs is not installed."""
+
+    name: str
+    suffix: str | None
+    poses: Callable
+    events: Callable
+    fleet_suffixes: tuple[str, str]
+    join: Callable[[str, str, Sequence[tuple[str, str]]], None]
+    check: Callable[[str | None], None] = _needs_nothing
+
+
+# by name (a fleet's --out-format); a path's is found by its suffix (``output_format``)
+OUTPUT_FORMATS = {
+    "csv": OutputFormat("csv", None, PosesText.open, EventsText.open, (".poses.csv", ".events.jsonl"), _join_text),
+    "parquet": OutputFormat("parquet", ".parquet", PosesParquet.open, EventsParquet.open,
+                            (".poses.parquet", ".events.parquet"), _join_parquet, pyarrow_modules),
+}
+DEFAULT_FORMAT = "csv"
+
+
+def output_format(path: str | None) -> OutputFormat:
+    """The format an output's name asks for: the one whose suffix it ends in (any case), else CSV
+    and JSON Lines (``-``, standard output, included)."""
+    name = str(path).lower() if path else ""
+    for fmt in OUTPUT_FORMATS.values():
+        if fmt.suffix is not None and name.endswith(fmt.suffix):
+            return fmt
+    return OUTPUT_FORMATS[DEFAULT_FORMAT]
+
+
+def check_writable(*paths: str | None) -> None:
+    """An ``InputError`` for the first output whose format cannot be written here (Parquet without
+    pyarrow): called before any work, so that a run that cannot write its output does not start."""
+    for path in paths:
+        if path:
+            output_format(path).check(path)
+
+
 @contextlib.contextmanager
 def replay_outputs(outputs: ReplayOutputs, entity: bool, metadata: Callable[[], dict]) -> Iterator[tuple]:
     """(poses, events) writers for a replay (each None where ``outputs`` says none): ``write`` per
@@ -106,28 +211,18 @@ def replay_outputs(outputs: ReplayOutputs, entity: bool, metadata: Callable[[], 
     Parquet schema has the column); ``metadata()``: the Parquet files' key-value metadata, asked
     for once and only when one is written (it hashes the sources), ``tankcd.table`` added to it
     (``poses`` or ``events``)."""
-    from tankcd_cli.io.atomic import committed_together, output_text
-    from tankcd_cli.io.parquet import EventsParquetWriter, PosesParquetWriter, is_parquet
-
     known: list = []
 
-    def metadata_of(table: str) -> dict:
-        if not known:
-            known.append(metadata())
-        return {**known[0], "tankcd.table": table}
+    def metadata_of(table: str) -> Callable[[], dict]:
+        def made() -> dict:
+            if not known:
+                known.append(metadata())
+            return {**known[0], "tankcd.table": table}
+        return made
 
     with committed_together(), contextlib.ExitStack() as stack:
-        if is_parquet(outputs.poses):
-            poses = PosesParquet(stack.enter_context(PosesParquetWriter(outputs.poses, metadata_of("poses"),
-                                                                        entity=entity)))
-        else:
-            fh = stack.enter_context(output_text(outputs.poses, ".csv", newline=""))
-            poses = PosesText(fh) if fh is not None else None
-        if is_parquet(outputs.events):
-            events = EventsParquet(stack.enter_context(EventsParquetWriter(outputs.events, metadata_of("events"))))
-        else:
-            fh = stack.enter_context(output_text(outputs.events, ".jsonl"))
-            events = EventsText(fh) if fh is not None else None
+        poses = output_format(outputs.poses).poses(stack, outputs.poses, entity, metadata_of("poses"))
+        events = output_format(outputs.events).events(stack, outputs.events, entity, metadata_of("events"))
         yield poses, events
 
 
@@ -145,8 +240,6 @@ def replay_metadata(world, trajectories, options, hash_trajectories: bool = True
       its own record of what it was classified from (``source``, ``source_sha256``) stands for
       it; a DEM or mesh classified for this replay has its own SHA-256 (computed when it was read).
     """
-    from tankcd_cli.io.parquet import output_metadata, sha256_of
-
     sources = [{"role": "trajectory", "path": p, **({"sha256": sha256_of(p)} if hash_trajectories else {})}
                for p in trajectories if p and p != "-"]
     scene = world.scene

@@ -151,6 +151,41 @@ class ReplayCounts:
 
 
 @dataclass
+class ReplayTally:
+    """What a replay, or a piece of one (a time window, a part of a fleet's trajectory), counted
+    and measured: its ``counts``, which ``effects`` ran, each stage's seconds (``seconds_by_effect``)
+    and the checks between rows (``motion``: ``intervals`` and ``substeps`` beside the
+    resolution's keys; empty for a discrete replay). Pieces merge into the whole's tally, from
+    which ``replay.run.summary_of`` builds the one summary."""
+
+    counts: ReplayCounts = field(default_factory=ReplayCounts)
+    effects: dict = field(default_factory=dict)
+    seconds_by_effect: dict = field(default_factory=dict)
+    motion: dict = field(default_factory=dict)
+
+    def merge(self, other: "ReplayTally") -> None:
+        """Add another piece: counts, seconds, intervals and sub-steps summed, an effect that ran in
+        either ran, the resolution the first piece's that has one."""
+        self.counts.merge(other.counts)
+        for k, v in other.effects.items():
+            self.effects[k] = self.effects.get(k, False) or v
+        for k, v in other.seconds_by_effect.items():
+            self.seconds_by_effect[k] = self.seconds_by_effect.get(k, 0.0) + v
+        if not self.motion:
+            self.motion = dict(other.motion)
+        else:
+            for key in ("intervals", "substeps"):
+                if key in other.motion:
+                    self.motion[key] = self.motion.get(key, 0) + other.motion[key]
+
+    @staticmethod
+    def of_summary(summary: "ReplaySummary") -> "ReplayTally":
+        """The tally a summary was built of (its counts as ``ReplayCounts.of_summary`` reads them)."""
+        return ReplayTally(ReplayCounts.of_summary(summary), dict(summary.effects), dict(summary.seconds_by_effect),
+                           dict(summary.motion))
+
+
+@dataclass
 class ReplaySummary:
     """A replay's closing summary (docs/formats.md, "Replay summary").
 

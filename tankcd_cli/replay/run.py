@@ -3,13 +3,24 @@ the entry point the command line, fleets (local and Dask), the demo and the Pyth
 
 from __future__ import annotations
 
+import dataclasses
+import os
 import time
+import warnings
 from typing import Callable, Iterable
 
 import numpy as np
 
-from tankcd_cli.replay.pipeline import ReplayRun
-from tankcd_cli.replay.records import KINDS, ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
+from tankcd_cli.errors import InputError, collected_warnings, warn
+from tankcd_cli.io.poses_csv import pose_columns
+from tankcd_cli.io.trajectory import TrajectoryReader, lead_row, read_trajectory, utc_text
+from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
+from tankcd_cli.replay.between_rows import resolution
+from tankcd_cli.replay.outputs import check_writable, replay_metadata, replay_outputs
+from tankcd_cli.replay.pipeline import ReplayRun, replay_chunks, start_run
+from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
+from tankcd_cli.replay.records import KINDS, ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary, ReplayTally
+from tankcd_cli.replay.vehicles import OrderCheck
 from tankcd_cli.replay.world import World
 
 
@@ -38,9 +49,6 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
     likeliest cause: other coordinates than the terrain's, local against UTM, or longitude and
     latitude given as x and y).
     """
-    from tankcd_cli.io.parquet import check_writable
-    from tankcd_cli.errors import collected_warnings
-
     check_writable(outputs.poses, outputs.events)  # before the trajectory is read
     start = time.perf_counter()
     with collected_warnings() as said:
@@ -50,10 +58,6 @@ def run_replay(world: World, trajectory, outputs: ReplayOutputs = ReplayOutputs(
 
 
 def _run(world, trajectory, outputs, options, part, progress, observe, sources, start) -> ReplaySummary:
-    from tankcd_cli.io.trajectory import lead_row, read_trajectory, utc_text
-    from tankcd_cli.replay.outputs import replay_metadata, replay_outputs
-    from tankcd_cli.replay.pipeline import start_run
-
     if isinstance(trajectory, str):
         source = trajectory
         chunks = read_trajectory(trajectory, chunk_rows=options.chunk_rows, part=part, crs=world.crs)
@@ -95,9 +99,6 @@ def write_replay(run: ReplayRun, chunks: Iterable, poses_out, events_out, counts
     """Replay the chunks, writing the poses to ``poses_out`` and the events to ``events_out``
     (``replay.outputs``' writers: CSV and JSON Lines, or Parquet; None: none, the events only
     counted); ``counts`` updated and returned."""
-    from tankcd_cli.replay.pipeline import replay_chunks
-    from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
-
     checks = ExerciseChecks(source) if run.vehicles is not None else MotionChecks(source)
     for chunk, poses, events in replay_chunks(run, _checked(chunks, checks), lead=lead):
         if poses_out is not None and chunk is not None:
@@ -123,8 +124,6 @@ def write_replay(run: ReplayRun, chunks: Iterable, poses_out, events_out, counts
 
 def _checked(chunks, checks):
     """The chunks, each shown to the motion checks on its way to the replay."""
-    from tankcd_cli.replay.plausibility import ExerciseChecks
-
     for chunk in chunks:
         checks.where = chunk.where  # what the rows' numbers count in messages: lines, track points, packets
         if isinstance(checks, ExerciseChecks):
@@ -137,8 +136,6 @@ def _checked(chunks, checks):
 def warn_if_beside(surface, counts: ReplayCounts, source: str, crs: str = "") -> None:
     """A warning when most rows are off the terrain, naming both extents (and, for x, y that look
     like longitude and latitude over a projected terrain, the lon/lat columns)."""
-    from tankcd_cli.errors import warn
-
     rows, off = counts.rows, counts.off_terrain_rows
     if rows == 0 or 2 * off <= rows:
         return
@@ -162,29 +159,42 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
     """The closing summary of a replay's counts."""
     motion = {}
     if run.continuous:
-        from tankcd_cli.replay.between_rows import resolution
-
         motion = {"intervals": run.between.intervals, "substeps": run.between.substeps, **resolution(run.surface)}
-    return summary_of(counts, run.continuous, run.effects.as_dict(), run.seconds, seconds, motion,
+    tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion)
+    return summary_of(tally, run.continuous, seconds,
                       int(run.carry.has.sum()) if run.carry is not None else (1 if counts.rows else 0))
 
 
-def summary_of(counts: ReplayCounts, continuous: bool, effects: dict, seconds_by_effect: dict, seconds: float,
-               motion: dict, entities: int) -> ReplaySummary:
-    """The closing summary of a replay's counts and what its run measured (``summarize``'s, and a
-    replay by time windows' over its tasks): ``effects`` which ran, ``seconds_by_effect`` each
-    stage's seconds, ``motion`` the checks between rows (continuous only), ``entities`` the vehicles."""
-    from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
-
+def summary_of(tally: ReplayTally, continuous: bool, seconds: float, entities: int) -> ReplaySummary:
+    """The closing summary of a replay's tally (``records.ReplayTally``: its counts, effects, each
+    stage's seconds, the checks between rows), the one way every summary is built: a run in one
+    piece's (``summarize``), a replay by time windows' over its windows' tallies merged, a split
+    trajectory's over its parts' (``joined_summary``). ``seconds`` the replay's time, ``entities``
+    its vehicles."""
+    counts = tally.counts
     return ReplaySummary(rows=counts.rows, collisions={k: counts.at_rows[k] for k in KINDS},
-                         off_terrain=counts.at_rows["off_terrain"], effects=effects,
+                         off_terrain=counts.at_rows["off_terrain"], effects=dict(tally.effects),
                          matchers={**{name: int(c) for name, c in zip(PLACED_BY, counts.matcher) if c},
                                    **({NO_MATCHER: int(counts.status[OFF])} if counts.status[OFF] else {})},
                          seconds=round(seconds, 3),
-                         seconds_by_effect={k: round(v, 3) for k, v in seconds_by_effect.items()},
+                         seconds_by_effect={k: round(v, 3) for k, v in tally.seconds_by_effect.items()},
                          mode="continuous" if continuous else "discrete",
-                         between=dict(counts.between) if continuous else {}, motion=motion,
+                         between=dict(counts.between) if continuous else {},
+                         motion=dict(tally.motion) if continuous else {},
                          vehicle_contacts=counts.vehicle_contacts, entities=entities)
+
+
+def joined_summary(summaries: list) -> ReplaySummary:
+    """One summary of a trajectory's pieces (``ReplaySummary`` each, in order), built from their
+    tallies merged as a run in one piece builds its own: seconds summed, the warnings of all (each
+    once), the rest (mode, entities, time origin) as the first piece's."""
+    first = summaries[0]
+    tally = ReplayTally()
+    for s in summaries:
+        tally.merge(ReplayTally.of_summary(s))
+    built = summary_of(tally, first.mode == "continuous", sum(s.seconds for s in summaries), first.entities)
+    return dataclasses.replace(built, warnings=list(dict.fromkeys(w for s in summaries for w in s.warnings)),
+                               time_origin=first.time_origin)
 
 
 def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions()) -> tuple[dict, list]:
@@ -192,8 +202,6 @@ def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions
     CSV's columns (names for region, matcher and status; NaN where a row has no pose) and events
     a list of dicts as the events file's lines. For a trajectory that fits in memory (the Python
     API); a long one streams to files with ``run_replay``."""
-    from tankcd_cli.io.poses_csv import pose_columns
-
     parts = []
     events = []
 
@@ -215,17 +223,9 @@ def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None
     row out of order. Standard input, a pipe or a one-pass iterator cannot be read twice: False
     (their segments are spilled, correct whatever the order). A bad row or warning here is left to
     the replay's own pass, which says it where it is."""
-    import os
-    import warnings
-
-    from tankcd_cli.errors import InputError
-    from tankcd_cli.replay.vehicles import OrderCheck
-
     if isinstance(trajectory, str):
         if not os.path.isfile(trajectory):
             return False
-        from tankcd_cli.io.trajectory import TrajectoryReader
-
         # times and entities only: a geographic input's coordinates need no conversion here
         chunks = TrajectoryReader(trajectory, options.chunk_rows, part, crs, convert=False)
     else:

@@ -1,5 +1,6 @@
-"""An exercise replayed by time windows, each window a task: in this process, or on a Dask cluster
-for an exercise too big for one machine. The poses and events written are those of a local run
+"""An exercise replayed by time windows, each window a task run by ``replay.executor``: in this
+process, in forked processes (``--jobs``), or on a Dask cluster for an exercise too big for one
+machine. The poses and events written are those of a local run
 (``replay.run.run_replay``) byte for byte, because every window decides what is its own by the
 local run's own rules:
 
@@ -21,6 +22,8 @@ local run's own rules:
   continues the earlier window's (``VehicleContacts``'s own rule), so none is reported twice.
 - **Order.** Every event carries the place the local run writes it at (the chunk, then the step
   and time, or the contact window), and the results are joined in that order; the poses by step.
+  A task gives back arrays and event records; the joining writes them through the run in one
+  piece's writers (``replay.outputs``), so every output format is written by windows too.
 
 Memory: a task holds its window's rows and segments; the joining holds the results not yet
 written (the windows finished ahead of the next in order, and rows of a window that interleave
@@ -40,15 +43,30 @@ need, and the events are those of the same rows in time order.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import os
+import shutil
+import tempfile
 import time
+import warnings
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
-from tankcd_cli.errors import InputError
-from tankcd_cli.replay.records import ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary
+from tankcd_cli.errors import SetupWarning, collected_warnings, warn
+from tankcd_cli.io.trajectory import TrajectoryChunk, TrajectoryReader, split_trajectory, trajectory_format, utc_text
+from tankcd_cli.matching.match import Poses
+from tankcd_cli.replay import vehicles
+from tankcd_cli.replay.between_rows import Segments, resolution
+from tankcd_cli.replay.executor import Executor, TaskWorld, dask_client, keep_loaded, load_world_once, worker_threads
+from tankcd_cli.replay.outputs import replay_metadata, replay_outputs
+from tankcd_cli.replay.pipeline import replay_chunks, start_run
+from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
+from tankcd_cli.replay.records import ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary, ReplayTally
+from tankcd_cli.replay.run import summary_of, warn_if_beside
 
 DEFAULT_WINDOW_SECONDS = 60.0
 SPARSE_WINDOWS = 100_000  # contact windows a plan may hold beyond SPARSE_WINDOWS_PER_ROW a row
@@ -97,9 +115,6 @@ class WindowTask:
         row's step, by code; chunk_starts : each local chunk's first step
     has_turret, has_entity : the input's (as its first chunk says)
     chunk_rows : the local run's chunk; last_step : its last row's step (own or trailing)
-    pose_arrays, event_records : give the poses as arrays (``PoseTable``) and the events as
-        ``Event`` records, for a Parquet output, instead of CSV and JSON Lines text (set by
-        ``run_windows`` from the outputs' names)
     spool : (folder, where, first, last) for an input that is no CSV converted once by the planning
         pass (``_Spool``): its rows are read from the folder's arrays, its own between steps first
         and last (None: the input is read by ``parts``, or whole)
@@ -122,40 +137,12 @@ class WindowTask:
     has_entity: bool
     chunk_rows: int
     last_step: int
-    pose_arrays: bool = False
-    event_records: bool = False
     spool: tuple | None = None
 
 
 @dataclass
-class RowText:
-    """Pose rows as CSV text in one string: ``text`` (ASCII, each row ending in a newline) and each
-    row's end in it, ``ends`` (N,) int64. Rows are cut and reordered by slices of the string,
-    never one Python string a row (an exercise's windows carry millions)."""
-
-    text: str
-    ends: np.ndarray
-
-    @staticmethod
-    def of(texts: list, ends: list) -> "RowText":
-        """The rows of the chunks' texts and row ends (``io.poses_csv.format_rows``'), in order."""
-        offsets = np.cumsum([0] + [len(t) for t in texts[:-1]])
-        joined = np.concatenate([e + o for e, o in zip(ends, offsets)]) if ends else np.zeros(0, np.int64)
-        return RowText("".join(texts), joined)
-
-    def __len__(self) -> int:
-        return len(self.ends)
-
-    def take(self, lo: int, hi: int) -> "RowText":
-        """Rows lo .. hi - 1."""
-        start = int(self.ends[lo - 1]) if lo > 0 else 0
-        end = int(self.ends[hi - 1]) if hi > lo else start
-        return RowText(self.text[start:end], self.ends[lo:hi] - start)
-
-
-@dataclass
-class PoseTable:
-    """Pose rows as arrays, for a Parquet output: their times ``t`` (N,), entity codes ``entity``
+class PoseRows:
+    """Pose rows as arrays: their times ``t`` (N,), entity codes ``entity``
     (N,) (the whole input's codes; None without entities) and ``poses`` (``matching.match.Poses``,
     every field's first axis N)."""
 
@@ -164,11 +151,9 @@ class PoseTable:
     poses: object
 
     @staticmethod
-    def of(parts: list) -> "PoseTable":
+    def of(parts: list) -> "PoseRows":
         """The tables of ``parts`` one after the other."""
-        from tankcd_cli.matching.match import Poses
-
-        return PoseTable(np.concatenate([p.t for p in parts]),
+        return PoseRows(np.concatenate([p.t for p in parts]),
                          None if parts[0].entity is None else np.concatenate([p.entity for p in parts]),
                          Poses(**{f: np.concatenate([getattr(p.poses, f) for p in parts])
                                   for f in Poses.__dataclass_fields__}))
@@ -176,57 +161,35 @@ class PoseTable:
     def __len__(self) -> int:
         return len(self.t)
 
-    def index(self, idx) -> "PoseTable":
+    def index(self, idx) -> "PoseRows":
         """Rows ``idx`` (a slice or an index array)."""
-        from tankcd_cli.matching.match import Poses
-
-        return PoseTable(self.t[idx], None if self.entity is None else self.entity[idx],
+        return PoseRows(self.t[idx], None if self.entity is None else self.entity[idx],
                          Poses(**{f: getattr(self.poses, f)[idx] for f in Poses.__dataclass_fields__}))
 
-    def take(self, lo: int, hi: int) -> "PoseTable":
+    def take(self, lo: int, hi: int) -> "PoseRows":
         """Rows lo .. hi - 1."""
         return self.index(slice(lo, hi))
 
     @staticmethod
-    def merged(parts: list, order: np.ndarray) -> "PoseTable":
+    def merged(parts: list, order: np.ndarray) -> "PoseRows":
         """The rows of ``parts`` (taken as one table in turn) in ``order``."""
-        return PoseTable.of(parts).index(order)
-
-
-def merged_rows(parts: list, order: np.ndarray) -> str:
-    """The rows of ``parts`` (RowText, taken as one table in turn) in ``order``: one slice of the
-    joined buffer for each run of rows that follow one another there (tasks own stretches of
-    rows, so the runs are few)."""
-    if len(order) == 0:
-        return ""
-    buf = "".join(p.text for p in parts)
-    offsets = np.cumsum([0] + [len(p.text) for p in parts[:-1]])
-    ends = np.concatenate([p.ends + o for p, o in zip(parts, offsets)])
-    starts = np.r_[0, ends[:-1]]
-    breaks = np.flatnonzero(np.diff(order) != 1) + 1
-    firsts, lasts = np.r_[0, breaks], np.r_[breaks, len(order)] - 1
-    return "".join(buf[starts[order[a]]:ends[order[b]]] for a, b in zip(firsts.tolist(), lasts.tolist()))
+        return PoseRows.of(parts).index(order)
 
 
 @dataclass
 class WindowResult:
-    """What one window's task gives back: its own rows' steps and pose rows (``RowText``; a
-    ``PoseTable`` for a Parquet output), its events (JSON Lines text, or ``Event`` records for a
-    Parquet output; each with its place in the local run's order: ``event_keys``), its counts, and what the summary needs
-    (intervals and sub-steps of its own intervals, seconds, effects, the resolution between rows,
-    the terrain's extent and CRS); the worker's pid and the task's seconds."""
+    """What one window's task gives back: its own rows' steps and pose rows (``PoseRows``; None
+    without rows), its events (``Event`` records, each with its place in the local run's order:
+    ``event_keys``), its tally (counts, effects, seconds, and intervals and sub-steps of its own
+    intervals with the resolution between rows: what the summary is built of), the terrain's
+    extent and CRS; the worker's pid and the task's seconds."""
 
     index: int
     steps: np.ndarray
     pose_rows: object
     event_keys: list
     event_lines: list
-    counts: ReplayCounts
-    intervals: int = 0
-    substeps: int = 0
-    seconds: dict = field(default_factory=dict)
-    effects: dict = field(default_factory=dict)
-    resolution: dict = field(default_factory=dict)
+    tally: ReplayTally
     bounds: tuple = ()
     crs: str = ""
     pid: int = 0
@@ -255,8 +218,6 @@ class WindowPlan:
     def close(self) -> None:
         """Remove the rows converted for the tasks (once they have run)."""
         if self.spool is not None:
-            import shutil
-
             shutil.rmtree(self.spool, ignore_errors=True)
             self.spool = None
 
@@ -288,8 +249,6 @@ def plan_windows(trajectory: str, options: ReplayOptions = ReplayOptions(), wind
         temporary folder (under ``spool_dir``; the system's by default) that each task reads by
         its rows' range, where without it every task decodes the whole input again. ``run_windows``
         removes the folder (``WindowPlan.close``)."""
-    from tankcd_cli.errors import collected_warnings
-
     with collected_warnings() as said:
         plan = _plan(trajectory, options, window_seconds, fmt, crs, spool_dir)
     plan.warnings = list(said)
@@ -306,8 +265,6 @@ class _Spool:
               ("piece_start", np.bool_), ("entity", np.int64))
 
     def __init__(self, folder: str | None):
-        import tempfile
-
         self.folder = tempfile.mkdtemp(prefix="tankcd-windows-", dir=folder)
         self.files = {f: open(os.path.join(self.folder, f), "wb") for f, _ in self.FIELDS}
         self.rows = 0
@@ -328,8 +285,6 @@ class _Spool:
             fh.close()
 
     def remove(self) -> None:
-        import shutil
-
         self.close()
         shutil.rmtree(self.folder, ignore_errors=True)
 
@@ -347,8 +302,6 @@ def _spooled(folder: str, steps: np.ndarray) -> dict:
 
 
 def _plan(trajectory, options, window_seconds, fmt, crs=None, spool_dir=None) -> WindowPlan:
-    from tankcd_cli.io.trajectory import TrajectoryReader, trajectory_format
-
     is_csv = trajectory_format(trajectory, fmt) == "csv"
     spooled = not is_csv and crs is not None and trajectory != "-"
     reader = TrajectoryReader(trajectory, options.chunk_rows, crs=crs, fmt=fmt, convert=spooled)
@@ -366,10 +319,6 @@ def _plan(trajectory, options, window_seconds, fmt, crs=None, spool_dir=None) ->
 
 
 def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) -> WindowPlan:
-    from tankcd_cli.io.trajectory import split_trajectory
-    from tankcd_cli.replay import vehicles
-    from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
-
     width = vehicles.WINDOW
     per_task = max(1, int(round(window_seconds / width)))
     watch = vehicles.VehicleContacts(None, continuous=options.continuous)
@@ -569,15 +518,11 @@ class _Segments:
         pass
 
 
-def run_window(world, task: WindowTask, kernel_threads: int | None = None) -> WindowResult:
-    """One window's task on a worker: the world (a ``replay.fleet.FleetWorld``) loaded once per
+def run_window(world: TaskWorld, task: WindowTask, kernel_threads: int | None = None) -> WindowResult:
+    """One window's task on a worker: the world (``replay.executor.TaskWorld``) loaded once per
     process, then ``replay_window``."""
-    from tankcd_cli.replay.fleet import load_world_once
-
     if kernel_threads is not None:
-        from tankcd_cli.threads import set_num_threads
-
-        set_num_threads(kernel_threads)
+        worker_threads(kernel_threads)
     return replay_window(load_world_once(world.spec), world.options, task)
 
 
@@ -596,11 +541,6 @@ def replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResu
 def _recorded_warnings():
     """A block whose set-up warnings are recorded (one-line texts, in order) and not shown; other
     warnings are shown as before."""
-    import contextlib
-    import warnings
-
-    from tankcd_cli.errors import SetupWarning
-
     @contextlib.contextmanager
     def block():
         seen = []
@@ -620,12 +560,6 @@ def _recorded_warnings():
 
 
 def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
-    from tankcd_cli.io.events import event_line
-    from tankcd_cli.io.poses_csv import format_rows
-    from tankcd_cli.matching.match import PLACED_BY, STATUS
-    from tankcd_cli.replay.between_rows import resolution
-    from tankcd_cli.replay.pipeline import replay_chunks, start_run
-
     start = time.perf_counter()
     lead, own, trailing, fed = _read_window(world, task)
     run = start_run(world, options, task.has_turret, entities=task.has_entity)
@@ -636,29 +570,19 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
         pass
     before = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     counts = ReplayCounts()
-    steps, lines, row_ends, tables, keys, texts = [], [], [], [], [], []
+    steps, tables, keys, records = [], [], [], []
     chunk_of = _chunk_of(task.chunk_starts)
     next_step = _next_rows(*fed)
-
-    def record(e):
-        return e if task.event_records else event_line(e.step, e.t, e.kind, e.a, e.b, **e.extra)
-
     for chunk, poses, events in replay_chunks(run, own):
         if chunk is None:
             continue
-        entity = chunk.entity if chunk.has_entity else None
-        if task.pose_arrays:
-            tables.append(PoseTable(chunk.t, entity, poses))
-        else:
-            ends = np.zeros(len(chunk), np.int64)
-            lines.append(format_rows(chunk.step, chunk.t, poses, PLACED_BY, STATUS, entity, chunk.entity_names, ends))
-            row_ends.append(ends)
+        tables.append(PoseRows(chunk.t, chunk.entity if chunk.has_entity else None, poses))
         steps.append(chunk.step)
         counts.add(chunk, poses, events)
         for e in events:
             row = next_step(np.array([e.step]))[0] if e.between else e.step
             keys.append((int(chunk_of(np.array([row]))[0]), 0, int(e.step), float(e.t), task.index, len(keys)))
-            texts.append(record(e))
+            records.append(e)
     after = (run.between.intervals, run.between.substeps) if run.continuous else (0, 0)
     if trailing is not None:
         for _ in replay_chunks(run, [trailing]):
@@ -670,13 +594,13 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
         counts.add(None, None, [e for _, e in found])
         for (k, seq), e in found:
             keys.append((task.windows[k].emit, 1, task.windows[k].index, 0.0, task.index, seq))
-            texts.append(record(e))
+            records.append(e)
     lo, hi = world.surface.bounds()
-    rows = (PoseTable.of(tables) if tables else None) if task.pose_arrays else RowText.of(lines, row_ends)
-    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64), rows,
-                        keys, texts,
-                        counts, after[0] - before[0], after[1] - before[1], dict(run.seconds), run.effects.as_dict(),
-                        resolution(world.surface) if run.continuous else {},
+    motion = {"intervals": after[0] - before[0], "substeps": after[1] - before[1], **resolution(world.surface)} \
+        if run.continuous else {}
+    tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion)
+    return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64),
+                        PoseRows.of(tables) if tables else None, keys, records, tally,
                         (tuple(map(float, lo)), tuple(map(float, hi))), world.crs, os.getpid(),
                         round(time.perf_counter() - start, 3))
 
@@ -703,8 +627,6 @@ def _next_rows(steps: np.ndarray, codes: np.ndarray):
 def _read_window(world, task: WindowTask):
     """A window's rows: (lead chunk, own chunks, trailing chunk, (steps, codes) of all of them), with
     the whole input's entity codes and each entity's first row as its only piece start."""
-    from tankcd_cli.io.trajectory import TrajectoryChunk, TrajectoryReader
-
     index = {name: k for k, name in enumerate(task.names)}
     extra = np.union1d(task.lead, task.trailing)
     fields = ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg", "line", "piece_start", "entity")
@@ -769,13 +691,10 @@ def _read_window(world, task: WindowTask):
 def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of) -> list:
     """The vehicle contacts of a task's contact windows, each window run with the segments the local
     run had buffered when it closed it, in the buffer's order: ((window, order), Event) pairs."""
-    from tankcd_cli.replay.between_rows import Segments
-    from tankcd_cli.replay.vehicles import VehicleContacts
-
     kinds = np.concatenate([np.full(len(s), k, np.int64) for k, s in parts])
     seg = Segments.join([s for _, s in parts])
     arrived = chunk_of(next_step(seg.step))  # the local chunk that read the interval's later row
-    contacts = VehicleContacts(world, continuous=options.continuous)
+    contacts = vehicles.VehicleContacts(world, continuous=options.continuous)
     contacts.names = task.names
     first = task.windows[0]
 
@@ -818,12 +737,12 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
                 ) -> ReplaySummary:
     """Write the poses and events of ``plan``'s tasks, joined in the local run's order, from
     ``runner(tasks, consume)`` (which runs every task and gives each result to ``consume``, in any
-    order); returns the replay's summary.
+    order: ``window_runner``); returns the replay's summary.
 
-    The outputs are a run in one piece's (``replay.outputs.replay_outputs``): CSV and JSON Lines,
-    or Parquet for a name ending in ``.parquet``, whose metadata is ``runner.metadata(trajectory,
-    time_origin)`` (``replay.outputs.replay_metadata`` of the world the tasks run in: ``in_process`` and
-    ``on_dask`` give it). The plan's converted rows (``WindowPlan.close``) are removed after."""
+    The outputs are a run in one piece's, through its writers (``replay.outputs.replay_outputs``:
+    every format of ``OUTPUT_FORMATS``), whose Parquet metadata is ``runner.metadata(trajectory,
+    time_origin)`` (``replay.outputs.replay_metadata`` of the world the tasks run in). The plan's
+    converted rows (``WindowPlan.close``) are removed after."""
     try:
         return _run_windows(trajectory, outputs, runner, plan, options, progress)
     finally:
@@ -831,25 +750,9 @@ def run_windows(trajectory: str, outputs: ReplayOutputs, runner: Callable, plan:
 
 
 def _run_windows(trajectory, outputs, runner, plan, options, progress) -> ReplaySummary:
-    import dataclasses
-
-    from tankcd_cli.errors import collected_warnings
-    from tankcd_cli.io.parquet import is_parquet
-    from tankcd_cli.io.poses_csv import header
-    from tankcd_cli.io.trajectory import utc_text
-    from tankcd_cli.replay.outputs import PosesText, replay_outputs
-    from tankcd_cli.replay.run import warn_if_beside
-
     start = time.perf_counter()
     join = _Join(plan)
     join.chunk_rows = options.chunk_rows
-    arrays, records = is_parquet(outputs.poses), is_parquet(outputs.events)
-    tasks = plan.tasks
-    if arrays or records:
-        if getattr(runner, "metadata", None) is None:
-            raise ValueError("Parquet outputs need the runner's metadata(trajectory) (in_process and on_dask give it)")
-        tasks = [dataclasses.replace(t, pose_arrays=arrays, event_records=records) for t in tasks]
-
     origin = utc_text(plan.time_origin) if plan.time_origin is not None else None
 
     def metadata():
@@ -857,18 +760,16 @@ def _run_windows(trajectory, outputs, runner, plan, options, progress) -> Replay
 
     with collected_warnings() as said:
         with replay_outputs(outputs, plan.has_entity, metadata) as (poses_out, events_out):
-            if isinstance(poses_out, PosesText):
-                poses_out.fh.write(header(entity=plan.has_entity))
-                poses_out.headed = True
             join.poses_out, join.events_out, join.progress = poses_out, events_out, progress
-            runner(tasks, join.take)
+            runner(plan.tasks, join.take)
             join.flush_all()
             for out in (poses_out, events_out):
                 if out is not None:
                     out.finish()
         if join.extent is not None:
-            warn_if_beside(join.extent, join.counts, trajectory, join.crs)
-    summary = join.summary(options, time.perf_counter() - start)
+            warn_if_beside(join.extent, join.tally.counts, trajectory, join.crs)
+    entities = plan.entities if options.continuous else (1 if join.tally.counts.rows else 0)
+    summary = summary_of(join.tally, options.continuous, time.perf_counter() - start, entities)
     summary.warnings = list(dict.fromkeys(plan.warnings + list(said)))
     summary.time_origin = origin
     return summary
@@ -886,22 +787,16 @@ class _Join:
         self.chunk_after = np.r_[np.minimum.accumulate(plan.min_chunk[::-1])[::-1][1:], big] if n else np.zeros(0)
         self.waiting: dict = {}
         self.next = 0
-        self.rows = []  # (steps, RowText) not yet written
-        self.events = []  # (key, line) not yet written
-        self.counts = ReplayCounts()
-        self.intervals = self.substeps = 0
-        self.seconds: dict = {}
-        self.effects: dict = {}
-        self.resolution: dict = {}
+        self.rows = []  # (steps, PoseRows) not yet written
+        self.events = []  # (key, Event) not yet written
+        self.tally = ReplayTally()
         self.extent = None
         self.crs = ""
         self.poses_out = self.events_out = self.progress = None
-        self.chunk_rows = 65536  # a Parquet row group's rows (the local run's chunk)
+        self.chunk_rows = 65536  # the rows handed to the poses writer at a time (the local run's chunk)
         self.said = set(plan.warnings)  # warnings said already: the plan's, then the tasks' as they come
 
     def take(self, result: WindowResult) -> None:
-        from tankcd_cli.errors import warn
-
         for line in result.warnings:  # each once, whichever task and process raised it
             if line not in self.said:
                 self.said.add(line)
@@ -913,17 +808,10 @@ class _Join:
             self._write(self.step_after[self.next], self.chunk_after[self.next])
             self.next += 1
             if self.progress is not None:
-                self.progress(self.counts.rows)
+                self.progress(self.tally.counts.rows)
 
     def _add(self, r: WindowResult) -> None:
-        self.counts.merge(r.counts)
-        self.intervals += r.intervals
-        self.substeps += r.substeps
-        for k, v in r.seconds.items():
-            self.seconds[k] = self.seconds.get(k, 0.0) + v
-        for k, v in r.effects.items():
-            self.effects[k] = self.effects.get(k, False) or v
-        self.resolution = self.resolution or r.resolution
+        self.tally.merge(r.tally)
         if r.bounds and self.extent is None:
             self.extent = _Extent(*r.bounds)
             self.crs = r.crs
@@ -944,30 +832,23 @@ class _Join:
             self.rows = rest
             if ready_steps and self.poses_out is not None:
                 steps = np.concatenate(ready_steps)
-                order = np.argsort(steps, kind="stable") if len(ready_steps) > 1 else None
-                if isinstance(ready_rows[0], PoseTable):
-                    table = ready_rows[0] if order is None else PoseTable.merged(ready_rows, order)
-                    self._write_table(steps if order is None else steps[order], table)
+                if len(ready_steps) > 1:
+                    order = np.argsort(steps, kind="stable")
+                    self._write_rows(steps[order], PoseRows.merged(ready_rows, order))
                 else:
-                    self.poses_out.fh.write(ready_rows[0].text if order is None else merged_rows(ready_rows, order))
+                    self._write_rows(steps, ready_rows[0])
         if self.events:
             self.events.sort(key=lambda kv: kv[0])
             cut = 0
             while cut < len(self.events) and self.events[cut][0][0] < chunk_limit:
                 cut += 1
             if cut and self.events_out is not None:
-                ready = [record for _, record in self.events[:cut]]
-                if isinstance(ready[0], str):
-                    self.events_out.fh.write("".join(ready))
-                else:
-                    self.events_out.write(ready)  # Parquet: the writer gathers them into row groups
+                self.events_out.write([record for _, record in self.events[:cut]])
             del self.events[:cut]
 
-    def _write_table(self, steps: np.ndarray, table: "PoseTable") -> None:
-        """Pose rows as arrays to the Parquet writer (``replay.outputs.PosesParquet``), as the run in
-        one piece hands it a chunk, in row groups of the chunk's size."""
-        from types import SimpleNamespace
-
+    def _write_rows(self, steps: np.ndarray, table: PoseRows) -> None:
+        """Pose rows to the poses writer as the run in one piece hands it a chunk, ``chunk_rows`` at a
+        time (a Parquet output's row groups)."""
         names = self.plan.tasks[0].names if self.plan.tasks else ()
         size = max(1, self.chunk_rows)
         for lo in range(0, len(steps), size):
@@ -984,99 +865,41 @@ class _Join:
         if self.next != len(self.plan.tasks):
             raise RuntimeError(f"{len(self.plan.tasks) - self.next} window tasks gave no result")
 
-    def summary(self, options: ReplayOptions, seconds: float) -> ReplaySummary:
-        """The summary of the joined counts, built as a run in one piece builds its own."""
-        from tankcd_cli.replay.run import summary_of
 
-        motion = {"intervals": self.intervals, "substeps": self.substeps, **self.resolution} \
-            if options.continuous else {}
-        entities = self.plan.entities if options.continuous else (1 if self.counts.rows else 0)
-        return summary_of(self.counts, options.continuous, self.effects, self.seconds, seconds, motion, entities)
+def window_runner(world: TaskWorld, executor: Executor = Executor(), loaded=None,
+                  say: Callable[[str], None] | None = None):
+    """A runner (``run_windows``) that runs the tasks on ``executor``: here, in its forked
+    processes (``loaded``, the world already loaded here, is what they share), or on its Dask
+    cluster (each worker loads ``world`` once; a window whose worker is lost runs again on another:
+    its result is all it gives, nothing is written until the results are joined). At most two
+    tasks per worker are out beyond the oldest not joined, so that results wait to be joined only
+    while the one before them runs. ``runner.metadata(trajectory, time_origin)``: the Parquet
+    outputs' metadata, of the loaded world here, of a worker's on a cluster."""
+    if loaded is not None:
+        keep_loaded(world.spec, loaded)
+    executor = dataclasses.replace(executor, ahead=max(2, 2 * executor.jobs), retries=3)
 
-
-def in_process(world, options: ReplayOptions):
-    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``;
-    ``runner.metadata(trajectory, time_origin)`` the Parquet outputs' metadata."""
     def runner(tasks, consume):
-        for task in tasks:
-            consume(replay_window(world, options, task))
+        executor.run(run_window, world, tasks, consume, key=lambda task, k: f"tankcd-window-{task.index}", say=say)
 
     def metadata(trajectory, time_origin=None):
-        from tankcd_cli.replay.outputs import replay_metadata
-
-        return replay_metadata(world, [trajectory], options, time_origin=time_origin)
-
-    runner.metadata = metadata
-    return runner
-
-
-def window_metadata(world, trajectory: str, time_origin: str | None = None) -> dict:
-    """The Parquet outputs' metadata, on a worker: ``replay.outputs.replay_metadata`` of the world
-    (a ``replay.fleet.FleetWorld``) loaded once per process, as the tasks load it."""
-    from tankcd_cli.replay.fleet import load_world_once
-    from tankcd_cli.replay.outputs import replay_metadata
-
-    return replay_metadata(load_world_once(world.spec), [trajectory], world.options, time_origin=time_origin)
-
-
-def on_dask(world, scheduler: str, say: Callable[[str], None] | None = None):
-    """A runner that replays the tasks on the Dask cluster at ``scheduler`` (``world`` a
-    ``replay.fleet.FleetWorld``: each worker loads it once); a window whose worker is lost runs again
-    on another (its result is all it gives: nothing is written until the results are joined). At
-    most two tasks per worker thread are out at a time, so that results wait to be joined only
-    while the one before them runs."""
-    def runner(tasks, consume):
-        try:
-            from distributed import Client, as_completed
-        except ImportError:
-            raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
-        (say or (lambda s: None))(f"connecting to the Dask scheduler at {scheduler}")
-        try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
-            raise InputError(scheduler, f"cannot reach the Dask scheduler: {exc}") from None
-        with client:
-            ahead = max(2, 2 * sum(client.nthreads().values()))
-            stamp = time.time_ns()
-            pending = iter(tasks)
-
-            def submit():
-                task = next(pending, None)
-                if task is None:
-                    return None
-                return client.submit(run_window, world, task, 1, pure=False, retries=3,
-                                     key=f"tankcd-window-{task.index}-{stamp}")
-
-            state = {"submitted": 0, "next": 0, "done": set()}
-
-            def submit_up_to():  # results wait for the one before them: at most ``ahead`` beyond it
-                while state["submitted"] < state["next"] + ahead:
-                    fut = submit()
-                    if fut is None:
-                        return
-                    state["submitted"] += 1
-                    running.add(fut)
-
-            running = as_completed([])
-            submit_up_to()
-            for fut in running:
-                result = fut.result()
-                consume(result)
-                state["done"].add(result.index)
-                while state["next"] in state["done"]:
-                    state["done"].discard(state["next"])
-                    state["next"] += 1
-                submit_up_to()
-
-    def metadata(trajectory, time_origin=None):
+        if not executor.scheduler:
+            return window_metadata(world, trajectory, time_origin)
         # the world is loaded on the workers only: one of them describes it (and hashes the inputs)
-        try:
-            from distributed import Client
-        except ImportError:
-            raise InputError(scheduler, "--scheduler needs Dask: pip install 'tankcd[dask]'") from None
-
-        with Client(scheduler, timeout="20s") as client:
+        with dask_client(executor.scheduler) as client:
             return client.submit(window_metadata, world, trajectory, time_origin, pure=False, retries=3).result()
 
     runner.metadata = metadata
     return runner
+
+
+def in_process(world, options: ReplayOptions):
+    """A runner (``run_windows``) that replays the tasks one after the other here, in ``world``
+    (loaded)."""
+    return window_runner(TaskWorld(world.spec, options), loaded=world)
+
+
+def window_metadata(world: TaskWorld, trajectory: str, time_origin: str | None = None) -> dict:
+    """The Parquet outputs' metadata, on a worker: ``replay.outputs.replay_metadata`` of the world
+    loaded once per process, as the tasks load it."""
+    return replay_metadata(load_world_once(world.spec), [trajectory], world.options, time_origin=time_origin)

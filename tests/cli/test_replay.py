@@ -129,7 +129,8 @@ FLEET_NEEDS = "it sets how a fleet runs, and a fleet writes one poses and one ev
      f"--tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
     (["--no-escalate", "--attitude-tolerance", "0.3"],
      f"--attitude-tolerance needs {ESCALATION}: it is the certificate's tolerance, which only escalation checks"),
-    (["--jobs", "2"], f"--jobs needs --out-dir: {FLEET_NEEDS}"),
+    (["--jobs", "2"], "--jobs needs --out-dir or --window-seconds: it sets how many processes run a fleet's "
+                      "trajectories or an exercise's time windows"),
     (["--scheduler", "tcp://localhost:8786"], "--scheduler needs --out-dir or --window-seconds: it runs a fleet's "
                                               "trajectories or an exercise's time windows on the cluster"),
     (["--out-dir", "o", "--window-seconds", "60"],

@@ -263,12 +263,12 @@ def test_minus_v_shows_the_traceback_a_fleet_worker_formatted(flat_scene, tmp_pa
     from click.testing import CliRunner
 
     from tankcd_cli.cli.main import cli
-    from tankcd_cli.replay import run as run_module
+    from tankcd_cli.replay import fleet as fleet_module
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("deep in the replay")
 
-    monkeypatch.setattr(run_module, "run_replay", broken)
+    monkeypatch.setattr(fleet_module, "run_replay", broken)
     paths = [_ends_in_contact(tmp_path / f"{name}.csv") for name in ("a", "b")]
     for verbose in ([], ["-v"]):
         result = CliRunner().invoke(cli, [*verbose, "replay", *map(str, paths), "--scene", str(flat_scene),
@@ -307,7 +307,7 @@ def test_a_split_trajectorys_summary_is_built_from_its_parts_counts_as_one_run(f
     import dataclasses
 
     from tankcd_cli import api
-    from tankcd_cli.replay.records import ReplayCounts
+    from tankcd_cli.replay.records import ReplayTally
     from tankcd_cli.replay.run import summary_of
 
     n = 2600
@@ -326,6 +326,5 @@ def test_a_split_trajectorys_summary_is_built_from_its_parts_counts_as_one_run(f
     for d in (a, b):
         d.pop("seconds"), d.pop("seconds_by_effect")
     assert a == b
-    rebuilt = summary_of(ReplayCounts.of_summary(alone), True, alone.effects, alone.seconds_by_effect, alone.seconds,
-                         alone.motion, alone.entities)
+    rebuilt = summary_of(ReplayTally.of_summary(alone), True, alone.seconds, alone.entities)
     assert dataclasses.replace(rebuilt, warnings=alone.warnings, time_origin=alone.time_origin) == alone

@@ -567,7 +567,8 @@ def test_the_spill_is_removed_at_the_end_and_when_the_replay_fails(flat, monkeyp
 def test_a_fleet_of_an_exercise_grouped_and_in_time_order(flat, tmp_path):
     """A fleet of two exercises, the same rows in time order and grouped by vehicle, in chunks of 7
     rows: each its own task, the same events."""
-    from tankcd_cli.replay.fleet import FleetWorld, plan_tasks, run_fleet
+    from tankcd_cli.replay.executor import TaskWorld
+    from tankcd_cli.replay.fleet import plan_tasks, run_fleet
     from tankcd_cli.replay.records import ReplayOptions
     from tankcd_cli.replay.world import WorldSpec
 
@@ -576,7 +577,7 @@ def test_a_fleet_of_an_exercise_grouped_and_in_time_order(flat, tmp_path):
     (flat / "b").mkdir()
     _write(flat / "a" / "timed.csv", rows)
     _write(flat / "b" / "grouped.csv", sorted(rows, key=lambda r: r[1]))
-    world = FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), ReplayOptions(chunk_rows=7))
+    world = TaskWorld(WorldSpec(scene=str(flat / "scene.toml")), ReplayOptions(chunk_rows=7))
     out = tmp_path / "out"
     out.mkdir()
     tasks = plan_tasks([str(flat / "a" / "timed.csv"), str(flat / "b" / "grouped.csv")], str(out))

@@ -361,41 +361,6 @@ def test_gpx_tracks_by_windows_as_the_local_run(tmp_path, chunk_rows):
         assert [(e["a"], e["b"]) for e in events if e["kind"] == "vehicle"] == [("A", "B")]
 
 
-@settings(max_examples=80, deadline=None)
-@given(st.lists(st.lists(st.integers(0, 60), max_size=40), min_size=1, max_size=5), st.data())
-def test_pose_rows_cut_and_merged_by_slices_are_the_rows_one_by_one(parts_steps, data):
-    """Rows kept as one buffer (``RowText``), cut at a step and merged in step order by slices of
-    the buffer: the text of the same rows cut and sorted one line at a time (stable: equal steps
-    keep the parts' order), rows of any length, empty parts included."""
-    from tankcd_cli.replay.windows import RowText, merged_rows
-
-    parts, lines_of = [], []
-    for p, steps in enumerate(parts_steps):
-        steps = sorted(steps)
-        lines = [f"{s},{p}," + "x" * data.draw(st.integers(0, 12)) + "\n" for s in steps]
-        chunks, sizes, k = [], [], 0
-        while k < len(lines):  # the rows arrive in chunks of any size
-            n = data.draw(st.integers(1, 7))
-            chunks.append("".join(lines[k:k + n]))
-            sizes.append((k, n))
-            k += n
-        ends = [np.cumsum([len(line) for line in lines[k:k + n]], dtype=np.int64) for k, n in sizes]
-        rows = RowText.of(chunks, ends)
-        assert len(rows) == len(steps)
-        parts.append((np.array(steps, np.int64), rows))
-        lines_of.append(lines)
-    limit = data.draw(st.integers(0, 61))
-    cut = [int(np.searchsorted(s, limit)) for s, _ in parts]
-    ready = [rows.take(0, c) for (_, rows), c in zip(parts, cut)]
-    rest = [rows.take(c, len(rows)) for (_, rows), c in zip(parts, cut)]
-    for r, lines, c in zip(rest, lines_of, cut):
-        assert r.text == "".join(lines[c:])
-    order = np.argsort(np.concatenate([s[:c] for (s, _), c in zip(parts, cut)]), kind="stable")
-    flat = [line for lines, c in zip(lines_of, cut) for line in lines[:c]]
-    expect = "".join(flat[i] for i in order)
-    assert merged_rows(ready, order) == expect
-
-
 def _ends_in_contact(last_alone=False):
     """B slides sideways into A, their contact beginning at 6.5 s in the last 2 s window (6 to 8 s),
     which the local run closes only after its last chunk; with ``last_alone`` a third vehicle's one
@@ -549,16 +514,38 @@ def test_the_command_line_writes_parquet_by_windows(run, flat, tmp_path):
         assert _parquet(tmp_path / f"w.{table}.parquet") == _parquet(tmp_path / f"whole.{table}.parquet")
 
 
+@pytest.mark.parametrize("suffixes", [(".csv", ".jsonl"), (".parquet", ".parquet")])
+def test_windows_in_two_processes_write_the_bytes_of_one(run, flat, tmp_path, suffixes):
+    # the windows on a forked pool (--jobs 2) as here one after the other: byte for byte, CSV and Parquet,
+    # and the summary's counts the same
+    if suffixes[0] == ".parquet":
+        pytest.importorskip("pyarrow")
+    _write(flat / "edges.csv", _edges_exercise())
+    summaries = {}
+    for jobs in ("1", "2"):
+        out = tmp_path / f"jobs{jobs}"
+        out.mkdir()
+        result = run("replay", flat / "edges.csv", "--scene", flat / "scene.toml", "--window-seconds", "2",
+                     "--jobs", jobs, "--poses", out / f"p{suffixes[0]}", "--events", out / f"e{suffixes[1]}",
+                     "--summary", out / "s.json")
+        assert result.exit_code == 0, result.stderr
+        summaries[jobs] = json.loads((out / "s.json").read_text())
+    for name in (f"p{suffixes[0]}", f"e{suffixes[1]}"):
+        assert (tmp_path / "jobs1" / name).read_bytes() == (tmp_path / "jobs2" / name).read_bytes()
+    for key in ("rows", "collisions", "between", "vehicle_contacts", "matchers", "entities"):
+        assert summaries["1"][key] == summaries["2"][key]
+
+
 def test_a_worker_describes_the_world_as_the_local_run(world, flat):
     # on a cluster the world is loaded by the workers only: one of them gives the Parquet metadata
-    from tankcd_cli.replay.fleet import FleetWorld
+    from tankcd_cli.replay.executor import TaskWorld
     from tankcd_cli.replay.records import ReplayOptions
     from tankcd_cli.replay.windows import in_process, window_metadata
     from tankcd_cli.replay.world import WorldSpec
 
     _write(flat / "edges.csv", _edges_exercise())
     options = ReplayOptions()
-    remote = window_metadata(FleetWorld(WorldSpec(scene=str(flat / "scene.toml")), options), str(flat / "edges.csv"))
+    remote = window_metadata(TaskWorld(WorldSpec(scene=str(flat / "scene.toml")), options), str(flat / "edges.csv"))
     assert remote == in_process(world, options).metadata(str(flat / "edges.csv"))
 
 
