@@ -47,7 +47,28 @@ def _check(case: str, files: dict[str, bytes]):
     assert sorted(files) == pinned, f"{case}: outputs {sorted(files)} against pinned {pinned}"
     for name, data in files.items():
         want = (folder / name).read_bytes()
+        if name.endswith(".parquet") and data != want:
+            _same_table(f"{case}/{name}", data, want)
+            continue
         assert data == want, f"{case}/{name}: {len(data)} bytes differ from the pinned {len(want)}"
+
+
+def _same_table(label: str, data: bytes, want: bytes):
+    """A Parquet file against its pinned copy: the same schema, metadata, exact columns and floats to
+    1e-9 relative. A Parquet file keeps every double's last bit, which another build of the kernels
+    (another compiler or libm) may move; the CSV, written to fixed decimals, stays byte for byte."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    got, pinned = pq.read_table(pa.BufferReader(data)), pq.read_table(pa.BufferReader(want))
+    assert got.schema.equals(pinned.schema, check_metadata=True), f"{label}: schema or metadata differ"
+    assert got.num_rows == pinned.num_rows, f"{label}: {got.num_rows} rows against {pinned.num_rows}"
+    for name in got.column_names:
+        a, b = got.column(name).to_numpy(zero_copy_only=False), pinned.column(name).to_numpy(zero_copy_only=False)
+        if a.dtype.kind == "f":
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12, equal_nan=True, err_msg=f"{label}: {name}")
+        else:
+            assert np.array_equal(a, b), f"{label}: column {name} differs"
 
 
 def _summary_bytes(path: Path) -> bytes:
