@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass
 from typing import Callable
 
 from tankcd_cli.errors import InputError
-from tankcd_cli.replay.records import KINDS, ReplayOptions
+from tankcd_cli.replay.records import EVENT_KINDS, KINDS, ReplayOptions
 from tankcd_cli.replay.world import WorldSpec
 
 
@@ -360,11 +360,10 @@ def run_fleet(world: FleetWorld, tasks: list[Task], jobs: int = 1, scheduler: st
         for line in warnings:
             warn(None, line)
     seconds = time.perf_counter() - start
-    between_kinds = ("obstacle", "internal", "terrain", "off_terrain")
     return FleetSummary(
         trajectories=len(results), tasks=len(tasks), ok=len(ok), failed=len(failed), rows=rows,
         collisions={k: sum(r.summary.collisions[k] for r in ok) for k in KINDS},
-        between={k: sum(r.summary.between.get(k, 0) for r in ok) for k in between_kinds},
+        between={k: sum(r.summary.between.get(k, 0) for r in ok) for k in EVENT_KINDS},
         off_terrain=sum(r.summary.off_terrain for r in ok),
         vehicle_contacts=sum(r.summary.vehicle_contacts for r in ok), seconds=round(seconds, 3),
         rows_per_second=round(rows / seconds, 1) if seconds > 0 else None, ran_on=how, world=world.describe(),

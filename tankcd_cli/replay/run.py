@@ -162,7 +162,7 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
     """The closing summary of a replay's counts."""
     motion = {}
     if run.continuous:
-        from tankcd_cli.replay.between_rows import resolution
+        from tankcd_cli.replay.effects import resolution
 
         motion = {"intervals": run.between.intervals, "substeps": run.between.substeps, **resolution(run.surface)}
     return summary_of(counts, run.continuous, run.effects.as_dict(), run.seconds, seconds, motion,
@@ -210,7 +210,7 @@ def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions
 
 def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None = None) -> bool:
     """Whether an exercise's rows are in time order across vehicles, as the streaming checks between
-    vehicles need them (``replay.vehicles.OrderCheck``): one pass over a regular file (or any
+    vehicles need them (``replay.effects.vehicles.OrderCheck``): one pass over a regular file (or any
     iterable of chunks that can be read again: ``iter`` gives a new iterator), stopping at the first
     row out of order. Standard input, a pipe or a one-pass iterator cannot be read twice: False
     (their segments are spilled, correct whatever the order). A bad row or warning here is left to
@@ -219,7 +219,7 @@ def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None
     import warnings
 
     from tankcd_cli.errors import InputError
-    from tankcd_cli.replay.vehicles import OrderCheck
+    from tankcd_cli.replay.effects.vehicles import OrderCheck
 
     if isinstance(trajectory, str):
         if not os.path.isfile(trajectory):

@@ -3,7 +3,7 @@ for an exercise too big for one machine. The poses and events written are those 
 (``replay.run.run_replay``) byte for byte, because every window decides what is its own by the
 local run's own rules:
 
-- **The grid.** The local run searches vehicle contacts in windows of ``replay.vehicles.WINDOW``
+- **The grid.** The local run searches vehicle contacts in windows of ``replay.effects.vehicles.WINDOW``
   seconds from the first chunk's earliest time (``VehicleContacts``); a task's window is a whole
   number of them, on the same grid (the same floats: each edge the one before plus the width), so
   every contact window is checked with the same segments cut at the same instants.
@@ -59,7 +59,7 @@ class SparseTime(Exception):
     """An exercise whose time span holds far more contact windows than rows (a clock jump, a row a
     year later): its plan would cost by time, not rows (a task, a join slot and a window's
     bookkeeping for every 2 s of empty time), so it is not cut into windows; the caller replays it
-    in one piece, which skips empty time (``replay.vehicles``), with the same poses and events."""
+    in one piece, which skips empty time (``replay.effects.vehicles``), with the same poses and events."""
 
     def __init__(self, windows: float, rows: int, width: float):
         self.windows, self.rows = windows, rows
@@ -367,7 +367,7 @@ def _plan(trajectory, options, window_seconds, fmt, crs=None, spool_dir=None) ->
 
 def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) -> WindowPlan:
     from tankcd_cli.io.trajectory import split_trajectory
-    from tankcd_cli.replay import vehicles
+    from tankcd_cli.replay.effects import vehicles
     from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
 
     width = vehicles.WINDOW
@@ -623,7 +623,7 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
     from tankcd_cli.io.events import event_line
     from tankcd_cli.io.poses_csv import format_rows
     from tankcd_cli.matching.match import PLACED_BY, STATUS
-    from tankcd_cli.replay.between_rows import resolution
+    from tankcd_cli.replay.effects import resolution
     from tankcd_cli.replay.pipeline import replay_chunks, start_run
 
     start = time.perf_counter()
@@ -770,7 +770,7 @@ def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of) -> l
     """The vehicle contacts of a task's contact windows, each window run with the segments the local
     run had buffered when it closed it, in the buffer's order: ((window, order), Event) pairs."""
     from tankcd_cli.replay.between_rows import Segments
-    from tankcd_cli.replay.vehicles import VehicleContacts
+    from tankcd_cli.replay.effects.vehicles import VehicleContacts
 
     kinds = np.concatenate([np.full(len(s), k, np.int64) for k, s in parts])
     seg = Segments.join([s for _, s in parts])

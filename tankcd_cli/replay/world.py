@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Callable
 
+from tankcd_cli.replay.effects import Effects, effects_for  # noqa: F401 (Effects: the world's, re-exported)
 from tankcd_cli.vehicle import Vehicle
 
 
@@ -50,22 +51,6 @@ class WorldSpec:
             scene = load_scene(self.scene)
             return scene.terrain_path, scene.terrain_up
         return self.terrain, self.up
-
-
-@dataclass(frozen=True)
-class Effects:
-    """Which effects a replay simulates (the scene decides): the hull bottom against the terrain,
-    the vehicle against obstacles, the gun against the drums."""
-
-    terrain_contact: bool
-    obstacles: bool
-    internal: bool
-
-    def as_dict(self) -> dict:
-        return {"terrain_contact": self.terrain_contact, "obstacles": self.obstacles, "internal": self.internal}
-
-    def __getitem__(self, name: str) -> bool:
-        return getattr(self, name)
 
 
 @dataclass
@@ -151,10 +136,7 @@ class World:
     def effects(self, turret_moves: bool, kind: int = 0) -> Effects:
         """The effects of this world for a trajectory whose turret or gun moves or not, for a kind of
         vehicle (the drums are the vehicle's)."""
-        from tankcd_cli.scene import effects_for
-
-        e = effects_for(self.kinds[kind].vehicle, bool(self.obstacles), turret_moves)
-        return Effects(e["terrain_contact"], e["obstacles"], e["internal"])
+        return effects_for(self.kinds[kind].vehicle, bool(self.obstacles), turret_moves)
 
 
 def load_world(spec: WorldSpec, progress: Callable[[str], None] | None = None) -> World:

@@ -18,6 +18,8 @@ from typing import Callable
 
 import numpy as np
 
+from tankcd_cli.replay.effects import ALL_KINDS
+
 
 @dataclass
 class Record:
@@ -650,7 +652,7 @@ def headline_stage(res: Results, surface, vehicle, x, y, yaw, budget: Budget, sa
 # --- the sampling rate: what a check at the rows alone misses ----------------------------
 
 RATES_HZ = (1.0, 2.0, 5.0, 10.0, 50.0)
-CONTACT_KINDS = ("obstacle", "internal", "terrain", "off_terrain", "vehicle")
+CONTACT_KINDS = ALL_KINDS  # every kind of event (replay.effects)
 
 
 @dataclass
