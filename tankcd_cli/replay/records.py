@@ -157,7 +157,7 @@ class ReplaySummary:
     def collided(self) -> bool:
         """Whether any collision was found, at a row, between rows or between vehicles."""
         return bool(sum(self.collisions.values()) or self.vehicle_contacts
-                    or sum(v for k, v in self.between.items() if k != "off_terrain"))
+                    or sum(self.between.get(k, 0) for k in KINDS))
 
     @property
     def off_terrain_anywhere(self) -> int:

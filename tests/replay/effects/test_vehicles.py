@@ -104,7 +104,7 @@ def test_an_entity_appears_late_and_exists_from_its_first_row(run, flat):
 def test_one_entity_is_the_lone_replay_plus_its_entity_column(run, flat):
     from pathlib import Path
 
-    sample = Path(__file__).resolve().parents[2] / "sample_data"
+    sample = Path(__file__).resolve().parents[3] / "sample_data"
     scene = sample / "scene.toml"
     lines = (sample / "patrol.csv").read_text().splitlines()
     (flat / "lone.csv").write_text("\n".join(lines) + "\n")
