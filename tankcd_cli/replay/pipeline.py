@@ -26,6 +26,7 @@ import numpy as np
 from tankcd_cli.matching.match import OFF, Poses, match
 from tankcd_cli.replay.between_rows import ROW_FIELDS, BetweenCounts, Rows, check_between
 from tankcd_cli.replay.effects import BY_STAGE, OWN, Effects, seconds_keys
+from tankcd_cli.replay.effects.vehicles import VehicleContacts
 from tankcd_cli.replay.records import ReplayOptions
 from tankcd_cli.replay.world import World
 
@@ -38,15 +39,15 @@ class ReplayRun:
 
     The world's surface, obstacles and default vehicle are reached as attributes of the run.
     ``turret_moves``: the trajectory gives turret or gun angles (the gun's checks run only then).
-    ``vehicles``: the exercise's vehicle-against-vehicle checks (``replay.effects.vehicles.VehicleContacts``),
-    when the trajectory has entities."""
+    ``vehicles``: the exercise's vehicle-against-vehicle checks (``VehicleContacts``), when the
+    trajectory has entities."""
 
     world: World
     options: ReplayOptions
     turret_moves: bool
     seconds: dict = None  # seconds per stage (``replay.effects.seconds_keys``)
     between: BetweenCounts | None = None  # continuous only
-    vehicles: object = None
+    vehicles: VehicleContacts | None = None
 
     def __post_init__(self):
         if self.seconds is None:
