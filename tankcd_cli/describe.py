@@ -22,6 +22,7 @@ import os
 from tankcd_cli.errors import InputError
 from tankcd_cli.io.trajectory.formats import DEFAULT_FORMAT, FAMILIES, input_format, trajectory_format
 from tankcd_cli.io.trajectory.info import trajectory_info
+from tankcd_cli.replay.effects import effects_for
 
 
 WHAT_INFO_DESCRIBES = ("not a file tankcd reads or writes: not a terrain store, a tree, a scene, a trajectory "
@@ -325,8 +326,8 @@ def describe_scene(path: str) -> dict:
     """A scene resolved and checked as replay will read it: every file it names is read with
     replay's readers (a bad one is an InputError, exit 3), each mesh placed as replay places it.
 
-    Adds to ``Scene.describe``: the terrain's kind and extent; the vehicle mesh's triangles,
-    bounds in the vehicle frame and parts; per obstacle the up axis applied, its triangles,
+    Adds to ``Scene.describe``: the effects a replay of it runs (``replay.effects``); the terrain's
+    kind and extent; the vehicle mesh's triangles, bounds in the vehicle frame and parts; per obstacle the up axis applied, its triangles,
     world bounds and whether they overlap the terrain's horizontal extent."""
     import numpy as np
 
@@ -335,6 +336,9 @@ def describe_scene(path: str) -> dict:
 
     sc = load_scene(path)
     facts = sc.describe()
+    # which effects a replay of it runs (the scene decides, not the user)
+    facts["effects"] = {"turret_moving": effects_for(sc.vehicle, bool(sc.obstacles), True).as_dict(),
+                        "turret_still": effects_for(sc.vehicle, bool(sc.obstacles), False).as_dict()}
     extent = None
     if sc.terrain_path:
         terrain = _scene_terrain(sc)

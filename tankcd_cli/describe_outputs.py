@@ -17,12 +17,13 @@ import re
 from collections import Counter
 
 from tankcd_cli.errors import InputError
+from tankcd_cli.replay.effects import ALL_KINDS, KINDS
 
 PARQUET_MAGIC = b"PAR1"
 EVENT_KEYS = ("step", "kind", "a", "b")  # what every event carries (docs/formats.md, "Events (JSON Lines)")
 SUMMARY_KEYS = ("rows", "collisions", "off_terrain", "effects", "matchers")  # a replay summary's own
 FLEET_KEYS = ("trajectories", "tasks", "ok", "failed", "world")  # fleet.json's own
-EVENT_KINDS = ("obstacle", "internal", "terrain", "off_terrain", "vehicle")  # in the order formats.md lists them
+EVENT_KINDS = ALL_KINDS  # every kind of event, in the order formats.md lists them (replay.effects)
 
 
 # --- which of them a file is ------------------------------------------------------------------
@@ -136,7 +137,7 @@ class EventTally:
             self.no_t += 1
         if kind == "obstacle":
             self.obstacles[str(e["b"])] += 1
-        if kind in ("obstacle", "internal", "terrain"):
+        if kind in KINDS:  # a vehicle part against something
             self.parts[str(e["a"])] += 1
         if kind == "vehicle":
             for key in ("a_part", "b_part"):
@@ -542,7 +543,7 @@ def tally_batch(tally: EventTally, batch) -> None:
         if mm["min"].is_valid:
             span[0], span[1] = min(span[0], mm["min"].as_py()), max(span[1], mm["max"].as_py())
     tally.obstacles += where(column("b"), "obstacle")
-    tally.parts += where(column("a"), "obstacle", "internal", "terrain")
+    tally.parts += where(column("a"), *KINDS)
     tally.parts += where(column("a_part"), "vehicle") + where(column("b_part"), "vehicle")
     vehicle = pc.equal(kind, "vehicle")
     entity = pc.if_else(vehicle, pc.coalesce(column("entity"), column("a")), column("entity"))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from tankcd_cli.names import CLASS_NAMES
+from tankcd_cli.replay.effects import EVENT_KIND_TABLE
 
 
 def class_map_png(store, path: str) -> None:
@@ -116,8 +117,7 @@ def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None
                     edgecolor="#212121", lw=1.0, label="obstacles" if i == 0 else None, zorder=2)
         ax.annotate(name, (float(np.mean(outline[:, 0]) - origin[0]), float(np.mean(outline[:, 1]) - origin[1])),
                     fontsize=7, ha="center", va="center", zorder=4)
-    style = {"obstacle": ("X", "#b71c1c", "hit an obstacle"), "internal": ("o", "#6a1b9a", "gun against a drum"),
-             "terrain": ("v", "#e65100", "hull bottom on the ground"), "off_terrain": ("s", "#424242", "off the terrain")}
+    style = {k.name: (k.marker, k.colour, k.label) for k in EVENT_KIND_TABLE if k.marker is not None}
     for kind, (marker, colour, label) in style.items():
         pts = np.array([(x, y) for k, x, y in marks if k == kind])
         if len(pts):

@@ -136,10 +136,6 @@ class Scene:
     def vehicle_mesh_up(self) -> str | None:
         return self.vehicle_mesh_placement.up
 
-    def effects(self, turret_moves: bool) -> dict:
-        """Which effects a replay of this scene simulates (the scene decides, not the user)."""
-        return effects_for(self.vehicle, bool(self.obstacles), turret_moves)
-
     def required_terrain(self) -> str:
         """The terrain path, for the commands that need one (bad input naming the key if none)."""
         if self.terrain_path is None:
@@ -166,7 +162,6 @@ class Scene:
             "entities": [{"id": t.id, "match": t.match, "vehicle": t.vehicle.name, "fuel_drums": t.vehicle.fuel_drums,
                           "mesh": t.mesh} for t in self.entities],
             "collision": self.collision.describe(),
-            "effects": {"turret_moving": self.effects(True), "turret_still": self.effects(False)},
         }
 
 
@@ -176,19 +171,6 @@ class Scene:
             return {}
         return {"heightmap": {k: (list(v) if isinstance(v, tuple) else v) for k in spec.given()
                               for v in (getattr(spec, k),)}}
-
-
-def effects_for(vehicle: Vehicle, obstacles: bool, turret_moves: bool) -> dict:
-    """The effects a replay simulates: the hull bottom against the terrain always; obstacle
-    checks only with obstacles; the gun against the drums only with drums fitted and a turret
-    that moves (a trajectory with turret columns)."""
-    return {"terrain_contact": True, "obstacles": bool(obstacles),
-            "internal": bool(vehicle.fuel_drums and turret_moves)}
-
-
-def effects_of(scene: "Scene | None", vehicle: Vehicle, turret_moves: bool) -> dict:
-    """``effects_for`` a scene, or for a bare terrain (``--terrain``: no obstacles)."""
-    return scene.effects(turret_moves) if scene is not None else effects_for(vehicle, False, turret_moves)
 
 
 def load_scene(path: str) -> Scene:

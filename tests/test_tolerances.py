@@ -14,9 +14,9 @@ def test_compiled_copies_equal_the_documented_values():
 
 def test_users_take_the_one_value():
     from tankcd_cli.matching import match
-    from tankcd_cli.replay import pipeline
+    from tankcd_cli.replay.effects import terrain
 
     assert match.EPS_XY is T.EPS_XY
-    assert pipeline.HULL_CONTACT_TOLERANCE is T.HULL_CONTACT
+    assert terrain.HULL_CONTACT is T.HULL_CONTACT
     assert match.ESCALATION_ATTITUDE_DEG is T.ESCALATION_ATTITUDE_DEG
     assert match.ATTITUDE_TOLERANCE_DEG is T.ATTITUDE_TOLERANCE_DEG

@@ -352,7 +352,7 @@ class PosesParquetWriter(ParquetTableWriter):
 EVENT_SCHEMA = (
     ("step", "int64"),          # the trajectory row (for a contact between rows: the earlier row)
     ("t", "float64"),           # s: the time of the event (of first contact), null where none
-    ("kind", "dict"),           # obstacle, internal, terrain, vehicle, off_terrain, ...
+    ("kind", "dict"),           # any kind of replay.effects (docs/formats.md, events "By kind")
     ("a", "dict"), ("b", "dict"),  # the two parts (for kind vehicle: the two entities, sorted)
     ("entity", "dict"),         # the vehicle the event concerns
     ("a_part", "dict"), ("b_part", "dict"),  # kind vehicle: the two vehicles' parts
@@ -373,7 +373,7 @@ _EVENT_TYPED = {name for name, _ in EVENT_SCHEMA} - {"step", "t", "kind", "a", "
 
 def event_columns(events: Sequence) -> dict:
     """Columns (``EVENT_SCHEMA``) of events: objects with step, t, kind, a, b and a dict ``extra``
-    (``replay.records.Event``), or dicts as in the JSON Lines."""
+    (``replay.effects.Event``), or dicts as in the JSON Lines."""
     rows = [_event_dict(e) for e in events]
     n = len(rows)
     cols = {"step": np.array([int(r["step"]) for r in rows], dtype=np.int64),

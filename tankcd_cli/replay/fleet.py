@@ -25,7 +25,7 @@ from tankcd_cli.io.atomic import atomic_path
 from tankcd_cli.io.trajectory import has_entity_column, split_trajectory
 from tankcd_cli.replay.executor import Executor, TaskWorld, load_world_once, worker_threads
 from tankcd_cli.replay.outputs import OUTPUT_FORMATS, output_format
-from tankcd_cli.replay.records import KINDS, ReplayOutputs
+from tankcd_cli.replay.records import EVENT_KINDS, KINDS, ReplayOutputs
 from tankcd_cli.replay.run import joined_summary, run_replay
 
 
@@ -329,11 +329,10 @@ def run_fleet(world: TaskWorld, tasks: list[Task], jobs: int = 1, scheduler: str
         for line in warnings:
             warn(None, line)
     seconds = time.perf_counter() - start
-    between_kinds = ("obstacle", "internal", "terrain", "off_terrain")
     return FleetSummary(
         trajectories=len(results), tasks=len(tasks), ok=len(ok), failed=len(failed), rows=rows,
         collisions={k: sum(r.summary.collisions[k] for r in ok) for k in KINDS},
-        between={k: sum(r.summary.between.get(k, 0) for r in ok) for k in between_kinds},
+        between={k: sum(r.summary.between.get(k, 0) for r in ok) for k in EVENT_KINDS},
         off_terrain=sum(r.summary.off_terrain for r in ok),
         vehicle_contacts=sum(r.summary.vehicle_contacts for r in ok), seconds=round(seconds, 3),
         rows_per_second=round(rows / seconds, 1) if seconds > 0 else None, ran_on=how, world=world.describe(),

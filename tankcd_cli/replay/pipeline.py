@@ -1,11 +1,12 @@
 """The streaming replay pipeline: trajectory chunks in, pose chunks and events out.
 
 Per chunk (vectorized within it): match the poses, then only the effects the
-scene calls for (``World.effects``): the hull bottom against the terrain
-always; the vehicle against obstacles only if the scene has obstacles (broad
-phase on world boxes first); the gun against the rear drums only if drums are
-fitted and the trajectory moves the turret or gun; each at the rows and, unless
-the replay is discrete, along the motion between them (``replay.between_rows``).
+scene calls for (``World.effects``; each effect's checks are its module's in
+``replay.effects``): the hull bottom against the terrain always; the vehicle
+against obstacles only if the scene has obstacles; the gun against the rear
+drums only if drums are fitted and the trajectory moves the turret or gun; each
+at the rows and, unless the replay is discrete, along the motion between them
+(``replay.between_rows``); with many vehicles, their checks against each other.
 Work a scene does not call for costs nothing: no tree is loaded, no column
 computed.
 
@@ -15,16 +16,19 @@ arrays) plus the terrain and trees, whatever the trajectory's length.
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterator
 
 import numpy as np
 
-from tankcd_cli.matching.match import OFF, OK, Poses, match
-from tankcd_cli.replay.records import Event, ReplayOptions
-from tankcd_cli.replay.world import Effects, World
-from tankcd_cli.tolerances import HULL_CONTACT as HULL_CONTACT_TOLERANCE
+from tankcd_cli.matching.match import OFF, Poses, match
+from tankcd_cli.replay.between_rows import ROW_FIELDS, BetweenCounts, Rows, check_between
+from tankcd_cli.replay.effects import BY_STAGE, OWN, Effects, seconds_keys
+from tankcd_cli.replay.effects.vehicles import VehicleContacts
+from tankcd_cli.replay.records import ReplayOptions
+from tankcd_cli.replay.world import World
 
 
 @dataclass
@@ -35,23 +39,21 @@ class ReplayRun:
 
     The world's surface, obstacles and default vehicle are reached as attributes of the run.
     ``turret_moves``: the trajectory gives turret or gun angles (the gun's checks run only then).
-    ``vehicles``: the exercise's vehicle-against-vehicle checks (``replay.vehicles.VehicleContacts``),
-    when the trajectory has entities."""
+    ``vehicles``: the exercise's vehicle-against-vehicle checks (``VehicleContacts``), when the
+    trajectory has entities."""
 
     world: World
     options: ReplayOptions
     turret_moves: bool
-    seconds: dict = field(default_factory=lambda: {"matching": 0.0, "terrain": 0.0, "obstacles": 0.0,
-                                                   "internal": 0.0})
-    between: object = None  # replay.between_rows.BetweenCounts (continuous only)
-    vehicles: object = None
+    seconds: dict = None  # seconds per stage (``replay.effects.seconds_keys``)
+    between: BetweenCounts | None = None  # continuous only
+    vehicles: VehicleContacts | None = None
 
     def __post_init__(self):
+        if self.seconds is None:
+            self.seconds = dict.fromkeys(seconds_keys(self.options.continuous, False), 0.0)
         if self.options.continuous and self.between is None:
-            from tankcd_cli.replay.between_rows import BetweenCounts
-
             self.between = BetweenCounts()
-            self.seconds["between"] = 0.0
         self._effects = {}
         self._kind_codes = np.zeros(0, dtype=np.int64)  # the kind of each entity code seen
         self.carry = None  # replay.between_rows.Rows: each entity's last row so far, by code
@@ -71,7 +73,7 @@ class ReplayRun:
         """The effects that ran, over the kinds of vehicle met (what the summary reports; the default
         vehicle's before any row)."""
         met = list(self._effects.values()) or [self.effects_of(self.world.kinds[0])]
-        return Effects(*(any(getattr(e, f) for e in met) for f in ("terrain_contact", "obstacles", "internal")))
+        return Effects.any_of(met)
 
     def effects_of(self, kind) -> Effects:
         e = self._effects.get(kind.index)
@@ -92,14 +94,13 @@ def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities
               source: str = "trajectory", ordered: bool = True) -> ReplayRun:
     """A replay's run of ``world`` for a trajectory whose turret or gun moves (or not), with many
     vehicles (``entities``: their checks against each other too) or one. ``ordered``: the rows are
-    in time order across vehicles (``replay.vehicles.OrderCheck``), so the vehicles' checks stream;
+    in time order across vehicles (``replay.effects.vehicles.OrderCheck``), so the vehicles' checks stream;
     else their segments are spilled to disk and checked at the end."""
     run = ReplayRun(world, options, turret_moves)
     if entities:
-        from tankcd_cli.replay.vehicles import VehicleContacts
-
-        run.vehicles = VehicleContacts(world, continuous=options.continuous, source=source, ordered=ordered)
-        run.seconds["vehicles"] = 0.0
+        run.seconds = dict.fromkeys(seconds_keys(options.continuous, True), 0.0)
+        (between_vehicles,) = [e for e in BY_STAGE if not e.own]
+        run.vehicles = between_vehicles.start(world, options.continuous, source, ordered)
     return run
 
 
@@ -145,7 +146,6 @@ def _codes(chunk) -> np.ndarray:
 
 def _take(chunk, idx):
     """The rows ``idx`` of a chunk, as a chunk (steps, lines and entities kept)."""
-    import dataclasses
 
     arrays = {f: getattr(chunk, f)[idx] for f in ("step", "t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")}
     for f in ("line", "entity", "piece_start"):
@@ -171,16 +171,15 @@ def _chunk(run: ReplayRun, chunk):
         events += found
     poses = parts[0][3] if len(parts) == 1 else _scatter(n, [(p[1], p[3]) for p in parts])
     if run.continuous and n:
-        from tankcd_cli.replay.between_rows import Rows, check_between
-
         t0 = time.perf_counter()
-        for kind, idx, part, kposes, (terrain, obstacle, internal) in parts:
+        for kind, idx, part, kposes, contacts in parts:
             rows = Rows(part.step, part.t, part.x, part.y, part.yaw_deg, part.turret_deg, part.gun_deg, kposes,
-                        obstacle, internal, terrain, _codes(part),
+                        contacts, _codes(part),
                         part.piece_start if part.piece_start is not None else _first_rows(part))
             table = _with_carry(run, rows)
-            result = check_between(table, kind, run, run.between, want_segments=run.vehicles is not None)
-            events += [Event(e.step, e.t, e.kind, e.a, e.b, e.extra, e.entity) for e in result.events]
+            result = check_between(table, kind, run, run.between, run.effects_of(kind).running(),
+                                   want_segments=run.vehicles is not None)
+            events += result.events
             _keep_last(run, table, result.swept_into)
             if run.vehicles is not None:
                 run.vehicles.add(kind, result.segments)
@@ -202,46 +201,27 @@ def _first_rows(part) -> np.ndarray:
 
 
 def _rows(run: ReplayRun, kind, chunk):
-    """The rows of one kind of vehicle: their poses, the events at them, and their contacts
-    (terrain (N,), obstacle (N, k), internal (N,) bool)."""
+    """The rows of one kind of vehicle: their poses, the events at them, and their contacts (each
+    own effect's (N, ...) bool by its name: none where it does not run)."""
     t0 = time.perf_counter()
     poses = match(run.surface, kind.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=run.matcher,
                   escalate=run.escalate, tolerance=run.tolerance, attitude_tolerance=run.attitude_tolerance)
     run.seconds["matching"] += time.perf_counter() - t0
-    codes = _codes(chunk)
     events = []
-    off = np.flatnonzero(poses.status != OK)
-    for i in off:
-        events.append(Event(int(chunk.step[i]), float(chunk.t[i]), "off_terrain", "vehicle", "terrain",
-                            {"status": "off" if poses.status[i] == OFF else "partly_off"}, int(codes[i])))
     good = np.flatnonzero(poses.status != OFF)
     n = len(chunk)
     where = {int(s): i for i, s in enumerate(chunk.step)} if n else {}
-    terrain = np.zeros(n, dtype=bool)
-    obstacle = np.zeros((n, len(run.obstacles)), dtype=bool)
-    internal = np.zeros(n, dtype=bool)
     effects = run.effects_of(kind)
-    if effects.terrain_contact and len(good):
-        t0 = time.perf_counter()
-        found = _hull_bottom(run, kind, chunk, poses, good)
-        terrain[[where[e.step] for e in found]] = True
-        events += found
-        run.seconds["terrain"] += time.perf_counter() - t0
-    if effects.obstacles and len(good):
-        t0 = time.perf_counter()
-        found = _obstacles(run, kind, chunk, poses, good, poses.rotation[good])
-        names = {ob.name: j for j, ob in enumerate(run.obstacles)}
-        for e in found:
-            obstacle[where[e.step], names[e.b]] = True
-        events += found
-        run.seconds["obstacles"] += time.perf_counter() - t0
-    if effects.internal:
-        t0 = time.perf_counter()
-        found = _internal(run, kind, chunk)
-        internal[[where[e.step] for e in found]] = True
-        events += found
-        run.seconds["internal"] += time.perf_counter() - t0
-    return poses, events, (terrain, obstacle, internal)
+    contacts = {}
+    for effect, on in zip(OWN, effects.on):
+        if on:
+            t0 = time.perf_counter()
+            found, contacts[effect.name] = effect.at_rows(run, kind, chunk, poses, good, where)
+            events += found
+            run.seconds[effect.name] += time.perf_counter() - t0
+        else:
+            contacts[effect.name] = effect.no_contacts(run, n)
+    return poses, events, contacts
 
 
 def _scatter(n: int, parts: list) -> Poses:
@@ -259,8 +239,6 @@ def _scatter(n: int, parts: list) -> Poses:
 def _with_carry(run: ReplayRun, rows):
     """The chunk's rows of one kind with each entity's carried last row before its first, sorted by
     entity (each entity's rows in their order): the table the checks between rows take."""
-    from tankcd_cli.replay.between_rows import Rows
-
     carry = run.carry
     codes = np.unique(rows.entity)
     if carry is not None:
@@ -286,14 +264,13 @@ class _Carry:
 def _keep_last(run: ReplayRun, table, swept_into) -> None:
     """Each entity's last row in ``table`` becomes its carried row (its obstacle contacts including
     those of the stretch of motion that ended there)."""
-    from tankcd_cli.replay.between_rows import Rows
-
     if len(table) == 0:
         return
     last = np.flatnonzero(np.append(table.entity[1:] != table.entity[:-1], True))
     codes = table.entity[last]
     rows = table.take(last)
-    rows.obstacle = rows.obstacle | swept_into[last]
+    for name, into in swept_into.items():
+        rows.contacts[name] = rows.contacts[name] | into[last]
     rows.carried = np.ones(len(last), dtype=bool)  # its piece mark stays: the first row of a piece still is
     size = int(codes.max()) + 1
     carry = run.carry
@@ -307,46 +284,11 @@ def _keep_last(run: ReplayRun, table, swept_into) -> None:
             grow = size - len(has)
             base = Rows.join([base, rows.take(np.zeros(grow, dtype=np.int64))])
             has = np.concatenate([has, np.zeros(grow, dtype=bool)])
-    from tankcd_cli.replay.between_rows import ROW_FIELDS
-
     for f in ROW_FIELDS:
         getattr(base, f)[codes] = getattr(rows, f)
+    for name, contact in rows.contacts.items():
+        base.contacts[name][codes] = contact
     for f in Poses.__dataclass_fields__:
         getattr(base.poses, f)[codes] = getattr(rows.poses, f)
     has[codes] = True
     run.carry = _Carry(base, has)
-
-
-def _hull_bottom(run, kind, chunk, poses, idx):
-    from tankcd_cli.collision.terrain_contact import hull_bottom_contacts
-
-    hit, depth = hull_bottom_contacts(run.surface, kind.vehicle, chunk.x[idx], chunk.y[idx], poses.yaw[idx],
-                                      poses.plane[idx], poses.roll[idx], poses.pitch[idx], HULL_CONTACT_TOLERANCE)
-    codes = _codes(chunk)
-    return [Event(int(chunk.step[idx[k]]), float(chunk.t[idx[k]]), "terrain", "hull", "terrain",
-                  {"depth": round(float(d), 4)}, int(codes[idx[k]])) for k, d in zip(hit, depth)]
-
-
-def _obstacles(run, kind, chunk, poses, idx, rotation):
-    from tankcd_cli.collision.obstacles import collide_obstacles
-
-    body = kind.body
-    hits = collide_obstacles(body, run.obstacles, rotation, poses.position[idx],
-                             np.radians(chunk.turret_deg[idx]), np.radians(chunk.gun_deg[idx]))
-    codes = _codes(chunk)
-    return [Event(int(chunk.step[idx[p]]), float(chunk.t[idx[p]]), "obstacle", body.part_names[part],
-                  run.obstacles[o].name, {"point": [round(float(c), 4) for c in point], "contacts": int(n)},
-                  int(codes[idx[p]]))
-            for p, o, part, point, n in zip(hits.pose, hits.obstacle, hits.part, hits.point, hits.contacts)]
-
-
-def _internal(run, kind, chunk):
-    from tankcd_cli.collision.internal import DRUMS, gun_hits_drums
-
-    hit = gun_hits_drums(kind.vehicle, np.radians(chunk.turret_deg), np.radians(chunk.gun_deg))
-    rows, drums = np.nonzero(hit)
-    codes = _codes(chunk)
-    return [Event(int(chunk.step[r]), float(chunk.t[r]), "internal", "gun", DRUMS[d],
-                  {"turret_deg": round(float(chunk.turret_deg[r]), 3), "gun_deg": round(float(chunk.gun_deg[r]), 3)},
-                  int(codes[r]))
-            for r, d in zip(rows, drums)]

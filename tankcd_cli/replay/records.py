@@ -6,8 +6,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-KINDS = ("obstacle", "internal", "terrain")  # a vehicle's own collision kinds (off_terrain is no collision)
-EVENT_KINDS = KINDS + ("off_terrain",)
+from tankcd_cli.names import NO_MATCHER, OFF, OK, PLACED_BY, STATUS
+from tankcd_cli.replay.effects import EVENT_KINDS, KINDS, Event  # noqa: F401 (the records' kinds and events)
 
 
 @dataclass(frozen=True)
@@ -44,30 +44,6 @@ class ReplayOutputs:
 
 
 @dataclass
-class Event:
-    """One event: the row's step, the time (s), the kind (``EVENT_KINDS``), the two parts, and what
-    the kind carries (a point, a depth, angles, ``between`` for a contact that began between rows,
-    ``entity`` with many vehicles)."""
-
-    step: int
-    t: float
-    kind: str
-    a: str
-    b: str
-    extra: dict = field(default_factory=dict)
-    entity: int = 0  # the vehicle's code in the trajectory (its name, when it has names, is in extra)
-
-    @property
-    def between(self) -> bool:
-        return bool(self.extra.get("between"))
-
-    def as_dict(self) -> dict:
-        """As a line of the events file: step, t, kind, a, b, then the kind's fields."""
-        t = None if self.t is None or not np.isfinite(self.t) else round(float(self.t), 6)
-        return {"step": int(self.step), "t": t, "kind": self.kind, "a": self.a, "b": self.b, **self.extra}
-
-
-@dataclass
 class ReplayCounts:
     """What a replay has seen so far: rows, poses per status and per matcher (code counts), events
     at rows and between rows per kind, and the trajectory's extent [x min, y min, x max, y max]."""
@@ -81,8 +57,6 @@ class ReplayCounts:
     extent: list = field(default_factory=lambda: [np.inf, np.inf, -np.inf, -np.inf])
 
     def __post_init__(self):
-        from tankcd_cli.names import PLACED_BY, STATUS
-
         if self.status is None:
             self.status = np.zeros(len(STATUS), dtype=np.int64)
         if self.matcher is None:
@@ -90,8 +64,6 @@ class ReplayCounts:
 
     def add(self, chunk, poses, events) -> None:
         """A chunk's rows, poses and events (``chunk`` None: events alone, the vehicles' last contacts)."""
-        from tankcd_cli.names import OFF, PLACED_BY, STATUS
-
         for e in events:
             if e.kind == "vehicle":
                 self.vehicle_contacts += 1
@@ -127,8 +99,6 @@ class ReplayCounts:
         """The counts a summary was made of, as far as ``replay.run.summary_of`` reads them (rows,
         events at and between rows, contacts between vehicles, rows per matcher and without a pose;
         not the extent or the partly-off rows, which no summary keeps)."""
-        from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
-
         counts = ReplayCounts(rows=summary.rows, vehicle_contacts=summary.vehicle_contacts)
         for k in KINDS:
             counts.at_rows[k] = summary.collisions.get(k, 0)
@@ -145,8 +115,6 @@ class ReplayCounts:
     @property
     def off_terrain_rows(self) -> int:
         """Rows whose pose is not wholly on the terrain (status off or partly off)."""
-        from tankcd_cli.names import OK
-
         return int(self.rows - self.status[OK])
 
 
@@ -224,7 +192,7 @@ class ReplaySummary:
     def collided(self) -> bool:
         """Whether any collision was found, at a row, between rows or between vehicles."""
         return bool(sum(self.collisions.values()) or self.vehicle_contacts
-                    or sum(v for k, v in self.between.items() if k != "off_terrain"))
+                    or sum(self.between.get(k, 0) for k in KINDS))
 
     @property
     def off_terrain_anywhere(self) -> int:

@@ -15,12 +15,12 @@ from tankcd_cli.errors import InputError, collected_warnings, warn
 from tankcd_cli.io.poses_csv import pose_columns
 from tankcd_cli.io.trajectory import TrajectoryReader, lead_row, read_trajectory, utc_text
 from tankcd_cli.names import NO_MATCHER, OFF, PLACED_BY
-from tankcd_cli.replay.between_rows import resolution
+from tankcd_cli.replay.effects import resolution
 from tankcd_cli.replay.outputs import check_writable, replay_metadata, replay_outputs
 from tankcd_cli.replay.pipeline import ReplayRun, replay_chunks, start_run
 from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
 from tankcd_cli.replay.records import KINDS, ReplayCounts, ReplayOptions, ReplayOutputs, ReplaySummary, ReplayTally
-from tankcd_cli.replay.vehicles import OrderCheck
+from tankcd_cli.replay.effects.vehicles import OrderCheck
 from tankcd_cli.replay.world import World
 
 
@@ -159,6 +159,8 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
     """The closing summary of a replay's counts."""
     motion = {}
     if run.continuous:
+        from tankcd_cli.replay.effects import resolution
+
         motion = {"intervals": run.between.intervals, "substeps": run.between.substeps, **resolution(run.surface)}
     tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion)
     return summary_of(tally, run.continuous, seconds,
@@ -218,11 +220,17 @@ def replay_rows(world: World, trajectory, options: ReplayOptions = ReplayOptions
 
 def in_time_order(trajectory, options: ReplayOptions, part=None, crs: str | None = None) -> bool:
     """Whether an exercise's rows are in time order across vehicles, as the streaming checks between
-    vehicles need them (``replay.vehicles.OrderCheck``): one pass over a regular file (or any
+    vehicles need them (``replay.effects.vehicles.OrderCheck``): one pass over a regular file (or any
     iterable of chunks that can be read again: ``iter`` gives a new iterator), stopping at the first
     row out of order. Standard input, a pipe or a one-pass iterator cannot be read twice: False
     (their segments are spilled, correct whatever the order). A bad row or warning here is left to
     the replay's own pass, which says it where it is."""
+    import os
+    import warnings
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.replay.effects.vehicles import OrderCheck
+
     if isinstance(trajectory, str):
         if not os.path.isfile(trajectory):
             return False

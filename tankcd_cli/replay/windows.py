@@ -4,7 +4,7 @@ machine. The poses and events written are those of a local run
 (``replay.run.run_replay``) byte for byte, because every window decides what is its own by the
 local run's own rules:
 
-- **The grid.** The local run searches vehicle contacts in windows of ``replay.vehicles.WINDOW``
+- **The grid.** The local run searches vehicle contacts in windows of ``replay.effects.vehicles.WINDOW``
   seconds from the first chunk's earliest time (``VehicleContacts``); a task's window is a whole
   number of them, on the same grid (the same floats: each edge the one before plus the width), so
   every contact window is checked with the same segments cut at the same instants.
@@ -59,8 +59,9 @@ import numpy as np
 from tankcd_cli.errors import SetupWarning, collected_warnings, warn
 from tankcd_cli.io.trajectory import TrajectoryChunk, TrajectoryReader, split_trajectory, trajectory_format, utc_text
 from tankcd_cli.matching.match import Poses
-from tankcd_cli.replay import vehicles
-from tankcd_cli.replay.between_rows import Segments, resolution
+from tankcd_cli.replay.effects import vehicles
+from tankcd_cli.replay.between_rows import Segments
+from tankcd_cli.replay.effects import resolution
 from tankcd_cli.replay.executor import Executor, TaskWorld, dask_client, keep_loaded, load_world_once, worker_threads
 from tankcd_cli.replay.outputs import replay_metadata, replay_outputs
 from tankcd_cli.replay.pipeline import replay_chunks, start_run
@@ -77,7 +78,7 @@ class SparseTime(Exception):
     """An exercise whose time span holds far more contact windows than rows (a clock jump, a row a
     year later): its plan would cost by time, not rows (a task, a join slot and a window's
     bookkeeping for every 2 s of empty time), so it is not cut into windows; the caller replays it
-    in one piece, which skips empty time (``replay.vehicles``), with the same poses and events."""
+    in one piece, which skips empty time (``replay.effects.vehicles``), with the same poses and events."""
 
     def __init__(self, windows: float, rows: int, width: float):
         self.windows, self.rows = windows, rows
@@ -319,6 +320,10 @@ def _plan(trajectory, options, window_seconds, fmt, crs=None, spool_dir=None) ->
 
 
 def _planned(trajectory, options, window_seconds, fmt, reader, is_csv, spool) -> WindowPlan:
+    from tankcd_cli.io.trajectory import split_trajectory
+    from tankcd_cli.replay.effects import vehicles
+    from tankcd_cli.replay.plausibility import ExerciseChecks, MotionChecks
+
     width = vehicles.WINDOW
     per_task = max(1, int(round(window_seconds / width)))
     watch = vehicles.VehicleContacts(None, continuous=options.continuous)
@@ -560,6 +565,12 @@ def _recorded_warnings():
 
 
 def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowResult:
+    from tankcd_cli.io.events import event_line
+    from tankcd_cli.io.poses_csv import format_rows
+    from tankcd_cli.matching.match import PLACED_BY, STATUS
+    from tankcd_cli.replay.effects import resolution
+    from tankcd_cli.replay.pipeline import replay_chunks, start_run
+
     start = time.perf_counter()
     lead, own, trailing, fed = _read_window(world, task)
     run = start_run(world, options, task.has_turret, entities=task.has_entity)
@@ -691,6 +702,9 @@ def _read_window(world, task: WindowTask):
 def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of) -> list:
     """The vehicle contacts of a task's contact windows, each window run with the segments the local
     run had buffered when it closed it, in the buffer's order: ((window, order), Event) pairs."""
+    from tankcd_cli.replay.between_rows import Segments
+    from tankcd_cli.replay.effects.vehicles import VehicleContacts
+
     kinds = np.concatenate([np.full(len(s), k, np.int64) for k, s in parts])
     seg = Segments.join([s for _, s in parts])
     arrived = chunk_of(next_step(seg.step))  # the local chunk that read the interval's later row

@@ -13,7 +13,12 @@ import os
 from dataclasses import dataclass, field
 from typing import Callable
 
-from tankcd_cli.vehicle import Vehicle
+from tankcd_cli.collision.obstacles import body_of, load_obstacles, scene_vehicle_body
+from tankcd_cli.errors import InputError, warn
+from tankcd_cli.replay.effects import Effects, effects_for  # noqa: F401 (Effects: the world's, re-exported)
+from tankcd_cli.scene import CollisionSettings, MeshPlacement, load_scene
+from tankcd_cli.terrain.open import classify_file, open_terrain, terrain_kind
+from tankcd_cli.vehicle import Vehicle, vehicle_preset
 
 
 @dataclass(frozen=True)
@@ -45,27 +50,9 @@ class WorldSpec:
     def terrain_input(self) -> tuple[str | None, str | None]:
         """The terrain input and its up axis, from the scene or the spec (no terrain file is read)."""
         if self.scene is not None:
-            from tankcd_cli.scene import load_scene
-
             scene = load_scene(self.scene)
             return scene.terrain_path, scene.terrain_up
         return self.terrain, self.up
-
-
-@dataclass(frozen=True)
-class Effects:
-    """Which effects a replay simulates (the scene decides): the hull bottom against the terrain,
-    the vehicle against obstacles, the gun against the drums."""
-
-    terrain_contact: bool
-    obstacles: bool
-    internal: bool
-
-    def as_dict(self) -> dict:
-        return {"terrain_contact": self.terrain_contact, "obstacles": self.obstacles, "internal": self.internal}
-
-    def __getitem__(self, name: str) -> bool:
-        return getattr(self, name)
 
 
 @dataclass
@@ -89,9 +76,6 @@ class VehicleKind:
     @property
     def body(self):
         if self._body is None:
-            from tankcd_cli.collision.obstacles import body_of
-            from tankcd_cli.scene import CollisionSettings, MeshPlacement
-
             self._body = body_of(self.vehicle, self.mesh, self.placement or MeshPlacement(),
                                  self.settings or CollisionSettings())
         return self._body
@@ -151,22 +135,14 @@ class World:
     def effects(self, turret_moves: bool, kind: int = 0) -> Effects:
         """The effects of this world for a trajectory whose turret or gun moves or not, for a kind of
         vehicle (the drums are the vehicle's)."""
-        from tankcd_cli.scene import effects_for
-
-        e = effects_for(self.kinds[kind].vehicle, bool(self.obstacles), turret_moves)
-        return Effects(e["terrain_contact"], e["obstacles"], e["internal"])
+        return effects_for(self.kinds[kind].vehicle, bool(self.obstacles), turret_moves)
 
 
 def load_world(spec: WorldSpec, progress: Callable[[str], None] | None = None) -> World:
     """The world of ``spec``: the scene read and checked, the terrain opened (classified on the fly
     when it is no store), and, for a scene with obstacles, their trees and the vehicle's parts."""
-    from tankcd_cli.terrain.open import open_terrain
-    from tankcd_cli.vehicle import vehicle_preset
-
     scene = None
     if spec.scene is not None:
-        from tankcd_cli.scene import load_scene
-
         scene = load_scene(spec.scene)
         vehicle, terrain, up = scene.vehicle, scene.required_terrain(), scene.terrain_up
     else:
@@ -174,8 +150,6 @@ def load_world(spec: WorldSpec, progress: Callable[[str], None] | None = None) -
     opened = open_terrain(spec.store or terrain, up=up, vehicle=vehicle, progress=progress, cache=spec.cache)
     world = World(opened, vehicle, scene, spec=spec)
     if scene is not None and scene.obstacles:
-        from tankcd_cli.collision.obstacles import load_obstacles, scene_vehicle_body
-
         world.obstacles = load_obstacles(scene, cache=True, progress=progress)
         warn_obstacles_beside(scene.path, world.obstacles, opened.surface)
         world.body = world.kinds[0]._body = scene_vehicle_body(scene)
@@ -185,8 +159,6 @@ def load_world(spec: WorldSpec, progress: Callable[[str], None] | None = None) -
 def warn_obstacles_beside(source: str, obstacles: list, surface) -> None:
     """A warning for each obstacle whose bounds miss the terrain's: it can never be hit (the
     likeliest cause, a position without the terrain's offset, such as a UTM easting)."""
-    from tankcd_cli.errors import warn
-
     lo, hi = surface.bounds()
     for ob in obstacles:
         if ob.hi[0] < lo[0] or ob.lo[0] > hi[0] or ob.hi[1] < lo[1] or ob.lo[1] > hi[1]:
@@ -199,8 +171,6 @@ def world_inputs(spec: WorldSpec) -> dict:
     """The files a world reads, labelled as the command line names them (for output clashes)."""
     files = {"--scene": spec.scene, "--terrain": spec.terrain}
     if spec.scene is not None:
-        from tankcd_cli.scene import load_scene
-
         scene = load_scene(spec.scene)
         files.update({"the scene's terrain": scene.terrain_path, "the scene's vehicle mesh": scene.vehicle_mesh})
         for ob in scene.obstacles:
@@ -215,8 +185,6 @@ def classify_once(spec: WorldSpec, out_dir: str, progress: Callable[[str], None]
     import dataclasses
     import multiprocessing
 
-    from tankcd_cli.terrain.open import terrain_kind
-
     terrain, up = spec.terrain_input()
     if spec.store is not None or terrain is None or terrain_kind(terrain) in ("grid_store", "mesh_store"):
         return spec
@@ -224,24 +192,16 @@ def classify_once(spec: WorldSpec, out_dir: str, progress: Callable[[str], None]
     (progress or (lambda s: None))(f"classifying {terrain} once for the fleet")
     vehicle = spec.vehicle
     if spec.scene is not None:
-        from tankcd_cli.scene import load_scene
-
         vehicle = load_scene(spec.scene).vehicle
     with multiprocessing.get_context("spawn").Pool(1) as pool:
         error = pool.apply(_classify_in_child, (terrain, store, up, vehicle))
     if error is not None:
-        from tankcd_cli.errors import InputError
-
         raise InputError(*error)
     return dataclasses.replace(spec, store=store)
 
 
 def _classify_in_child(terrain: str, store: str, up, vehicle) -> tuple | None:
     """In the spawned child: classify, or say what was wrong with the input (source, what, where)."""
-    from tankcd_cli.errors import InputError
-    from tankcd_cli.terrain.open import classify_file
-    from tankcd_cli.vehicle import vehicle_preset
-
     try:
         classify_file(terrain, store, up=up, vehicle=vehicle if isinstance(vehicle, Vehicle) else vehicle_preset(vehicle))
     except InputError as exc:

@@ -50,12 +50,13 @@ from tankcd_cli.tradeoff.timing import (  # noqa: F401  (re-exported)
     spread_flag,
     timed,
 )
+from tankcd_cli.replay.effects import ALL_KINDS
 
 
 # --- the sampling rate: what a check at the rows alone misses ----------------------------
 
 RATES_HZ = (1.0, 2.0, 5.0, 10.0, 50.0)
-CONTACT_KINDS = ("obstacle", "internal", "terrain", "off_terrain", "vehicle")
+CONTACT_KINDS = ALL_KINDS  # every kind of event (replay.effects)
 
 
 @dataclass

@@ -104,7 +104,7 @@ def test_an_entity_appears_late_and_exists_from_its_first_row(run, flat):
 def test_one_entity_is_the_lone_replay_plus_its_entity_column(run, flat):
     from pathlib import Path
 
-    sample = Path(__file__).resolve().parents[2] / "sample_data"
+    sample = Path(__file__).resolve().parents[3] / "sample_data"
     scene = sample / "scene.toml"
     lines = (sample / "patrol.csv").read_text().splitlines()
     (flat / "lone.csv").write_text("\n".join(lines) + "\n")
@@ -199,7 +199,7 @@ def test_the_pairs_in_contact_are_the_brute_force_oracles(run, flat, seed, n, ar
 
 
 def test_windows_and_chunks_cut_no_contact_twice(flat):
-    from tankcd_cli.replay import vehicles as engine
+    from tankcd_cli.replay.effects import vehicles as engine
     from tankcd_cli.replay.records import ReplayOptions, ReplayOutputs
     from tankcd_cli.replay.run import run_replay
     from tankcd_cli.replay.world import WorldSpec
@@ -360,7 +360,7 @@ def test_api_replay_of_a_shuffled_entity_array_is_the_time_ordered_one(flat, mon
     import functools
 
     from tankcd_cli import api
-    from tankcd_cli.replay import vehicles
+    from tankcd_cli.replay.effects import vehicles
 
     monkeypatch.setattr(api, "trajectory_chunks", functools.partial(api.trajectory_chunks, chunk_rows=9))
     modes = []
@@ -543,7 +543,7 @@ def test_the_spill_is_removed_at_the_end_and_when_the_replay_fails(flat, monkeyp
     when a bad row stops it half way."""
     from tankcd_cli import api
     from tankcd_cli.errors import InputError
-    from tankcd_cli.replay import vehicles
+    from tankcd_cli.replay.effects import vehicles
 
     made = []
     init = vehicles.SegmentSpill.__init__

@@ -61,9 +61,17 @@ says so (``--strict``: exit 3), never silently.
 
 from __future__ import annotations
 
+import tempfile
+
 import numpy as np
 
-from tankcd_cli.replay.records import Event
+from tankcd_cli.collision.broad_phase import candidate_pairs
+from tankcd_cli.collision.vehicles import SpanMotion, first_vehicle_contacts
+from tankcd_cli.errors import warn
+from tankcd_cli.geometry.motion import quaternion_slerp
+from tankcd_cli.replay.between_rows import Segments
+from tankcd_cli.replay.effects.effect import Effect, Event, EventKind
+from tankcd_cli.vehicle import Vehicle
 
 WINDOW = 2.0  # s: the time windows vehicle contacts are searched in
 HORIZON = 30.0  # s: a vehicle silent longer than this no longer holds the windows back
@@ -127,8 +135,6 @@ class VehicleContacts:
                    "checked; give the rows in time order (sort by t), or replay the file itself")
 
     def _warn(self, what: str) -> None:
-        from tankcd_cli.errors import warn
-
         warn(self.source, what)
 
     def add_rows(self, kind, chunk, poses) -> None:
@@ -246,9 +252,6 @@ class VehicleContacts:
     # -- one window ----------------------------------------------------------------------------
     def _window(self, w0: float, w1: float, last: bool = False) -> list:
         """Every contact that begins in [w0, w1) (its end included at the last window)."""
-        from tankcd_cli.collision.broad_phase import candidate_pairs
-        from tankcd_cli.replay.between_rows import Segments
-
         if not self.buffer:
             return []
         kinds = np.concatenate([np.full(len(s), k, dtype=np.int64) for k, s in self.buffer])
@@ -283,8 +286,6 @@ class VehicleContacts:
     def _spans(self, s, kinds, i, j, u0, u1, fresh) -> list:
         """The contacts that begin in the common spans [u0, u1] of segments i and j (``fresh``: the
         span begins where one of them begins to exist)."""
-        from tankcd_cli.collision.vehicles import first_vehicle_contacts
-
         events = []
         # each pair in the order of its entities' names, so that a is the first name
         names = np.asarray(self.names, dtype=object)
@@ -337,9 +338,6 @@ class VehicleContacts:
 
 def _cut(s, idx, u0, u1):
     """Segments ``idx`` cut to the spans [u0, u1] (still rigid motions), as a SpanMotion."""
-    from tankcd_cli.collision.vehicles import SpanMotion
-    from tankcd_cli.geometry.motion import quaternion_slerp
-
     length = s.t1[idx] - s.t0[idx]
     safe = np.where(length > 0, length, 1.0)
     a = np.where(length > 0, (u0 - s.t0[idx]) / safe, 0.0)
@@ -353,7 +351,6 @@ def _cut(s, idx, u0, u1):
 
 def _still(m, idx):
     """The motions ``idx`` frozen at their start (an instant: the exact test, no motion bound)."""
-    from tankcd_cli.collision.vehicles import SpanMotion
 
     z = np.zeros(len(idx))
     return SpanMotion(m.q0[idx], m.c0[idx], m.q0[idx], m.c0[idx], m.turret0[idx], z, m.gun0[idx], z)
@@ -371,8 +368,6 @@ class SegmentSpill:
     GROUP = 16  # windows read back at a time
 
     def __init__(self, window: float):
-        import tempfile
-
         self.window = window
         self.file = tempfile.TemporaryFile(prefix="tankcd-segments-")
         self.records = 0
@@ -397,8 +392,6 @@ class SegmentSpill:
     def buckets(self):
         """(bucket, kinds (M,), Segments) for every start bucket holding segments, in time order; within
         a bucket the segments in the order they were added."""
-        from tankcd_cli.replay.between_rows import Segments
-
         if not self.index:
             return
         groups = np.concatenate([g for g, _, _ in self.index])
@@ -471,3 +464,26 @@ class OrderCheck:
         live = heard[heard >= self.latest - self.horizon]
         self.closed = max(self.closed, float(live.min()) if len(live) else self.latest)
         return self.ordered
+
+
+class Vehicles(Effect):
+    """Every two vehicles of an exercise against each other along their motions (``VehicleContacts``):
+    not a vehicle's own check, so it has no row or motion check of its own; the run feeds it each
+    kind's rigid segments (``replay.between_rows.Segments``) and takes its events as windows close.
+    Run only when the trajectory has entities, and counted as the summary's ``vehicle_contacts``."""
+
+    name = "vehicles"
+    kinds = (EventKind("vehicle", True, None, "#000000", "contact between vehicles"),)
+    stage = 3
+    own = False
+
+    def runs(self, vehicle: Vehicle, obstacles: bool, turret_moves: bool) -> bool:
+        return False  # a vehicle alone: nothing to meet (an exercise starts it: ``start``)
+
+    def start(self, world, continuous: bool, source: str, ordered: bool) -> VehicleContacts:
+        """The checks between the vehicles of an exercise in ``world`` (``ordered``: its rows in time
+        order across vehicles, else spilled and checked at the end)."""
+        return VehicleContacts(world, continuous=continuous, source=source, ordered=ordered)
+
+
+VEHICLES = Vehicles()
