@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from tankcd_cli.names import CLASS_NAMES
-from tankcd_cli.replay.effects import EVENT_KIND_TABLE
 
 
 def class_map_png(store, path: str) -> None:
@@ -66,7 +65,7 @@ def envelope_png(vehicle, env, path: str) -> None:
     fig.savefig(path, dpi=110, format="png")
 
 
-def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None, counts=None) -> None:
+def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None, counts=None, kinds=()) -> None:
     """The replayed path over the class map, obstacles' footprints, and events marked by kind.
 
     store : a MeshStore (the mesh layout), or the path of a grid store (drawn from its overview)
@@ -74,6 +73,8 @@ def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None
     footprints : [(name, (k, 2) outline)] obstacles seen from above
     matcher : (N,) matcher codes to colour the path by (None: one colour)
     counts : events per kind for the legend (default: the marks counted)
+    kinds : the kinds of event to mark, in the legend's order, each with ``name``, ``marker`` (None: not
+        drawn), ``colour`` and ``label`` (replay.effects.EVENT_KIND_TABLE; the drawing sits below replay)
     """
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
@@ -117,7 +118,7 @@ def replay_map_png(store, path_xy, marks, path: str, footprints=(), matcher=None
                     edgecolor="#212121", lw=1.0, label="obstacles" if i == 0 else None, zorder=2)
         ax.annotate(name, (float(np.mean(outline[:, 0]) - origin[0]), float(np.mean(outline[:, 1]) - origin[1])),
                     fontsize=7, ha="center", va="center", zorder=4)
-    style = {k.name: (k.marker, k.colour, k.label) for k in EVENT_KIND_TABLE if k.marker is not None}
+    style = {k.name: (k.marker, k.colour, k.label) for k in kinds if k.marker is not None}
     for kind, (marker, colour, label) in style.items():
         pts = np.array([(x, y) for k, x, y in marks if k == kind])
         if len(pts):

@@ -189,6 +189,30 @@ def test_the_circle_checker_sees_a_circle(tmp_path):
     assert import_circles(import_graph(sources)) == [["tankcd_cli.a", "tankcd_cli.b", "tankcd_cli.c"]]
 
 
+
+def part_graph(graph: dict) -> dict:
+    """{part: the other parts its modules import}, a part being the package's first level
+    (``tankcd_cli.replay``, ``tankcd_cli.plots``): two parts whose modules import each other are one
+    room drawn as two, even when no module circle joins them."""
+    part = lambda module: ".".join(module.split(".")[:2])  # noqa: E731
+    parts = {}
+    for module, edges in graph.items():
+        parts.setdefault(part(module), set()).update(part(t) for t in edges if part(t) != part(module))
+    return parts
+
+
+def test_no_two_parts_import_each_other():
+    circles = import_circles(part_graph(import_graph(dict(_modules()))))
+    assert not circles, "parts that import each other:\n" + "\n".join(" <-> ".join(c) for c in circles)
+
+
+def test_the_part_checker_sees_parts_import_each_other():
+    # replay.drawing -> plots -> replay.effects: no module circle, but the parts circle
+    graph = {"tankcd_cli.plots": {"tankcd_cli.replay.effects"}, "tankcd_cli.replay.drawing": {"tankcd_cli.plots"},
+             "tankcd_cli.replay.effects": set()}
+    assert import_circles(graph) == []
+    assert import_circles(part_graph(graph)) == [["tankcd_cli.plots", "tankcd_cli.replay"]]
+
 # --- private names --------------------------------------------------------------------------
 
 def private_imports(sources: dict) -> list:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from tankcd_cli.plots import _metres, _overview_extent, class_map_png, envelope_png, grid_map_png, replay_map_png
+from tankcd_cli.replay.effects import EVENT_KIND_TABLE
 from tankcd_cli.vehicle import vehicle_preset
 from tests.conftest import write_asc, write_obj
 
@@ -66,7 +67,8 @@ def test_the_replay_map_draws_the_path_and_events_from_the_stated_origin(tmp_pat
     marks = [("obstacle", X0 + 25.0, Y0 + 10.0), ("terrain", X0 + 12.0, Y0 + 6.0), ("obstacle", X0 + 30.0, Y0 + 15.0)]
     hut = np.array([[X0 + 20, Y0 + 20], [X0 + 24, Y0 + 20], [X0 + 24, Y0 + 22], [X0 + 20, Y0 + 22]])
     out = tmp_path / "r.png"
-    replay_map_png(None, path, marks, str(out), footprints=[("hut", hut)], counts={"obstacle": 7, "terrain": 1})
+    replay_map_png(None, path, marks, str(out), footprints=[("hut", hut)], counts={"obstacle": 7, "terrain": 1},
+                   kinds=EVENT_KIND_TABLE)
     assert png_size(out) == (1100, 770)  # 10 x 7 in at 110 dpi
     ax, = figures[0].axes
     origin = path.min(axis=0)  # no terrain: the path's south-west corner

@@ -18,6 +18,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
     from tankcd_cli.collision.obstacles import load_obstacles
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.plots import grid_map_png, replay_map_png
+    from tankcd_cli.replay.effects import EVENT_KIND_TABLE
     from tankcd_cli.replay.records import ReplayOutputs
     from tankcd_cli.replay.run import run_replay
     from tankcd_cli.replay.world import WorldSpec
@@ -56,7 +57,7 @@ def run_demo(out_dir: str, progress: Callable[[str], None] | None = None) -> dic
 
     result = run_replay(world, p("patrol.csv"), ReplayOutputs(p("poses.csv"), p("events.jsonl")), observe=draw)
     with atomic_path(p("replay.png"), ".png") as tmp:
-        replay_map_png(store, np.concatenate(path), marks, tmp)
+        replay_map_png(store, np.concatenate(path), marks, tmp, kinds=EVENT_KIND_TABLE)
     summary = {"directory": out_dir, "rows": result.rows,
                "events": {**result.collisions, "off_terrain": result.off_terrain},
                "between": result.between, "effects": result.effects,

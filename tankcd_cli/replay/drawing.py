@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.replay.effects import EVENT_KIND_TABLE
+
 MAX_PATH_POINTS = 200_000  # a map cannot show more; longer paths are thinned evenly
 MAX_MARKS = 50_000  # events drawn; the legend still counts them all
 
@@ -53,7 +55,8 @@ class ReplayDrawing:
         matcher = np.concatenate(self.matcher) if self.matcher else np.zeros(0, np.int8)
         footprints = [(ob.name, footprint_outline(ob.tree.triangles)) for ob in obstacles]
         replay_map_png(store, xy, self.marks, path, footprints=footprints,
-                       matcher=matcher if self.colour_by == "matcher" else None, counts=self.counts)
+                       matcher=matcher if self.colour_by == "matcher" else None, counts=self.counts,
+                       kinds=EVENT_KIND_TABLE)
 
 
 def footprint_outline(triangles: np.ndarray) -> np.ndarray:
