@@ -52,13 +52,10 @@ def poses(n, side, rng):
 
 
 def timed(fn, repeats=3):
-    fn()
-    ts = []
-    for _ in range(repeats):
-        s = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - s)
-    return float(np.median(ts)), min(ts), max(ts)
+    """Median, fastest and slowest seconds of ``repeats`` calls after a warm-up (the trade-off report's)."""
+    from tankcd_cli.tradeoff.timing import timed as median_of
+
+    return median_of(fn, repeats)
 
 
 def main():
