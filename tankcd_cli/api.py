@@ -148,7 +148,7 @@ def _check_tolerances(tolerance, attitude_tolerance) -> None:
         raise ValueError(f"tolerance must be positive (m), not {tolerance!r}")
 
 
-def _options(matcher, escalate, tolerance, discrete, attitude_tolerance=None):
+def _options(matcher, escalate, tolerance, discrete, attitude_tolerance=None, gates=True):
     from tankcd_cli.names import MATCHER_CHOICES
     from tankcd_cli.replay.records import ReplayOptions
 
@@ -156,13 +156,13 @@ def _options(matcher, escalate, tolerance, discrete, attitude_tolerance=None):
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
     _check_tolerances(tolerance, attitude_tolerance)
     return ReplayOptions(matcher=matcher, escalate=escalate, tolerance=tolerance,
-                         attitude_tolerance=attitude_tolerance, continuous=not discrete)
+                         attitude_tolerance=attitude_tolerance, continuous=not discrete, gates=bool(gates))
 
 
 def replay(trajectory, scene: str | None = None, terrain: str | None = None, vehicle: str = "t72",
            matcher: str = "auto", discrete: bool = False, escalate: bool | None = None,
            tolerance: float | None = None, world=None, up: str | None = None, cache: bool = False,
-           attitude_tolerance: float | None = None, fmt: str | None = None):
+           attitude_tolerance: float | None = None, fmt: str | None = None, gates: bool = True):
     """Replay a trajectory and keep the results in memory: (poses, events).
 
     trajectory : a path (a trajectory CSV, a geographic CSV, GPX or a DIS capture: the command
@@ -182,6 +182,8 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
         (deg; None: 0.5): a key-point pose farther than either from a plane the certificate
         finds is escalated
     fmt : the path's (or paths') format, csv, gpx, pcap or pcapng, where neither name nor content says
+    gates : let the conservative gates skip exact work they prove can find nothing (False: the exact
+        work everywhere; the same poses and events, byte for byte)
     Returns poses, a dict of arrays keyed by the poses CSV's columns, and events, a list of dicts
     as the events JSON Lines' lines (``between``: a contact that began between rows).
     """
@@ -190,7 +192,7 @@ def replay(trajectory, scene: str | None = None, terrain: str | None = None, veh
     trajectory = _with_format(trajectory, fmt)
     w = _world(world, scene, terrain, vehicle, up, cache, None)
     return replay_rows(w, _chunks(trajectory, w),
-                       _options(matcher, escalate, tolerance, discrete, attitude_tolerance))
+                       _options(matcher, escalate, tolerance, discrete, attitude_tolerance, gates))
 
 
 def _with_format(trajectory, fmt: str | None):
@@ -238,7 +240,7 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
                     discrete: bool = False, escalate: bool | None = None, tolerance: float | None = None,
                     world=None, up: str | None = None, cache: bool = False,
                     progress: Callable[[int], None] | None = None, observe: Callable | None = None,
-                    attitude_tolerance: float | None = None, fmt: str | None = None):
+                    attitude_tolerance: float | None = None, fmt: str | None = None, gates: bool = True):
     """Replay a trajectory streamed to files, as ``tankcd replay`` does: the poses CSV (``-``
     standard output, None: none) and the events JSON Lines (None: only counted), or Parquet for a
     name ending in ``.parquet`` (typed columns, the CRS, conventions and sources' SHA-256 in the
@@ -257,7 +259,7 @@ def replay_to_files(trajectory, poses: str | None = "-", events: str | None = No
     w = _world(world, scene, terrain, vehicle, up, cache, None)
     sources = [str(p) for p in trajectory] if isinstance(trajectory, (list, tuple)) else None
     return run_replay(w, _chunks(trajectory, w), ReplayOutputs(poses, events),
-                      _options(matcher, escalate, tolerance, discrete, attitude_tolerance), progress=progress,
+                      _options(matcher, escalate, tolerance, discrete, attitude_tolerance, gates), progress=progress,
                       observe=observe,
                       sources=sources)
 
@@ -289,7 +291,7 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
                    escalate: bool | None = None, tolerance: float | None = None, window_seconds: float = 60.0,
                    scheduler: str | None = None, world=None, up: str | None = None,
                    progress: Callable[[int], None] | None = None, attitude_tolerance: float | None = None,
-                   jobs: int = 1):
+                   jobs: int = 1, gates: bool = True):
     """Replay an exercise (one trajectory file, usually with an ``entity`` column) by time windows of
     ``window_seconds``, each a task: one after the other here, in ``jobs`` forked processes, or on
     the Dask cluster at ``scheduler`` (each worker loads the scene or terrain from its path; a
@@ -312,7 +314,7 @@ def replay_windows(trajectory: str, poses: str | None = "-", events: str | None 
     from tankcd_cli.replay.outputs import check_writable
 
     check_writable(poses, events)  # Parquet without pyarrow: before any work
-    options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
+    options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance, gates)
     if scheduler:
         from tankcd_cli.replay.world import WorldSpec
 
@@ -351,7 +353,7 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
                  escalate: bool | None = None, tolerance: float | None = None, jobs: int | None = None,
                  scheduler: str | None = None, split_lines: int | None = 1_000_000,
                  progress: Callable[[str], None] | None = None, on_result: Callable | None = None,
-                 out_format: str = "csv", attitude_tolerance: float | None = None):
+                 out_format: str = "csv", attitude_tolerance: float | None = None, gates: bool = True):
     """Replay many trajectories (paths, globs, ``@lists``) as ``tankcd replay ... --out-dir`` does: each
     into ``out_dir/NAME.poses.csv`` and ``NAME.events.jsonl`` (``out_format="parquet"``:
     ``NAME.poses.parquet`` and ``NAME.events.parquet``), in ``jobs`` processes (default: the
@@ -374,7 +376,7 @@ def replay_fleet(trajectories: list, out_dir: str, scene: str | None = None, ter
     jobs = jobs or os.cpu_count() or 1
     if (scheduler or jobs > 1) and len(tasks) > 1:  # classify once, not once per worker
         spec = classify_once(spec, out_dir, progress)
-    options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance)
+    options = _options(matcher, escalate, tolerance, discrete, attitude_tolerance, gates)
     fleet = run_fleet(TaskWorld(spec, options), tasks, jobs, scheduler, progress=progress, on_result=on_result)
     write_summary(os.path.join(out_dir, "fleet.json"), fleet)
     return fleet
@@ -414,7 +416,7 @@ def run_replay(trajectories, poses: str | None = "-", events: str | None = None,
                attitude_tolerance: float | None = None, fmt: str | None = None, split_lines: int | None = 1_000_000,
                out_format: str = "csv", progress: Callable[[int], None] | None = None,
                say: Callable[[str], None] | None = None, on_result: Callable | None = None,
-               observe: Callable | None = None):
+               observe: Callable | None = None, gates: bool = True):
     """Run any replay, the one ``replay_mode`` names for these inputs and options: one trajectory
     (or several ``together``) into ``poses`` and ``events`` (``replay_to_files``), one exercise by
     time windows (``replay_windows``), or a fleet into ``out_dir`` (``replay_fleet``; ``say``
@@ -424,7 +426,7 @@ def run_replay(trajectories, poses: str | None = "-", events: str | None = None,
     mode = replay_mode(trajectories, out_dir, window_seconds, together, jobs, scheduler)
     items = [trajectories] if isinstance(trajectories, str) else list(trajectories)
     how = dict(matcher=matcher, discrete=discrete, escalate=escalate, tolerance=tolerance,
-               attitude_tolerance=attitude_tolerance)
+               attitude_tolerance=attitude_tolerance, gates=gates)
     if mode == "fleet":
         if out_dir is None:
             raise ValueError("a fleet needs out_dir (one poses and one events file per trajectory)")

@@ -56,6 +56,9 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
                    "entity named after its stem, or its own entities), one poses and one events output, every "
                    "contact between the vehicles found. Files with absolute times (GPX, captures, ISO 8601 times) "
                    "meet at their UTC times, t counting from the earliest.")
+@click.option("--no-gates", "no_gates", is_flag=True,
+              help="Run the exact checks everywhere, also where the conservative gates prove they can find "
+                   "nothing (the same poses and events, byte for byte; slower): for tests and comparison.")
 @click.option("--discrete", is_flag=True,
               help="Check the effects at the rows only (the paper's frame-by-frame way, for comparison); by "
                    "default they are checked along the motion between rows too.")
@@ -95,7 +98,7 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 @click.pass_obj
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance,
            attitude_tolerance, fmt, together,
-           discrete, vehicle_name, up, cache,
+           no_gates, discrete, vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
            split_lines, window_seconds):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
@@ -120,7 +123,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     if fmt is not None:
         trajectories = tuple(with_format(t, fmt) for t in trajectories)
     how = dict(matcher=matcher, escalate=escalate, tolerance=tolerance, discrete=discrete,
-               attitude_tolerance=attitude_tolerance)
+               attitude_tolerance=attitude_tolerance, gates=not no_gates)
     if mode == "fleet":
         return _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
                       fail_on_collision, allow_off_terrain, summary_path, split_lines)

@@ -23,6 +23,7 @@ from typing import Iterator
 
 import numpy as np
 
+from tankcd_cli.gates import GateTally
 from tankcd_cli.matching.match import OFF, Poses, match
 from tankcd_cli.replay.between_rows import ROW_FIELDS, BetweenCounts, Rows, check_between
 from tankcd_cli.replay.effects import BY_STAGE, OWN, Effects, seconds_keys
@@ -48,8 +49,11 @@ class ReplayRun:
     seconds: dict = None  # seconds per stage (``replay.effects.seconds_keys``)
     between: BetweenCounts | None = None  # continuous only
     vehicles: VehicleContacts | None = None
+    gates: GateTally = None  # what the gates skipped (``tankcd_cli.gates``); off with ``options.gates``
 
     def __post_init__(self):
+        if self.gates is None:
+            self.gates = GateTally(enabled=self.options.gates)
         if self.seconds is None:
             self.seconds = dict.fromkeys(seconds_keys(self.options.continuous, False), 0.0)
         if self.options.continuous and self.between is None:

@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from tankcd_cli.gates import GateTally
 from tankcd_cli.names import NO_MATCHER, OFF, OK, PLACED_BY, STATUS
 from tankcd_cli.replay.effects import EVENT_KINDS, KINDS, Event  # noqa: F401 (the records' kinds and events)
 
@@ -23,6 +24,8 @@ class ReplayOptions:
         ``tolerances.ATTITUDE_TOLERANCE_DEG``)
     continuous : check every effect along the motion between rows too (False: the rows only)
     chunk_rows : rows read, matched and written at a time (memory follows it)
+    gates : let the conservative gates skip exact work they prove can find nothing (``tankcd_cli.gates``);
+        False runs it everywhere, with the same answers (for tests and the trade-off report)
     """
 
     matcher: str = "auto"
@@ -31,6 +34,7 @@ class ReplayOptions:
     attitude_tolerance: float | None = None
     continuous: bool = True
     chunk_rows: int = 65536
+    gates: bool = True
 
 
 @dataclass(frozen=True)
@@ -130,6 +134,7 @@ class ReplayTally:
     effects: dict = field(default_factory=dict)
     seconds_by_effect: dict = field(default_factory=dict)
     motion: dict = field(default_factory=dict)
+    gates: dict = field(default_factory=dict)  # ``GateTally.as_dict``: what each gate skipped
 
     def merge(self, other: "ReplayTally") -> None:
         """Add another piece: counts, seconds, intervals and sub-steps summed, an effect that ran in
@@ -139,6 +144,9 @@ class ReplayTally:
             self.effects[k] = self.effects.get(k, False) or v
         for k, v in other.seconds_by_effect.items():
             self.seconds_by_effect[k] = self.seconds_by_effect.get(k, 0.0) + v
+        gates = GateTally.of_dict(self.gates)
+        gates.merge(GateTally.of_dict(other.gates))
+        self.gates = gates.as_dict()
         if not self.motion:
             self.motion = dict(other.motion)
         else:
@@ -150,7 +158,7 @@ class ReplayTally:
     def of_summary(summary: "ReplaySummary") -> "ReplayTally":
         """The tally a summary was built of (its counts as ``ReplayCounts.of_summary`` reads them)."""
         return ReplayTally(ReplayCounts.of_summary(summary), dict(summary.effects), dict(summary.seconds_by_effect),
-                           dict(summary.motion))
+                           dict(summary.motion), dict(summary.gates))
 
 
 @dataclass
@@ -168,6 +176,8 @@ class ReplaySummary:
         the sub-steps' largest travel and turn, obstacles' pass and time bounds, the gun's step)
     vehicle_contacts : contacts between two vehicles (a trajectory of many entities)
     entities : the trajectory's vehicles (1 without an entity column)
+    gates : by gate, the work items it was asked about, those it proved need no exact work, and their
+        share (``tankcd_cli.gates.GateTally.as_dict``)
     warnings : every set-up warning the replay raised, one line each (said with ``-q`` too)
     time_origin : the UTC instant of t = 0 (ISO 8601, ``...Z``) when the inputs carry an absolute
         clock, else None
@@ -185,6 +195,7 @@ class ReplaySummary:
     motion: dict = field(default_factory=dict)
     vehicle_contacts: int = 0
     entities: int = 1
+    gates: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
     time_origin: str | None = None
 

@@ -162,7 +162,7 @@ def summarize(counts: ReplayCounts, run: ReplayRun, seconds: float) -> ReplaySum
         from tankcd_cli.replay.effects import resolution
 
         motion = {"intervals": run.between.intervals, "substeps": run.between.substeps, **resolution(run.surface)}
-    tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion)
+    tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion, run.gates.as_dict())
     return summary_of(tally, run.continuous, seconds,
                       int(run.carry.has.sum()) if run.carry is not None else (1 if counts.rows else 0))
 
@@ -183,7 +183,7 @@ def summary_of(tally: ReplayTally, continuous: bool, seconds: float, entities: i
                          mode="continuous" if continuous else "discrete",
                          between=dict(counts.between) if continuous else {},
                          motion=dict(tally.motion) if continuous else {},
-                         vehicle_contacts=counts.vehicle_contacts, entities=entities)
+                         vehicle_contacts=counts.vehicle_contacts, entities=entities, gates=dict(tally.gates))
 
 
 def joined_summary(summaries: list) -> ReplaySummary:

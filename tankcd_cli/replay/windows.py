@@ -609,7 +609,7 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
     lo, hi = world.surface.bounds()
     motion = {"intervals": after[0] - before[0], "substeps": after[1] - before[1], **resolution(world.surface)} \
         if run.continuous else {}
-    tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion)
+    tally = ReplayTally(counts, run.effects.as_dict(), dict(run.seconds), motion, run.gates.as_dict())
     return WindowResult(task.index, np.concatenate(steps) if steps else np.zeros(0, np.int64),
                         PoseRows.of(tables) if tables else None, keys, records, tally,
                         (tuple(map(float, lo)), tuple(map(float, hi))), world.crs, os.getpid(),
