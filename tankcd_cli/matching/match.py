@@ -68,6 +68,7 @@ from tankcd_cli.geometry.pose import (
     rotation_matrix,
     wrap_angle,
 )
+from tankcd_cli.gates import GateTally
 from tankcd_cli.geometry.support_plane import support_planes_fixed
 from tankcd_cli.names import (  # noqa: F401 (shared names)
     AUTO_RULE,
@@ -135,7 +136,8 @@ def escalation_tolerance(vehicle: Vehicle, attitude_deg: float = ESCALATION_ATTI
 
 def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: bool = True,
           tilt_iterations: int = 30, regions: bool = True, escalate: bool | None = None,
-          tolerance: float | None = None, attitude_tolerance: float | None = None) -> Poses:
+          tolerance: float | None = None, attitude_tolerance: float | None = None,
+          gates: GateTally | None = None) -> Poses:
     """Place ``vehicle`` at footprint centres (x, y) m with headings ``yaw`` rad.
 
     surface : a :class:`~tankcd_cli.terrain.surface.Surface` (either layout's)
@@ -147,6 +149,8 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
     tolerance : the certificate's height tolerance, m (default ``escalation_tolerance``)
     attitude_tolerance : the certificate's attitude tolerance, deg (default
         ``tolerances.ATTITUDE_TOLERANCE_DEG``)
+    gates : where given and enabled, the certificate's verdict is proven from bounds where they
+        suffice (``certificate_gate``: the same verdict, no exact pass) and counted there
     """
     if matcher not in MATCHER_CHOICES:
         raise ValueError(f"unknown matcher {matcher!r}; choose one of {', '.join(MATCHER_CHOICES)}")
@@ -181,7 +185,8 @@ def match(surface, vehicle: Vehicle, x, y, yaw, matcher: str = "auto", measure: 
         kp = np.flatnonzero(choice < REFERENCE)
         tol = escalation_tolerance(vehicle) if tolerance is None else float(tolerance)
         cert = certify(surface, vehicle, x[kp], y[kp], yaw[kp], plane[kp], tol,
-                       ATTITUDE_TOLERANCE_DEG if attitude_tolerance is None else float(attitude_tolerance))
+                       ATTITUDE_TOLERANCE_DEG if attitude_tolerance is None else float(attitude_tolerance),
+                       gates=gates, measure=measure)
         choice[kp[~cert.passed]] += ESCALATED
         if measure:
             passed = kp[cert.passed]
@@ -218,7 +223,8 @@ class Certificate(NamedTuple):
 
 
 def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float,
-            attitude_tolerance: float = ATTITUDE_TOLERANCE_DEG) -> Certificate:
+            attitude_tolerance: float = ATTITUDE_TOLERANCE_DEG, gates: GateTally | None = None,
+            measure: bool = True) -> Certificate:
     """Whether each plane (N, 3) passes the reference's certificate within ``tolerance`` m and
     ``attitude_tolerance`` deg.
 
@@ -252,6 +258,23 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     ok = np.zeros(n, dtype=bool)
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
+    if gates is not None and gates.enabled and n and hasattr(surface, "plane_slab"):
+        proven = certificate_gate(surface, vehicle, x, y, yaw, planes, tolerance, attitude)
+        gates.add("certificate", n, int(proven.sum()))
+        if proven.any():
+            ok[proven] = True
+            if measure:  # the pass at the plane's own tilt, measuring only: the same points, the same bits
+                p = planes[proven]
+                roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
+                high, covered[proven], _ = surface.highest_over_patches(
+                    x[proven], y[proven], yaw[proven], patch_quads(vehicle, roll, pitch), p)
+                penetration[proven] = np.maximum(high, 0.0)
+            rest = np.flatnonzero(~proven)
+            if len(rest):
+                cert = certify(surface, vehicle, x[rest], y[rest], yaw[rest], planes[rest], tolerance,
+                               attitude_tolerance)
+                ok[rest], penetration[rest], covered[rest] = cert
+            return Certificate(ok, penetration, covered)
     level = surface.support_plane_under(x, y, yaw, patch_quads(vehicle, np.zeros(n), np.zeros(n)), start=planes)
     with np.errstate(invalid="ignore"):
         near = np.flatnonzero((level[2] == 0) & (corner_gap(vehicle, planes, level[0]) <= tolerance))
@@ -265,6 +288,58 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     with np.errstate(invalid="ignore"):
         ok[near] = (status == 0) & (corner_gap(vehicle, p, lowest) <= tolerance) & (plane_angle(p, lowest) <= attitude)
     return Certificate(ok, penetration, covered)
+
+
+GATE_MARGIN = 1e-6  # m, and rad: the gate's bounds clear the certificate's limits by this, far above rounding
+
+
+def certificate_gate(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance: float,
+                     attitude: float) -> np.ndarray:
+    """(N,) bool: the planes (N, 3) that provably pass ``certify`` (``tolerance`` m, ``attitude``
+    rad), from the ground's slab about each plane alone (``surface.plane_slab``: lo <= ground -
+    plane <= hi over a box holding both passes' patches, all of it on valid posts); no exact pass.
+
+    Proof. Let S be either pass's support plane and d = S - p, linear in (u, v). S lies on or
+    above the ground at every point of its patches P, so d >= lo there. S is the lowest plane
+    over the centre: its height there is a convex combination of the ground's at its support
+    points, so d(0) <= hi. P is symmetric about the centre (the two tracks; the tilt's projection
+    is linear), so for q in P, d(q) = 2 d(0) - d(-q) <= 2 hi - lo: |d| <= B = max(|lo|, |2 hi - lo|)
+    over P, in particular at the images M X of the patches' outer corners X = (+-L/2, +-W/2)
+    (L the track length, W the footprint width; M the projection for the tilt, the identity for
+    the untilted pass). A footprint corner c, where ``corner_gap`` measures, is M w for
+    w = M^-1 c; bilinear weights over the four X reproduce a linear function exactly and sum in
+    absolute value to K = max(1, 2|w_u|/L) max(1, 2|w_v|/W), so |d(c)| <= K B. The slopes:
+    d(M X+,+) - d(M X-,+) = db cos(pitch) L and d(M X+,+) - d(M X+,-) = (db sin(pitch) sin(roll)
+    + dc cos(roll)) W bound |db| and |dc|, and the angle between the normals (-b, -c, 1) is at
+    most |(db, dc)| (the map from slopes to unit normals is 1-Lipschitz). Where K B is within
+    ``tolerance`` for both passes and the slope bound within ``attitude`` (by ``GATE_MARGIN``),
+    both passes find a support (the box is wholly on full cells, so the patches are over
+    terrain and surround the centre) and pass: the verdict ``certify`` would give. Only that
+    verdict is skipped; what it measures on the way is measured by the caller."""
+    n = len(x)
+    proven = np.zeros(n, dtype=bool)
+    planes = np.asarray(planes, dtype=float)
+    finite = np.flatnonzero(np.isfinite(planes).all(axis=1))
+    if len(finite) == 0:
+        return proven
+    p = planes[finite]
+    roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
+    zero = np.zeros(len(finite))
+    both = np.concatenate([patch_quads(vehicle, zero, zero), patch_quads(vehicle, roll, pitch)], axis=1)
+    lo, hi = surface.plane_slab(x[finite], y[finite], yaw[finite], both, p)
+    with np.errstate(invalid="ignore"):
+        bound = np.maximum(np.abs(lo), np.abs(2 * hi - lo))
+        L, W = vehicle.track_length, vehicle.footprint_width
+        cp, sp, cr, sr = np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
+        wv = (W / 2) / cr
+        wu = (L / 2 + np.abs(sp * sr) * wv) / cp
+        K = np.maximum(1.0, 2 * wu / L) * np.maximum(1.0, 2 * wv / W)
+        db = 2 * bound / (cp * L)
+        dc = (2 * bound / W + db * np.abs(sp * sr)) / cr
+        passes = ((bound <= tolerance - GATE_MARGIN) & (K * bound <= tolerance - GATE_MARGIN)
+                  & (np.hypot(db, dc) <= attitude - GATE_MARGIN))
+    proven[finite] = passes
+    return proven
 
 
 def corner_gap(vehicle: Vehicle, p: np.ndarray, q: np.ndarray) -> np.ndarray:

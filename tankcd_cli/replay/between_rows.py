@@ -221,7 +221,8 @@ def check_between(rows: Rows, kind, run, counts: BetweenCounts, effects: list,
         at = ivb.at(owner, frac)
         sub = match(run.surface, kind.vehicle, at["x"], at["y"], np.radians(at["yaw_deg"]), matcher=run.matcher,
                     escalate=run.escalate, tolerance=run.tolerance,
-                    attitude_tolerance=run.attitude_tolerance, measure=False, regions=run.matcher == "auto")
+                    attitude_tolerance=run.attitude_tolerance, measure=False, regions=run.matcher == "auto",
+                    gates=run.gates)
         # each interval's sequence of placements: its first row, its sub-steps, its second row
         first_sub = np.cumsum(n - 1) - (n - 1)
         segments = _segments(rows, ivb, a, b, n, first_sub, sub, placed)

@@ -209,7 +209,8 @@ def _rows(run: ReplayRun, kind, chunk):
     own effect's (N, ...) bool by its name: none where it does not run)."""
     t0 = time.perf_counter()
     poses = match(run.surface, kind.vehicle, chunk.x, chunk.y, np.radians(chunk.yaw_deg), matcher=run.matcher,
-                  escalate=run.escalate, tolerance=run.tolerance, attitude_tolerance=run.attitude_tolerance)
+                  escalate=run.escalate, tolerance=run.tolerance, attitude_tolerance=run.attitude_tolerance,
+                  gates=run.gates)
     run.seconds["matching"] += time.perf_counter() - t0
     events = []
     good = np.flatnonzero(poses.status != OFF)

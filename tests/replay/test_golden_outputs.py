@@ -136,6 +136,24 @@ def test_the_sample_scene(run, scene_dir, mode, monkeypatch):
     _check(f"sample-{mode}", files)
 
 
+@pytest.mark.parametrize("mode", ["continuous", "discrete"])
+def test_the_gates_change_no_pose_and_no_event(run, scene_dir, mode, monkeypatch):
+    """With the gates off (--no-gates: the exact work everywhere) the sample scene and the
+    exercise give the pinned poses and events (pinned before the gates), byte for byte."""
+    monkeypatch.chdir(scene_dir)
+    flags = ["--discrete"] if mode == "discrete" else []
+    case = "sample-continuous" if mode == "continuous" else "sample-discrete"
+    for name, inputs, pinned in (("sample", ["patrol.csv"], case), ("exercise", ["exercise.csv"], "exercise")):
+        if name == "exercise" and mode == "discrete":
+            continue
+        out = scene_dir / f"no-gates-{name}-{mode}"
+        out.mkdir(exist_ok=True)
+        _replay(run, *inputs, "--scene", "scene.toml", "--poses", out / "poses.csv", "--events", out / "events.jsonl",
+                "--no-gates", *flags)
+        for f in ("poses.csv", "events.jsonl"):
+            assert (out / f).read_bytes() == (GOLDEN / pinned / f).read_bytes(), f"{name} {mode} {f}"
+
+
 def test_an_exercise_in_logger_order_in_one_piece_and_by_windows(run, scene_dir, monkeypatch):
     monkeypatch.chdir(scene_dir)
     files = {}

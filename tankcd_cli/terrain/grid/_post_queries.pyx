@@ -426,3 +426,103 @@ def grid_highest_above_plane_bound(px, py, yaw, quads, planes, post_z, post_orig
         out[i] = _highest_above_plane_one(x[i], y[i], w[i], &q[i, 0], k, pl[i, 0], pl[i, 1], pl[i, 2], pzp, rows,
                                           cols, ox, oy, dx, dy, r_off, c_off, grid_rows, grid_cols)
     return out_arr
+
+
+cdef void _plane_slab_one(double px, double py, double yaw, const double* quad, Py_ssize_t k,
+                          double pa, double pb, double pc, const double* post_z, Py_ssize_t rows,
+                          Py_ssize_t cols, double ox, double oy, double dx, double dy,
+                          Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows,
+                          Py_ssize_t grid_cols, double* lo, double* hi) noexcept nogil:
+    """The least and largest (post - plane) over every post of every cell the bounding box of the
+    corners ``quad`` (k, 2) (heading frame) touches; NaN both unless the box lies on the grid, the
+    window holds all its posts and every one of them is valid (all its cells carry both triangles)."""
+    cdef double co = cos(yaw)
+    cdef double si = sin(yaw)
+    cdef double xmin = INFINITY
+    cdef double xmax = -INFINITY
+    cdef double ymin = INFINITY
+    cdef double ymax = -INFINITY
+    cdef double wx, wy, z, du, dv, rel, low, high
+    cdef Py_ssize_t j, r0, r1, c0, c1, r, c
+    lo[0] = NAN
+    hi[0] = NAN
+    for j in range(k):
+        wx = px + co * quad[2 * j] - si * quad[2 * j + 1]
+        wy = py + si * quad[2 * j] + co * quad[2 * j + 1]
+        xmin = wx if wx < xmin else xmin
+        xmax = wx if wx > xmax else xmax
+        ymin = wy if wy < ymin else ymin
+        ymax = wy if wy > ymax else ymax
+    if not (isfinite(xmin) and isfinite(xmax) and isfinite(ymin) and isfinite(ymax)
+            and isfinite(pa) and isfinite(pb) and isfinite(pc)):
+        return
+    c0 = ifloor((xmin - ox) / dx)
+    c1 = ifloor((xmax - ox) / dx) + 1
+    r0 = ifloor((ymin - oy) / dy)
+    r1 = ifloor((ymax - oy) / dy) + 1
+    if c0 < 0 or r0 < 0 or c1 > grid_cols - 1 or r1 > grid_rows - 1:
+        return  # the box reaches past the grid's posts
+    if c0 < c_off or r0 < r_off or c1 - c_off > cols - 1 or r1 - r_off > rows - 1:
+        return
+    low = INFINITY
+    high = -INFINITY
+    for r in range(r0, r1 + 1):
+        dv = oy + <double>r * dy - py
+        for c in range(c0, c1 + 1):
+            z = post_z[(r - r_off) * cols + (c - c_off)]
+            if not isfinite(z):
+                return
+            du = ox + <double>c * dx - px
+            rel = z - (pa + pb * (co * du + si * dv) + pc * (co * dv - si * du))
+            high = rel if rel > high else high
+            low = rel if rel < low else low
+    lo[0] = low
+    hi[0] = high
+
+
+def grid_plane_slab(px, py, yaw, quads, planes, post_z, post_origin, post_size,
+                    Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows, Py_ssize_t grid_cols):
+    """The slab of the ground about each pose's plane over its polygons: (lo, hi) (N,) each, m.
+
+    px, py, yaw : local centres (N,) m and headings (N,) rad
+    quads : (N, ..., 2) polygon corners in the heading frame, m (their bounding box is searched)
+    planes : (N, 3) a, b, c: the plane's height a + b u + c v at heading-frame offset (u, v)
+
+    The ground is linear over every triangle of the grid and the plane is linear, so over the
+    cells the polygons' bounding box touches, ground - plane lies between the least and the
+    largest (post - plane) of their posts. NaN where the box is not wholly over full cells
+    held by the window (a post of NODATA, the grid's edge) or the pose is not finite.
+    """
+    cdef const double[::1] x = _f64(px)
+    cdef const double[::1] y = _f64(py)
+    cdef const double[::1] w = _f64(yaw)
+    q_arr = _f64(quads)
+    cdef Py_ssize_t n = x.shape[0]
+    if q_arr.ndim < 2 or q_arr.shape[0] != n or q_arr.shape[q_arr.ndim - 1] != 2:
+        raise ValueError("quads must be (N, ..., 2)")
+    cdef const double[:, ::1] q = q_arr.reshape(n, -1)
+    cdef const double[:, ::1] pl = _f64(planes)
+    cdef const double[:, ::1] pz = _f64(post_z)
+    cdef const double[::1] po = _pair(post_origin, "post_origin")
+    cdef const double[::1] ps = _pair(post_size, "post_size")
+    if y.shape[0] != n or w.shape[0] != n or pl.shape[0] != n or pl.shape[1] != 3:
+        raise ValueError("py, yaw and planes (N, 3) must match px")
+    lo_arr = np.full(n, np.nan)
+    hi_arr = np.full(n, np.nan)
+    cdef double[::1] lo = lo_arr
+    cdef double[::1] hi = hi_arr
+    cdef Py_ssize_t k = q.shape[1] // 2
+    cdef const double* pzp = _ptr2(pz)
+    cdef Py_ssize_t rows = pz.shape[0]
+    cdef Py_ssize_t cols = pz.shape[1]
+    cdef double ox = po[0]
+    cdef double oy = po[1]
+    cdef double dx = ps[0]
+    cdef double dy = ps[1]
+    cdef Py_ssize_t i
+    if n == 0 or k == 0 or pzp == NULL:
+        return lo_arr, hi_arr
+    for i in prange(n, nogil=True, schedule="static"):
+        _plane_slab_one(x[i], y[i], w[i], &q[i, 0], k, pl[i, 0], pl[i, 1], pl[i, 2], pzp, rows, cols, ox, oy,
+                        dx, dy, r_off, c_off, grid_rows, grid_cols, &lo[i], &hi[i])
+    return lo_arr, hi_arr

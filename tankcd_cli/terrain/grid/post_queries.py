@@ -20,6 +20,7 @@ from tankcd_cli.terrain.grid._post_queries import (  # noqa: F401
     full_cell,
     grid_height_one,
     grid_highest_above_plane_bound,
+    grid_plane_slab,
     grid_heights_at_offsets,
     grid_heights_slopes,
     grid_worst_class,

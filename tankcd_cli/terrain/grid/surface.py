@@ -33,6 +33,7 @@ from tankcd_cli.terrain.grid.post_queries import (
     grid_heights_at_offsets,
     grid_heights_slopes,
     grid_highest_above_plane_bound,
+    grid_plane_slab,
     grid_worst_class,
 )
 from tankcd_cli.terrain.grid.tiles import TileReader
@@ -229,6 +230,27 @@ class GridSurface(PatchQueries):
                                                       self.post_origin, self.spacing, r_off, c_off,
                                                       self.rows, self.cols)
         return out
+
+    def plane_slab(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the ground about each pose's plane over its polygons ``quads`` (N, ..., 2)
+        (heading frame; planes (N, 3): a + b u + c v): (lo, hi) (N,) m, lo <= ground - plane <= hi
+        everywhere over their bounding box; NaN where the box is not wholly over valid posts.
+        A pass over the posts of the box (``grid_plane_slab``), no clipping: what the gates of
+        ``matching.match`` prove their skips from."""
+        lx, ly = self.to_local(x, y)
+        lx, ly = np.ravel(lx), np.ravel(ly)
+        n = len(lx)
+        lo, hi = np.full(n, np.nan), np.full(n, np.nan)
+        if n == 0:
+            return lo, hi
+        quads = np.asarray(quads, dtype=float).reshape(n, -1, 2)
+        margin = self._margin(_reach(quads))
+        yaw = np.broadcast_to(np.asarray(yaw, dtype=float), lx.shape)
+        for idx, blocks in self._groups(lx, ly, margin):
+            win, r_off, c_off = self._window(blocks, margin, False)
+            lo[idx], hi[idx] = grid_plane_slab(lx[idx], ly[idx], yaw[idx], quads[idx], planes[idx], win,
+                                               self.post_origin, self.spacing, r_off, c_off, self.rows, self.cols)
+        return lo, hi
 
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True, warm: bool = False):
