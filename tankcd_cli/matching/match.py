@@ -258,7 +258,7 @@ def certify(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, tolerance:
     ok = np.zeros(n, dtype=bool)
     penetration = np.full(n, np.nan)
     covered = np.full(n, np.nan)
-    if gates is not None and gates.enabled and n and hasattr(surface, "plane_slab"):
+    if gates is not None and gates.enabled and n:
         proven = certificate_gate(surface, vehicle, x, y, yaw, planes, tolerance, attitude)
         gates.add("certificate", n, int(proven.sum()))
         if proven.any():
@@ -324,12 +324,15 @@ def certificate_gate(surface, vehicle: Vehicle, x, y, yaw, planes: np.ndarray, t
         return proven
     p = planes[finite]
     roll, pitch = attitude_from_slopes(p[:, 1], p[:, 2])
-    zero = np.zeros(len(finite))
-    both = np.concatenate([patch_quads(vehicle, zero, zero), patch_quads(vehicle, roll, pitch)], axis=1)
-    lo, hi = surface.plane_slab(x[finite], y[finite], yaw[finite], both, p)
+    L, W = vehicle.track_length, vehicle.footprint_width
+    # every corner of either pass's patches, (xi cp + eta sp sr, eta cr) for |xi| <= L/2, |eta| <= W/2,
+    # lies in |u| <= R, |v| <= W/2 (R the footprint's half-diagonal, by Cauchy-Schwarz): one box for all
+    R = float(np.hypot(L, W)) / 2
+    box = np.array([[[-R, -W / 2], [R, -W / 2], [R, W / 2], [-R, W / 2]]])
+    # B >= hi - lo, and B must be within the tolerance: a wider slab proves nothing (the pass stops early)
+    lo, hi = surface.plane_slab(x[finite], y[finite], yaw[finite], box, p, limit=tolerance)
     with np.errstate(invalid="ignore"):
         bound = np.maximum(np.abs(lo), np.abs(2 * hi - lo))
-        L, W = vehicle.track_length, vehicle.footprint_width
         cp, sp, cr, sr = np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
         wv = (W / 2) / cr
         wu = (L / 2 + np.abs(sp * sr) * wv) / cp

@@ -215,7 +215,7 @@ def _rows(run: ReplayRun, kind, chunk):
     events = []
     good = np.flatnonzero(poses.status != OFF)
     n = len(chunk)
-    where = {int(s): i for i, s in enumerate(chunk.step)} if n else {}
+    where = StepRows(chunk.step)
     effects = run.effects_of(kind)
     contacts = {}
     for effect, on in zip(OWN, effects.on):
@@ -227,6 +227,25 @@ def _rows(run: ReplayRun, kind, chunk):
         else:
             contacts[effect.name] = effect.no_contacts(run, n)
     return poses, events, contacts
+
+
+class StepRows:
+    """Each step's row in a chunk (``where[step]``), what the effects mark their contacts at: built
+    on the first look-up, so that a chunk without an event pays nothing (a dict of every step
+    cost a Python loop over the rows)."""
+
+    def __init__(self, steps: np.ndarray):
+        self.steps = steps
+        self._order = None
+
+    def __getitem__(self, step: int) -> int:
+        if self._order is None:
+            self._order = np.argsort(self.steps, kind="stable")
+            self._sorted = self.steps[self._order]
+        k = int(np.searchsorted(self._sorted, step))
+        if k >= len(self._sorted) or self._sorted[k] != step:
+            raise KeyError(step)
+        return int(self._order[k])
 
 
 def _scatter(n: int, parts: list) -> Poses:

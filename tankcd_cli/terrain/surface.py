@@ -51,6 +51,13 @@ class Surface(Protocol):
         polygons (+inf where none is known, -inf where no ground is under them)."""
         ...
 
+    def plane_slab(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray,
+                   limit: float = float("inf")) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds (lo, hi) (N,) m of the ground less each pose's plane over its polygons' bounding
+        box (quads (N or 1, ..., 2); NaN where none is proven: off the terrain, a slab wider than
+        ``limit``, or a surface that keeps no bounds)."""
+        ...
+
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True, warm: bool = False):
         """The exact footprint pass (``terrain.footprint.footprint_batch``) over this surface's ground."""

@@ -432,10 +432,11 @@ cdef void _plane_slab_one(double px, double py, double yaw, const double* quad, 
                           double pa, double pb, double pc, const double* post_z, Py_ssize_t rows,
                           Py_ssize_t cols, double ox, double oy, double dx, double dy,
                           Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows,
-                          Py_ssize_t grid_cols, double* lo, double* hi) noexcept nogil:
+                          Py_ssize_t grid_cols, double limit, double* lo, double* hi) noexcept nogil:
     """The least and largest (post - plane) over every post of every cell the bounding box of the
     corners ``quad`` (k, 2) (heading frame) touches; NaN both unless the box lies on the grid, the
-    window holds all its posts and every one of them is valid (all its cells carry both triangles)."""
+    window holds all its posts and every one of them is valid (all its cells carry both triangles),
+    and NaN too as soon as they are more than ``limit`` apart (a slab no caller can use)."""
     cdef double co = cos(yaw)
     cdef double si = sin(yaw)
     cdef double xmin = INFINITY
@@ -476,12 +477,15 @@ cdef void _plane_slab_one(double px, double py, double yaw, const double* quad, 
             rel = z - (pa + pb * (co * du + si * dv) + pc * (co * dv - si * du))
             high = rel if rel > high else high
             low = rel if rel < low else low
+        if high - low > limit:
+            return
     lo[0] = low
     hi[0] = high
 
 
 def grid_plane_slab(px, py, yaw, quads, planes, post_z, post_origin, post_size,
-                    Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows, Py_ssize_t grid_cols):
+                    Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows, Py_ssize_t grid_cols,
+                    double limit=INFINITY):
     """The slab of the ground about each pose's plane over its polygons: (lo, hi) (N,) each, m.
 
     px, py, yaw : local centres (N,) m and headings (N,) rad
@@ -491,16 +495,19 @@ def grid_plane_slab(px, py, yaw, quads, planes, post_z, post_origin, post_size,
     The ground is linear over every triangle of the grid and the plane is linear, so over the
     cells the polygons' bounding box touches, ground - plane lies between the least and the
     largest (post - plane) of their posts. NaN where the box is not wholly over full cells
-    held by the window (a post of NODATA, the grid's edge) or the pose is not finite.
+    held by the window (a post of NODATA, the grid's edge) or the pose is not finite, and where
+    the slab is wider than ``limit`` m (the search stops there: on rough ground after a few posts).
+    quads may be (1, ..., 2): the same polygons for every pose.
     """
     cdef const double[::1] x = _f64(px)
     cdef const double[::1] y = _f64(py)
     cdef const double[::1] w = _f64(yaw)
     q_arr = _f64(quads)
     cdef Py_ssize_t n = x.shape[0]
-    if q_arr.ndim < 2 or q_arr.shape[0] != n or q_arr.shape[q_arr.ndim - 1] != 2:
-        raise ValueError("quads must be (N, ..., 2)")
-    cdef const double[:, ::1] q = q_arr.reshape(n, -1)
+    if q_arr.ndim < 2 or q_arr.shape[0] not in (n, 1) or q_arr.shape[q_arr.ndim - 1] != 2:
+        raise ValueError("quads must be (N, ..., 2) or (1, ..., 2)")
+    cdef Py_ssize_t shared = q_arr.shape[0] == 1
+    cdef const double[:, ::1] q = q_arr.reshape(q_arr.shape[0], -1)
     cdef const double[:, ::1] pl = _f64(planes)
     cdef const double[:, ::1] pz = _f64(post_z)
     cdef const double[::1] po = _pair(post_origin, "post_origin")
@@ -523,6 +530,6 @@ def grid_plane_slab(px, py, yaw, quads, planes, post_z, post_origin, post_size,
     if n == 0 or k == 0 or pzp == NULL:
         return lo_arr, hi_arr
     for i in prange(n, nogil=True, schedule="static"):
-        _plane_slab_one(x[i], y[i], w[i], &q[i, 0], k, pl[i, 0], pl[i, 1], pl[i, 2], pzp, rows, cols, ox, oy,
-                        dx, dy, r_off, c_off, grid_rows, grid_cols, &lo[i], &hi[i])
+        _plane_slab_one(x[i], y[i], w[i], &q[0 if shared else i, 0], k, pl[i, 0], pl[i, 1], pl[i, 2], pzp, rows,
+                        cols, ox, oy, dx, dy, r_off, c_off, grid_rows, grid_cols, limit, &lo[i], &hi[i])
     return lo_arr, hi_arr

@@ -231,10 +231,12 @@ class GridSurface(PatchQueries):
                                                       self.rows, self.cols)
         return out
 
-    def plane_slab(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Bounds of the ground about each pose's plane over its polygons ``quads`` (N, ..., 2)
+    def plane_slab(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray,
+                   limit: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the ground about each pose's plane over its polygons ``quads`` (N or 1, ..., 2)
         (heading frame; planes (N, 3): a + b u + c v): (lo, hi) (N,) m, lo <= ground - plane <= hi
-        everywhere over their bounding box; NaN where the box is not wholly over valid posts.
+        everywhere over their bounding box; NaN where the box is not wholly over valid posts, or
+        the slab is wider than ``limit`` m.
         A pass over the posts of the box (``grid_plane_slab``), no clipping: what the gates of
         ``matching.match`` prove their skips from."""
         lx, ly = self.to_local(x, y)
@@ -243,13 +245,15 @@ class GridSurface(PatchQueries):
         lo, hi = np.full(n, np.nan), np.full(n, np.nan)
         if n == 0:
             return lo, hi
-        quads = np.asarray(quads, dtype=float).reshape(n, -1, 2)
+        quads = np.asarray(quads, dtype=float)
+        quads = quads.reshape(len(quads), -1, 2)
         margin = self._margin(_reach(quads))
         yaw = np.broadcast_to(np.asarray(yaw, dtype=float), lx.shape)
         for idx, blocks in self._groups(lx, ly, margin):
             win, r_off, c_off = self._window(blocks, margin, False)
-            lo[idx], hi[idx] = grid_plane_slab(lx[idx], ly[idx], yaw[idx], quads[idx], planes[idx], win,
-                                               self.post_origin, self.spacing, r_off, c_off, self.rows, self.cols)
+            lo[idx], hi[idx] = grid_plane_slab(lx[idx], ly[idx], yaw[idx], quads if len(quads) == 1 else quads[idx],
+                                               planes[idx], win, self.post_origin, self.spacing, r_off, c_off,
+                                               self.rows, self.cols, limit)
         return lo, hi
 
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,

@@ -120,6 +120,13 @@ class MeshSurface(PatchQueries):
         none is known for a mesh (+inf), so every pose takes the exact footprint pass."""
         return np.full(len(np.atleast_1d(x)), np.inf)
 
+    def plane_slab(self, x, y, yaw, quads: np.ndarray, planes: np.ndarray,
+                   limit: float = float("inf")) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the ground about each pose's plane: none is kept for a mesh yet (NaN), so no
+        gate proves anything on one and every pose takes the exact passes."""
+        n = len(np.atleast_1d(x))
+        return np.full(n, np.nan), np.full(n, np.nan)
+
     def footprint(self, mode: int, x, y, yaw, quads: np.ndarray, planes_in: np.ndarray, eps: float,
                   arithmetic: bool = True, warm: bool = False):
         """The exact footprint pass (see ``terrain.footprint.footprint_batch``); ``arithmetic``
