@@ -33,8 +33,9 @@ class GateTally:
                 for name, n in sorted(self.checked.items())}
 
     @staticmethod
-    def of_dict(d: dict, enabled: bool = True) -> "GateTally":
-        tally = GateTally(enabled)
+    def of_dict(d: dict) -> "GateTally":
+        """The tally ``as_dict`` gave (a summary's ``gates``)."""
+        tally = GateTally()
         for name, v in (d or {}).items():
             tally.add(name, v.get("checked", 0), v.get("skipped", 0))
         return tally

@@ -100,7 +100,8 @@ class Effect:
     def at_rows(self, run: Run, kind, chunk, poses, good: np.ndarray, where) -> tuple[list, np.ndarray]:
         """The events at the rows of one kind of vehicle (``kind``: a ``replay.world.VehicleKind``) in
         ``chunk`` placed as ``poses``, ``good`` (G,) the rows with a pose, ``where[step]`` each step's
-        row (``replay.pipeline.StepRows``); and (N, ...) bool the rows' contacts (what the checks along the motion take)."""
+        row (``replay.pipeline.StepRows``); and (N, ...) bool the rows' contacts (what the checks
+        along the motion take)."""
         raise NotImplementedError
 
     def along(self, run: Run, kind, block) -> tuple[list, np.ndarray | None]:

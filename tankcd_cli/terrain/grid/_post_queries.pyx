@@ -328,6 +328,35 @@ def grid_worst_class(px, py, yaw, su, sv, classes, post_origin, post_size, Py_ss
     return out_arr
 
 
+cdef inline bint _box_cells(double px, double py, double yaw, const double* quad, Py_ssize_t k, double ox,
+                            double oy, double dx, double dy, Py_ssize_t* span) noexcept nogil:
+    """The posts (span: c0, c1, r0, r1, whole-grid indices, not clipped) of every cell the bounding
+    box of the corners ``quad`` (k, 2) in one pose's heading frame touches; False where a corner is
+    not finite."""
+    cdef double co = cos(yaw)
+    cdef double si = sin(yaw)
+    cdef double xmin = INFINITY
+    cdef double xmax = -INFINITY
+    cdef double ymin = INFINITY
+    cdef double ymax = -INFINITY
+    cdef double wx, wy
+    cdef Py_ssize_t j
+    for j in range(k):
+        wx = px + co * quad[2 * j] - si * quad[2 * j + 1]
+        wy = py + si * quad[2 * j] + co * quad[2 * j + 1]
+        xmin = wx if wx < xmin else xmin
+        xmax = wx if wx > xmax else xmax
+        ymin = wy if wy < ymin else ymin
+        ymax = wy if wy > ymax else ymax
+    if not (isfinite(xmin) and isfinite(xmax) and isfinite(ymin) and isfinite(ymax)):
+        return False
+    span[0] = ifloor((xmin - ox) / dx)
+    span[1] = ifloor((xmax - ox) / dx) + 1
+    span[2] = ifloor((ymin - oy) / dy)
+    span[3] = ifloor((ymax - oy) / dy) + 1
+    return True
+
+
 cdef double _highest_above_plane_one(double px, double py, double yaw, const double* quad, Py_ssize_t k,
                                      double pa, double pb, double pc, const double* post_z, Py_ssize_t rows,
                                      Py_ssize_t cols, double ox, double oy, double dx, double dy,
@@ -338,25 +367,12 @@ cdef double _highest_above_plane_one(double px, double py, double yaw, const dou
     bounding box touches (-inf: no valid post there; +inf: the window does not hold them all)."""
     cdef double co = cos(yaw)
     cdef double si = sin(yaw)
-    cdef double xmin = INFINITY
-    cdef double xmax = -INFINITY
-    cdef double ymin = INFINITY
-    cdef double ymax = -INFINITY
-    cdef double wx, wy, z, du, dv, rel, best
-    cdef Py_ssize_t j, r0, r1, c0, c1, r, c
-    for j in range(k):
-        wx = px + co * quad[2 * j] - si * quad[2 * j + 1]
-        wy = py + si * quad[2 * j] + co * quad[2 * j + 1]
-        xmin = wx if wx < xmin else xmin
-        xmax = wx if wx > xmax else xmax
-        ymin = wy if wy < ymin else ymin
-        ymax = wy if wy > ymax else ymax
-    if not (isfinite(xmin) and isfinite(xmax) and isfinite(ymin) and isfinite(ymax)):
+    cdef double z, du, dv, rel, best
+    cdef Py_ssize_t r0, r1, c0, c1, r, c
+    cdef Py_ssize_t span[4]
+    if not _box_cells(px, py, yaw, quad, k, ox, oy, dx, dy, span):
         return NAN
-    c0 = ifloor((xmin - ox) / dx)
-    c1 = ifloor((xmax - ox) / dx) + 1
-    r0 = ifloor((ymin - oy) / dy)
-    r1 = ifloor((ymax - oy) / dy) + 1
+    c0, c1, r0, r1 = span[0], span[1], span[2], span[3]
     # posts of the grid only; every one of them must be in the window
     c0 = c0 if c0 > 0 else 0
     r0 = r0 if r0 > 0 else 0
@@ -379,6 +395,21 @@ cdef double _highest_above_plane_one(double px, double py, double yaw, const dou
     return best
 
 
+def _plane_query(px, py, yaw, quads, planes, post_z, post_origin, post_size, bint shared_quads):
+    """The arrays of a query of posts against each pose's plane over its polygons, checked: x, y,
+    yaw (N,), quads (N, 2k) (or (1, 2k) with ``shared_quads``: the same for every pose), planes
+    (N, 3), the window's posts, its origin and spacing."""
+    x, y, w, q = _f64(px), _f64(py), _f64(yaw), _f64(quads)
+    n = x.shape[0]
+    if q.ndim < 2 or q.shape[q.ndim - 1] != 2 or not (q.shape[0] == n or (shared_quads and q.shape[0] == 1)):
+        raise ValueError("quads must be (N, ..., 2)" + (" or (1, ..., 2)" if shared_quads else ""))
+    pl = _f64(planes)
+    if y.shape[0] != n or w.shape[0] != n or pl.ndim != 2 or pl.shape[0] != n or pl.shape[1] != 3:
+        raise ValueError("py, yaw and planes (N, 3) must match px")
+    return (x, y, w, q.reshape(q.shape[0], -1), pl, _f64(post_z), _pair(post_origin, "post_origin"),
+            _pair(post_size, "post_size"))
+
+
 def grid_highest_above_plane_bound(px, py, yaw, quads, planes, post_z, post_origin, post_size,
                                    Py_ssize_t r_off, Py_ssize_t c_off, Py_ssize_t grid_rows, Py_ssize_t grid_cols):
     """An upper bound (N,) of how far the ground rises above each pose's plane over its polygons.
@@ -392,20 +423,16 @@ def grid_highest_above_plane_bound(px, py, yaw, quads, planes, post_z, post_orig
     cells the polygons' bounding box touches bounds it from above. -inf where the box holds
     no valid post; NaN for a non-finite pose; +inf where the window misses some of the posts.
     """
-    cdef const double[::1] x = _f64(px)
-    cdef const double[::1] y = _f64(py)
-    cdef const double[::1] w = _f64(yaw)
-    q_arr = _f64(quads)
+    args = _plane_query(px, py, yaw, quads, planes, post_z, post_origin, post_size, False)
+    cdef const double[::1] x = args[0]
+    cdef const double[::1] y = args[1]
+    cdef const double[::1] w = args[2]
+    cdef const double[:, ::1] q = args[3]
+    cdef const double[:, ::1] pl = args[4]
+    cdef const double[:, ::1] pz = args[5]
+    cdef const double[::1] po = args[6]
+    cdef const double[::1] ps = args[7]
     cdef Py_ssize_t n = x.shape[0]
-    if q_arr.ndim < 2 or q_arr.shape[0] != n or q_arr.shape[q_arr.ndim - 1] != 2:
-        raise ValueError("quads must be (N, ..., 2)")
-    cdef const double[:, ::1] q = q_arr.reshape(n, -1)
-    cdef const double[:, ::1] pl = _f64(planes)
-    cdef const double[:, ::1] pz = _f64(post_z)
-    cdef const double[::1] po = _pair(post_origin, "post_origin")
-    cdef const double[::1] ps = _pair(post_size, "post_size")
-    if y.shape[0] != n or w.shape[0] != n or pl.shape[0] != n or pl.shape[1] != 3:
-        raise ValueError("py, yaw and planes (N, 3) must match px")
     out_arr = np.full(n, -np.inf)
     cdef double[::1] out = out_arr
     cdef Py_ssize_t k = q.shape[1] // 2
@@ -439,28 +466,15 @@ cdef void _plane_slab_one(double px, double py, double yaw, const double* quad, 
     and NaN too as soon as they are more than ``limit`` apart (a slab no caller can use)."""
     cdef double co = cos(yaw)
     cdef double si = sin(yaw)
-    cdef double xmin = INFINITY
-    cdef double xmax = -INFINITY
-    cdef double ymin = INFINITY
-    cdef double ymax = -INFINITY
-    cdef double wx, wy, z, du, dv, rel, low, high
-    cdef Py_ssize_t j, r0, r1, c0, c1, r, c
+    cdef double z, du, dv, rel, low, high
+    cdef Py_ssize_t r0, r1, c0, c1, r, c
+    cdef Py_ssize_t span[4]
     lo[0] = NAN
     hi[0] = NAN
-    for j in range(k):
-        wx = px + co * quad[2 * j] - si * quad[2 * j + 1]
-        wy = py + si * quad[2 * j] + co * quad[2 * j + 1]
-        xmin = wx if wx < xmin else xmin
-        xmax = wx if wx > xmax else xmax
-        ymin = wy if wy < ymin else ymin
-        ymax = wy if wy > ymax else ymax
-    if not (isfinite(xmin) and isfinite(xmax) and isfinite(ymin) and isfinite(ymax)
-            and isfinite(pa) and isfinite(pb) and isfinite(pc)):
+    if not (isfinite(pa) and isfinite(pb) and isfinite(pc)) or not _box_cells(px, py, yaw, quad, k, ox, oy, dx, dy,
+                                                                               span):
         return
-    c0 = ifloor((xmin - ox) / dx)
-    c1 = ifloor((xmax - ox) / dx) + 1
-    r0 = ifloor((ymin - oy) / dy)
-    r1 = ifloor((ymax - oy) / dy) + 1
+    c0, c1, r0, r1 = span[0], span[1], span[2], span[3]
     if c0 < 0 or r0 < 0 or c1 > grid_cols - 1 or r1 > grid_rows - 1:
         return  # the box reaches past the grid's posts
     if c0 < c_off or r0 < r_off or c1 - c_off > cols - 1 or r1 - r_off > rows - 1:
@@ -499,21 +513,17 @@ def grid_plane_slab(px, py, yaw, quads, planes, post_z, post_origin, post_size,
     the slab is wider than ``limit`` m (the search stops there: on rough ground after a few posts).
     quads may be (1, ..., 2): the same polygons for every pose.
     """
-    cdef const double[::1] x = _f64(px)
-    cdef const double[::1] y = _f64(py)
-    cdef const double[::1] w = _f64(yaw)
-    q_arr = _f64(quads)
+    args = _plane_query(px, py, yaw, quads, planes, post_z, post_origin, post_size, True)
+    cdef const double[::1] x = args[0]
+    cdef const double[::1] y = args[1]
+    cdef const double[::1] w = args[2]
+    cdef const double[:, ::1] q = args[3]
+    cdef const double[:, ::1] pl = args[4]
+    cdef const double[:, ::1] pz = args[5]
+    cdef const double[::1] po = args[6]
+    cdef const double[::1] ps = args[7]
     cdef Py_ssize_t n = x.shape[0]
-    if q_arr.ndim < 2 or q_arr.shape[0] not in (n, 1) or q_arr.shape[q_arr.ndim - 1] != 2:
-        raise ValueError("quads must be (N, ..., 2) or (1, ..., 2)")
-    cdef Py_ssize_t shared = q_arr.shape[0] == 1
-    cdef const double[:, ::1] q = q_arr.reshape(q_arr.shape[0], -1)
-    cdef const double[:, ::1] pl = _f64(planes)
-    cdef const double[:, ::1] pz = _f64(post_z)
-    cdef const double[::1] po = _pair(post_origin, "post_origin")
-    cdef const double[::1] ps = _pair(post_size, "post_size")
-    if y.shape[0] != n or w.shape[0] != n or pl.shape[0] != n or pl.shape[1] != 3:
-        raise ValueError("py, yaw and planes (N, 3) must match px")
+    cdef Py_ssize_t shared = q.shape[0] == 1
     lo_arr = np.full(n, np.nan)
     hi_arr = np.full(n, np.nan)
     cdef double[::1] lo = lo_arr
