@@ -165,7 +165,8 @@ def ecef_quaternions(quaternion: np.ndarray, lon: np.ndarray, lat: np.ndarray, t
     interpolation between rows takes the short way)."""
     q = np.asarray(quaternion, dtype=np.float64)
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    enu_to_ecef = _qmul(_axis_quaternion(np.radians(lon) + np.pi / 2, 2), _axis_quaternion(np.pi / 2 - np.radians(lat), 0))
+    enu_to_ecef = _qmul(_axis_quaternion(np.radians(lon) + np.pi / 2, 2),
+                        _axis_quaternion(np.pi / 2 - np.radians(lat), 0))
     out = _qmul(enu_to_ecef, _qmul(_axis_quaternion(np.asarray(turn, dtype=np.float64), 2), q))
     if len(out) > 1:
         same = np.einsum("ij,ij->i", out[1:], out[:-1]) >= 0

@@ -162,3 +162,18 @@ def test_any_positions_match_pyproj(tmp_path_factory, xy, crs):
     lon, lat = _lonlat(crs, xy[:, 0], xy[:, 1])
     np.testing.assert_allclose(coords[:, 0], lon, rtol=0, atol=DEG)
     np.testing.assert_allclose(coords[:, 1], lat, rtol=0, atol=DEG)
+
+
+def test_names_of_any_text_stay_json(tmp_path):
+    from tankcd_cli.report.czml import write_czml
+
+    name = 'Leo "2" é\n/'
+    tr = track(name, [0.0, 1.0], [500000.0, 500010.0], [5.5e6, 5.5e6])
+    ev = {"step": 0, "t": 0.5, "kind": "obstacle", "a": "hull", "b": "<wall & \"x\">", "entity": name,
+          "point": [500001.0, 5.5e6, 100.0]}
+    review = Review(tracks=(tr,), events=[ev], crs_wkt=wkt(UTM33))
+    doc = _read(review, tmp_path)
+    assert doc["features"][1]["properties"]["entity"] == name and doc["features"][0]["properties"]["b"] == ev["b"]
+    write_czml(review, str(tmp_path / "r.czml"))
+    packets = json.loads((tmp_path / "r.czml").read_text())
+    assert packets[1]["id"] == f"vehicle/{name}" and "&lt;wall &amp;" in packets[2]["description"]
