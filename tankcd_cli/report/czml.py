@@ -60,9 +60,10 @@ def write_czml(review, path: str) -> None:
         for k, tr in enumerate(review.tracks):
             fh.write(",\n")
             _write_vehicle(fh, review, transformer, clock, tr, _VEHICLE_COLOURS[k % len(_VEHICLE_COLOURS)])
+        lon, lat, z, _ = places.event_places(review, transformer)
         for n, event in enumerate(review.events):
             fh.write(",\n")
-            fh.write(places.json_text(_event_packet(review, transformer, clock, n, event)))
+            fh.write(places.json_text(_event_packet(clock, n, event, lon[n], lat[n], z[n])))
         fh.write("\n]\n")
 
 
@@ -210,7 +211,7 @@ def _write_vehicle(fh, review, transformer, clock: _Clock, tr, colour) -> None:
     fh.write("," + places.json_text(graphics)[1:])
 
 
-def _event_packet(review, transformer, clock: _Clock, n: int, event: dict) -> dict:
+def _event_packet(clock: _Clock, n: int, event: dict, lon: float, lat: float, z: float) -> dict:
     kind = str(event.get("kind", ""))
     packet = {"id": f"event/{n}", "name": f"{kind} {event.get('a', '')} / {event.get('b', '')}".strip()}
     t = event.get("t")
@@ -220,16 +221,11 @@ def _event_packet(review, transformer, clock: _Clock, n: int, event: dict) -> di
         packet["availability"] = f"{clock.start}/{clock.stop}"
     point = {"color": {"rgba": list(EVENT_COLOURS.get(kind, _OTHER_EVENT_COLOUR)) + [255]}, "pixelSize": 10,
              "outlineColor": {"rgba": [255, 255, 255, 255]}, "outlineWidth": 1}
-    at = places.event_position(review, event)
-    if at is not None:
-        lon, lat = places.to_lonlat(transformer, [at[0]], [at[1]])
-        if np.isfinite(lon[0]):
-            height = at[2] if np.isfinite(at[2]) else 0.0
-            if not np.isfinite(at[2]):  # no height known: drawn on the ground
-                point["heightReference"] = "CLAMP_TO_GROUND"
-            packet["position"] = {"cartographicDegrees": [round(float(lon[0]), DEG_DECIMALS),
-                                                          round(float(lat[0]), DEG_DECIMALS),
-                                                          round(float(height), H_DECIMALS)]}
+    if np.isfinite(lon):
+        if not np.isfinite(z):  # no height known: drawn on the ground
+            point["heightReference"] = "CLAMP_TO_GROUND"
+        packet["position"] = {"cartographicDegrees": [round(float(lon), DEG_DECIMALS), round(float(lat), DEG_DECIMALS),
+                                                      round(float(z), H_DECIMALS) if np.isfinite(z) else 0.0]}
     packet["point"] = point
     rows = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(places.json_text(v))}</td></tr>"
                    for k, v in event.items())

@@ -8,8 +8,6 @@ not the file.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from tankcd_cli.report import places
@@ -34,11 +32,12 @@ def write_geojson(review, path: str) -> None:
     with output_text(path) as fh:
         fh.write('{"type":"FeatureCollection","features":[\n')
         first = True
+        lon, lat, z, own = places.event_places(review, transformer)
         for n, event in enumerate(review.events):
             if not first:
                 fh.write(",\n")
             first = False
-            fh.write(_event_feature(review, transformer, n, event))
+            fh.write(_event_feature(n, event, lon[n], lat[n], z[n], own[n]))
         for tr in review.tracks:
             lon, lat = places.to_lonlat(transformer, tr.x, tr.y)
             for k, (a, b) in enumerate(places.pieces(tr.t)):
@@ -49,17 +48,13 @@ def write_geojson(review, path: str) -> None:
         fh.write("\n]}\n")
 
 
-def _event_feature(review, transformer, n: int, event: dict) -> str:
-    at = places.event_position(review, event)
+def _event_feature(n: int, event: dict, lon: float, lat: float, z: float, own: bool) -> str:
     geometry = "null"
-    if at is not None:
-        lon, lat = places.to_lonlat(transformer, [at[0]], [at[1]])
-        if np.isfinite(lon[0]):
-            # the event's own point keeps its height; a position found from the poses is 2D
-            own_z = event.get("point") is not None and math.isfinite(at[2])
-            xyz = [lon[0], lat[0], at[2]] if own_z else [lon[0], lat[0]]
-            coords = places.numbers_text(np.array([xyz]), [DEG_DECIMALS, DEG_DECIMALS, Z_DECIMALS][:len(xyz)])
-            geometry = f'{{"type":"Point","coordinates":[{coords}]}}'
+    if np.isfinite(lon):
+        # the event's own point keeps its height; a position found from the poses is 2D
+        xyz = [lon, lat, z] if own and np.isfinite(z) else [lon, lat]
+        coords = places.numbers_text(np.array([xyz]), [DEG_DECIMALS, DEG_DECIMALS, Z_DECIMALS][:len(xyz)])
+        geometry = f'{{"type":"Point","coordinates":[{coords}]}}'
     return f'{{"type":"Feature","id":"event/{n}","geometry":{geometry},"properties":{places.json_text(event)}}}'
 
 

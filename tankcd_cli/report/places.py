@@ -71,48 +71,69 @@ def pieces(t: np.ndarray) -> list:
     return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def event_track(review, event: dict):
-    """The track an event belongs to: its ``entity``'s, or the one track of a one-vehicle replay
-    (None when there is no such track)."""
-    entity = event.get("entity")
-    if entity is not None:
-        for tr in review.tracks:
-            if tr.entity == entity:
-                return tr
-        return None
-    return review.tracks[0] if len(review.tracks) == 1 else None
+class _TrackRows:
+    """One track's rows usable for placing events: those with x, y (and t) known, prepared once."""
 
+    def __init__(self, tr):
+        known = np.isfinite(tr.x) & np.isfinite(tr.y)
+        timed = np.flatnonzero(known & np.isfinite(tr.t))
+        self.t, self.x, self.y, self.z = tr.t[timed], tr.x[timed], tr.y[timed], tr.z[timed]
+        located = np.flatnonzero(known)
+        order = np.argsort(tr.step[located], kind="stable")  # the first row of a step first
+        self.steps = tr.step[located][order]
+        self.step_rows = located[order]
+        self.track = tr
 
-def event_position(review, event: dict) -> tuple[float, float, float] | None:
-    """An event's world position x, y, z (m): its ``point``, else its vehicle's position at its time
-    (linear between that vehicle's rows with a position; z NaN where a neighbour row has none), at
-    its step's row when it has no time. None when neither is known."""
-    point = event.get("point")
-    if point is not None and len(point) >= 2 and _finite(point[0]) and _finite(point[1]):
-        z = float(point[2]) if len(point) >= 3 and _finite(point[2]) else math.nan
-        return float(point[0]), float(point[1]), z
-    tr = event_track(review, event)
-    if tr is None or len(tr) == 0:
-        return None
-    known = np.isfinite(tr.x) & np.isfinite(tr.y)
-    t = event.get("t")
-    if _finite(t) and np.isfinite(tr.t).any():
-        rows = np.flatnonzero(known & np.isfinite(tr.t))
-        if len(rows) == 0:
+    def at_time(self, t: float):
+        if len(self.t) == 0:
             return None
-        tt = tr.t[rows]
-        x = float(np.interp(float(t), tt, tr.x[rows]))
-        y = float(np.interp(float(t), tt, tr.y[rows]))
-        z = float(np.interp(float(t), tt, tr.z[rows]))  # NaN when a neighbour is off the terrain
-        return x, y, z
-    step = event.get("step")
-    if step is None:
-        return None
-    at = np.flatnonzero((tr.step == int(step)) & known)
-    if len(at) == 0:
-        return None
-    k = at[0]
-    return float(tr.x[k]), float(tr.y[k]), float(tr.z[k])
+        # linear between the rows around t (z NaN when a neighbour is off the terrain)
+        return (float(np.interp(t, self.t, self.x)), float(np.interp(t, self.t, self.y)),
+                float(np.interp(t, self.t, self.z)))
+
+    def at_step(self, step: int):
+        k = int(np.searchsorted(self.steps, step))
+        if k == len(self.steps) or self.steps[k] != step:
+            return None
+        r = self.step_rows[k]
+        return float(self.track.x[r]), float(self.track.y[r]), float(self.track.z[r])
+
+
+def event_places(review, transformer) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where each event of ``review.events`` is: lon, lat (N,) deg, z (N,) m (NaN where unknown)
+    and own (N,) bool: whether the place is the event's own ``point``.
+
+    An event's place is its ``point`` (x, y, z), else its vehicle's position at its time: the
+    vehicle of its ``entity``, or the one track of a one-vehicle replay; linear between that
+    vehicle's rows with a position (z NaN where a neighbour row has none), at its step's row
+    when it has no time. NaN where neither is known (no such vehicle, no rows)."""
+    n = len(review.events)
+    x, y, z = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    own = np.zeros(n, bool)
+    by_entity = {tr.entity: tr for tr in reversed(review.tracks)}  # the first of a name wins
+    prepared: dict = {}
+    for k, event in enumerate(review.events):
+        point = event.get("point")
+        if isinstance(point, (list, tuple)) and len(point) >= 2 and _finite(point[0]) and _finite(point[1]):
+            x[k], y[k] = float(point[0]), float(point[1])
+            z[k] = float(point[2]) if len(point) >= 3 and _finite(point[2]) else np.nan
+            own[k] = True
+            continue
+        entity = event.get("entity")
+        tr = by_entity.get(entity) if entity is not None else (review.tracks[0] if len(review.tracks) == 1 else None)
+        if tr is None:
+            continue
+        rows = prepared.get(id(tr))
+        if rows is None:
+            rows = prepared[id(tr)] = _TrackRows(tr)
+        t, step = event.get("t"), event.get("step")
+        at = rows.at_time(float(t)) if _finite(t) else None
+        if at is None and _finite(step):  # no time (or no timed rows): its step's row
+            at = rows.at_step(int(step))
+        if at is not None:
+            x[k], y[k], z[k] = at
+    lon, lat = to_lonlat(transformer, x, y) if n else (x, y)
+    return lon, lat, z, own
 
 
 def _finite(v) -> bool:
