@@ -11,6 +11,7 @@ summary = api.replay_to_files("patrol.csv", poses="poses.csv", events="events.js
 store = api.classify("dem.tif", "dem.h5")              # the terrain store, as `tankcd classify` writes it
 events = api.collide("scene.toml", poses)              # the vehicle at given poses against the obstacles
 envelope = api.gun_envelope("t72")                     # the lowest safe gun elevation per turret azimuth
+api.report("poses.csv", "events.jsonl", "review.html", scene="scene.toml")  # or .geojson, .czml, .pcap
 ```
 
 Conventions are the command line's (docs/formats.md): metres, seconds, degrees in and out (radians
@@ -31,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 __all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
-           "replay_fleet", "replay_mode", "run_replay", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
+           "replay_fleet", "replay_mode", "run_replay", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe", "report"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -715,3 +716,91 @@ def describe(path: str, scene: str | None = None) -> dict:
     from tankcd_cli.describe import describe_store
 
     return describe_store(str(path), scene)
+
+
+REPORT_SUFFIXES = (".html", ".geojson", ".czml", ".pcap")
+
+
+@dataclass(frozen=True)
+class ReportResult:
+    """What ``report`` wrote: the output, its size (bytes), the vehicles and events it holds, and
+    for a capture the Collision PDUs it added."""
+
+    output: str
+    bytes: int
+    vehicles: int
+    events: int
+    pdus: int = 0
+
+
+def report(poses: str, events: str, output: str, scene: str | None = None, terrain: str | None = None,
+           capture: str | None = None, world=None, vehicle: str = "t72", up: str | None = None,
+           progress: Callable[[str], None] | None = None) -> ReportResult:
+    """A replay's outputs (``poses``: CSV or Parquet; ``events``: JSON Lines or Parquet; one vehicle
+    or an exercise) as what reviewers open, by ``output``'s suffix (docs/formats.md, "Outputs for
+    review"): ``.html`` the page to review, ``.geojson`` (RFC 7946), ``.czml`` (Cesium), ``.pcap``
+    the DIS ``capture`` that was replayed with a Collision PDU for each contact. The terrain (a
+    scene's, ``terrain``, or ``world``) gives the CRS and the picture. Checked before anything is
+    written (InputError, one line): the suffix, a capture for ``.pcap`` (and only there), a CRS for
+    GeoJSON and CZML, an output that is one of the inputs, and poses and events of one run."""
+    import os
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.io.files import same_path
+    from tankcd_cli.io.parquet import sha256_of
+    from tankcd_cli.report.inputs import read_review
+
+    suffix = os.path.splitext(str(output))[1].lower()
+    if suffix not in REPORT_SUFFIXES:
+        raise InputError(str(output), f"a report is {', '.join(REPORT_SUFFIXES)} (by the output's suffix), "
+                                      f"not {suffix or 'a name without a suffix'}")
+    if suffix == ".pcap" and capture is None:
+        raise InputError(str(output), "a .pcap report needs the DIS capture that was replayed (--capture, capture=)")
+    if suffix != ".pcap" and capture is not None:
+        raise InputError(str(capture), f"a capture is only used by a .pcap report, not {suffix}")
+    for role, path in (("poses", poses), ("events", events), ("capture", capture), ("scene", scene),
+                       ("terrain", terrain)):
+        if path is not None and os.path.exists(str(output)) and same_path(str(path), str(output)):
+            raise InputError(str(output), f"is the {role} input; a report never overwrites an input")
+    if progress:
+        progress("loading the terrain")
+    w = _world(world, scene, terrain, vehicle, up, False, None)
+    sources = []
+    for role, path in (("scene", scene), ("terrain", terrain)):
+        if path is not None:
+            sources.append(_source(role, str(path), sha256_of))
+    review_kw = {"crs_wkt": w.crs or "", "vehicle_length": float(w.vehicle.hull_length),
+                 "vehicle_width": float(w.vehicle.hull_width)}
+    if suffix in (".geojson", ".czml") and not review_kw["crs_wkt"].strip():
+        raise InputError(str(terrain or scene), f"the terrain has no CRS; a {suffix} report needs one (longitude "
+                                                "and latitude)")
+    if progress:
+        progress("reading the poses and events")
+    review = read_review(str(poses), str(events), sources=tuple(sources), **review_kw)
+    if progress:
+        progress(f"writing {output}")
+    pdus = 0
+    if suffix == ".html":
+        from tankcd_cli.report.background import terrain_background
+        from tankcd_cli.report.page import write_page
+
+        write_page(review, terrain_background(w), str(output))
+    elif suffix == ".geojson":
+        from tankcd_cli.report.geojson import write_geojson
+
+        write_geojson(review, str(output))
+    elif suffix == ".czml":
+        from tankcd_cli.report.czml import write_czml
+
+        write_czml(review, str(output))
+    else:
+        from tankcd_cli.report.collision_pdus import write_collision_pdus
+
+        pdus = write_collision_pdus(review, str(capture), str(output), lambda e: w.kinds[w.kind_of(e)].vehicle)
+    return ReportResult(str(output), os.path.getsize(str(output)), len(review.tracks), len(review.events), int(pdus))
+
+
+def _source(role: str, path: str, sha256_of):
+    from tankcd_cli.report.review import Source
+
+    return Source(role, path, sha256_of(path) if path != "-" else "")

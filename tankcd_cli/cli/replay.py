@@ -75,6 +75,9 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="The closing summary as JSON: one line on stderr (under -q too), or into FILE (- for stdout).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
               help="Draw the path over the class map, obstacles' footprints and the events, to this PNG.")
+@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
+              help="Then write the report of this run (tankcd report): .html, .geojson, .czml, or .pcap of a DIS "
+                   "capture replayed; needs --poses and --events files.")
 @click.option("--png-colour", "png_colour", type=click.Choice(["path", "matcher"]), default="path",
               show_default=True,
               help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
@@ -100,7 +103,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
            attitude_tolerance, fmt, together,
            no_gates, discrete, vehicle_name, up, cache,
            fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
-           split_lines, window_seconds):
+           split_lines, window_seconds, report_path):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
@@ -128,6 +131,7 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         return _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
                       fail_on_collision, allow_off_terrain, summary_path, split_lines)
     trajectory = expand_trajectories(list(trajectories)) if mode == "together" else trajectories[0]
+    capture = _check_report(report_path, mode, trajectory, poses_path, events_path)
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
     check_writable(poses_path, events_path)  # before the world is loaded
     check_folders(poses_path, events_path, png, summary_file)  # every output's folder, before any work
@@ -136,7 +140,8 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
     refuse_clashes({**({f"TRAJECTORY {p}": p for p in trajectory} if together else {"TRAJECTORY": trajectory}),
                     **world_inputs(spec)},
-                   {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file})
+                   {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file,
+                    "--report": report_path})
     world, loading = None, []
     if not (mode == "windows" and scheduler):  # on a cluster the workers load it
         # one piece's summary lists the world's warnings too
@@ -161,7 +166,40 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                 drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
         _write_summary(summary_path, result.as_dict())
     _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows, written=True)
+    if report_path is not None:
+        done = api.report(poses_path, events_path, report_path, scene=scene, terrain=terrain, capture=capture,
+                          world=world, vehicle=vehicle_name, up=up, progress=report.progress("report"))
+        report.info(f"report: {done.vehicles:,} vehicles, {done.events:,} events to {report_path} "
+                    f"({done.bytes / 2**20:,.1f} MiB)")
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
+
+
+def _check_report(report_path, mode: str, trajectory, poses_path, events_path):
+    """--report's conditions, before any work: one run's poses and events in files, a report suffix,
+    and for .pcap a DIS capture replayed alone (which the report copies). Returns that capture."""
+    if report_path is None:
+        return None
+    import os
+
+    from tankcd_cli.errors import InputError
+
+    if mode == "fleet":
+        raise click.UsageError("--report writes the report of one run; for a fleet run tankcd report on each "
+                               "trajectory's outputs")
+    if poses_path in (None, "-") or events_path in (None, "-"):
+        raise click.UsageError("--report reads the run's outputs again: give --poses and --events files")
+    suffix = os.path.splitext(report_path)[1].lower()
+    if suffix not in api.REPORT_SUFFIXES:
+        raise InputError(report_path, f"a report is {', '.join(api.REPORT_SUFFIXES)} (by the output's suffix), "
+                                      f"not {suffix or 'a name without a suffix'}")
+    if suffix != ".pcap":
+        return None
+    from tankcd_cli.io.trajectory.formats import trajectory_format
+
+    if isinstance(trajectory, (list, tuple)) or trajectory == "-" or \
+            trajectory_format(str(trajectory)) not in ("pcap", "pcapng"):
+        raise InputError(report_path, "a .pcap report copies the DIS capture replayed: replay one capture file")
+    return str(trajectory)
 
 
 def _store_of(surface):
