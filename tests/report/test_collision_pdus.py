@@ -1,0 +1,314 @@
+"""The replayed capture with Collision PDUs: every original packet kept byte for byte and in order, the
+added PDUs decoded by an independent DIS implementation (opendis), their frames by struct from the
+RFCs, the contact locations against scipy's rotations, the velocities against pyproj's own ECEF."""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+import pyproj
+import pytest
+
+from tankcd_cli.errors import InputError
+from tankcd_cli.io.dis import read_capture, trajectory_columns
+from tankcd_cli.report.collision_pdus import MASS_KG, write_collision_pdus
+from tankcd_cli.report.review import Review, Track
+from tankcd_cli.vehicle import vehicle_preset
+from tests.io import captures as C
+from tests.io.test_dis import T0, ecef
+
+CRS = "EPSG:32632"
+PITCH, ROLL = np.radians(-3.0), np.radians(2.0)  # every pose tilted: the frame test sees all three axes
+
+
+def _frames(entities, times, version=7):
+    """(time s since 1970, frame) of an exercise: each entity's ES PDU at each time (driving east), an ARP
+    and a Fire PDU between; entity 1:1:1 sends from 10.0.0.1:3000, the others from the helpers' default."""
+    out = []
+    for k, t in enumerate(times):
+        for n, (site, app, ent) in enumerate(entities):
+            lon = 10.0 + 1e-5 * (k * 8.0 + 0.5 * n)  # about 0.7 m per step east
+            lat = 50.0 + 1e-5 * n
+            pdu = (C.es_dis7(site, app, ent, ecef(lon, lat), (0.0, 0.0, 0.0), timestamp=(1000 + 2 * k) | 1)
+                   if version == 7 else C.es_dis6(site, app, ent, ecef(lon, lat), (0.0, 0.0, 0.0)))
+            ports = (3000, 3000) if n == 0 else (4001 + n, 3000)
+            out.append((T0 + t + 1e-4 * n, C.ethernet(C.ipv4(C.udp(pdu, *ports)))))
+        if k == 1:
+            out.append((T0 + t + 0.01, C.arp()))
+            out.append((T0 + t + 0.02, C.ethernet(C.ipv4(C.udp(C.other_pdu(), 3000, 3000)))))
+    return out
+
+
+def _review(states):
+    """Tracks as a replay of ``states`` gives them (x, y, yaw from the reader; a height and a tilt of
+    our own), and one event of each kind."""
+    cols = trajectory_columns(states, CRS)
+    tracks = []
+    for name in dict.fromkeys(states.entity.tolist()):
+        rows = np.flatnonzero(cols["entity"] == name)
+        yaw = np.radians(cols["yaw_deg"][rows])
+        from scipy.spatial.transform import Rotation
+
+        q = Rotation.from_euler("ZYX", np.column_stack([yaw, np.full_like(yaw, PITCH), np.full_like(yaw, ROLL)]))
+        xyzw = q.as_quat()
+        quat = np.column_stack([xyzw[:, 3], xyzw[:, :3]])
+        quat *= np.where(quat[:, :1] < 0, -1, 1)
+        tracks.append(Track(name, rows.astype(np.int64), cols["t"][rows], cols["x"][rows], cols["y"][rows],
+                            150.0 + 0.1 * np.arange(len(rows)), cols["yaw_deg"][rows], quat,
+                            np.zeros(len(rows), np.uint8)))
+    return Review(tracks=tuple(tracks), events=[], crs_wkt=pyproj.CRS(CRS).to_wkt())
+
+
+def _near(track, t, dx=(2.0, 0.5, 1.0)):
+    """A world point near ``track`` at ``t`` (as the replay would find one)."""
+    i = int(np.searchsorted(track.t, t, side="right") - 1)
+    return [float(track.x[i] + dx[0]), float(track.y[i] + dx[1]), float(track.z[i] + dx[2])]
+
+
+def _events(review):
+    a, b = review.tracks[0], review.tracks[1]
+    return [
+        # the hull and a track of a in a wall over two rows: one collision
+        {"step": int(a.step[2]), "t": float(a.t[2]), "kind": "obstacle", "a": "hull", "b": "wall", "entity": a.entity,
+         "point": _near(a, a.t[2])},
+        {"step": int(a.step[2]), "t": float(a.t[2]), "kind": "obstacle", "a": "track_left", "b": "wall",
+         "entity": a.entity, "point": _near(a, a.t[2], (1.0, 1.5, 0.2))},
+        {"step": int(a.step[3]), "t": float(a.t[3]), "kind": "obstacle", "a": "hull", "b": "wall", "entity": a.entity,
+         "point": _near(a, a.t[3])},
+        {"step": int(b.step[1]), "t": float(b.t[1]), "kind": "terrain", "a": "hull", "b": "terrain", "entity": b.entity,
+         "depth": 0.02},
+        {"step": int(a.step[1]), "t": float(a.t[1]), "kind": "internal", "a": "gun", "b": "drum_left",
+         "entity": a.entity},
+        {"step": int(b.step[3]), "t": float(b.t[3]), "kind": "off_terrain", "a": "vehicle", "b": "terrain",
+         "entity": b.entity, "status": "off"},
+        # between rows 0 and 1 of a (1.3 s into a 2 s step)
+        {"step": int(a.step[0]), "t": round(float(a.t[0]) + 1.3, 6), "kind": "vehicle", "a": a.entity, "b": b.entity,
+         "entity": a.entity, "between": True, "point": _near(a, a.t[0], (3.0, -1.0, 0.8)), "closing_speed": 1.0,
+         "a_step": int(a.step[0]), "b_step": int(b.step[0])},
+    ]
+
+
+def _records(data: bytes):
+    """pcap -> (file header, [(sec, usec, frame)]) by the format's own layout."""
+    assert data[:4] == b"\xd4\xc3\xb2\xa1"
+    out, pos = [], 24
+    while pos < len(data):
+        sec, sub, incl, orig = struct.unpack_from("<IIII", data, pos)
+        assert incl == orig
+        out.append((sec, sub, data[pos + 16:pos + 16 + incl]))
+        pos += 16 + incl
+    assert pos == len(data)
+    return data[:24], out
+
+
+def _ones_sum(data: bytes) -> int:
+    data += b"\0" * (len(data) % 2)
+    s = sum(struct.unpack(f">{len(data) // 2}H", data))
+    while s >> 16:
+        s = (s & 0xFFFF) + (s >> 16)
+    return s
+
+
+@pytest.fixture
+def exercise(tmp_path):
+    entities = [(1, 1, 1), (1, 1, 2), (2, 5, 9)]
+    times = [0.0, 2.0, 4.0, 6.0, 8.0]
+    path = tmp_path / "ex.pcap"
+    path.write_bytes(C.pcap(_frames(entities, times)))
+    states, _ = read_capture(str(path))
+    review = _review(states)
+    review.events.extend(_events(review))
+    return path, review
+
+
+def _vehicle_of(entity):
+    return vehicle_preset("m1" if entity == "1:1:2" else "t72")
+
+
+def _decode(frame):
+    """Ethernet + IPv4 + UDP (checked: lengths, IP and UDP checksums) -> (ports, addresses, the PDU bytes)."""
+    assert struct.unpack(">H", frame[12:14])[0] == 0x0800
+    ip = frame[14:34]
+    assert ip[0] == 0x45 and ip[9] == 17
+    total = struct.unpack(">H", ip[2:4])[0]
+    assert _ones_sum(ip) == 0xFFFF  # the header checksum holds
+    udp = frame[34:14 + total]
+    sport, dport, ulen, check = struct.unpack(">HHHH", udp[:8])
+    assert ulen == len(udp) == total - 20
+    assert check == 0 or _ones_sum(ip[12:20] + struct.pack(">BBH", 0, 17, ulen) + udp) == 0xFFFF
+    return (sport, dport), (ip[12:16], ip[16:20]), udp[8:]
+
+
+def test_collision_pdus_in_the_capture(exercise, tmp_path):
+    opendis = pytest.importorskip("opendis")
+    from opendis.PduFactory import createPdu
+    from scipy.spatial.transform import Rotation, Slerp
+
+    path, review = exercise
+    out = tmp_path / "out.pcap"
+    n = write_collision_pdus(review, str(path), str(out), _vehicle_of)
+    assert n == 4  # the wall once (not the second part, not the next row), the ground, the vehicles twice
+
+    head_in, rec_in = _records(path.read_bytes())
+    head_out, rec_out = _records(out.read_bytes())
+    assert head_out == head_in
+    originals = [r for r in rec_out if not _is_collision(r[2])]
+    added = [(k, r) for k, r in enumerate(rec_out) if _is_collision(r[2])]
+    assert originals == rec_in  # every packet, byte for byte, in order
+    assert len(added) == n
+    times = [sec + sub * 1e-6 for sec, sub, _ in rec_out]
+    assert times == sorted(times)  # inserted in time order
+    first = rec_in[0][0] + rec_in[0][1] * 1e-6
+
+    # what each PDU should say, worked out here
+    tracks = {tr.entity: tr for tr in review.tracks}
+    to_ecef = pyproj.Transformer.from_crs(pyproj.CRS(CRS).to_3d(), "EPSG:4978", always_xy=True)
+    expected = []
+    for ev in review.events:
+        if ev["kind"] == "vehicle":
+            expected += [(ev, ev["a"], ev["b"]), (ev, ev["b"], ev["a"])]
+        elif ev["kind"] in ("obstacle", "terrain") and ev["a"] == "hull" and ev["step"] in (tracks[ev["entity"]].step[:3]):
+            expected.append((ev, ev["entity"], None))
+    assert len(expected) == n
+    decoded = []
+    for k, (sec, sub, frame) in added:
+        ports, addresses, payload = _decode(frame)
+        pdu = createPdu(payload)
+        assert type(pdu).__name__ == "CollisionPdu" and pdu.pduType == 4 and pdu.length == 60 == len(payload)
+        decoded.append((sec + sub * 1e-6, ports, pdu, rec_out[k - 1]))
+    for ev, issuer, other in expected:
+        ids = tuple(int(v) for v in issuer.split(":"))
+        match = [d for d in decoded if (d[2].issuingEntityID.siteID, d[2].issuingEntityID.applicationID,
+                                        d[2].issuingEntityID.entityID) == ids and abs(d[0] - first - ev["t"]) < 2e-6]
+        assert len(match) == 1, (ev, issuer)
+        when, ports, pdu, _ = match[0]
+        assert pdu.protocolVersion == 7 and pdu.exerciseID == 1 and pdu.protocolFamily == 1
+        assert ports == ((3000, 3000) if issuer == "1:1:1" else (4002, 3000))
+        got_other = (pdu.collidingEntityID.siteID, pdu.collidingEntityID.applicationID, pdu.collidingEntityID.entityID)
+        assert got_other == (tuple(int(v) for v in other.split(":")) if other else (0, 0, 0))
+        assert pdu.eventID.simulationAddress.site == ids[0] and pdu.eventID.simulationAddress.application == ids[1]
+        assert pdu.collisionType == 0
+        assert pdu.mass == pytest.approx(MASS_KG["m1" if issuer == "1:1:2" else "t72"])
+        # the contact point in the issuer's DIS entity frame (x forward, y right, z down)
+        tr = tracks[issuer]
+        i = int(np.searchsorted(tr.t, ev["t"], side="right") - 1)
+        j = min(i + 1, len(tr) - 1)
+        f = (ev["t"] - tr.t[i]) / (tr.t[j] - tr.t[i])
+        xyz = np.column_stack([tr.x, tr.y, tr.z])
+        origin = xyz[i] + f * (xyz[j] - xyz[i])
+        rots = Rotation.from_quat(np.column_stack([tr.quaternion[:, 1:], tr.quaternion[:, :1]]))
+        rot = Slerp(tr.t, rots)([ev["t"]])[0]
+        if "point" in ev:
+            body = rot.inv().apply(np.asarray(ev["point"]) - origin)
+        else:
+            body = np.array([0.0, 0.0, _vehicle_of(issuer).ground_clearance])
+        loc = np.array([pdu.location.x, pdu.location.y, pdu.location.z])
+        np.testing.assert_allclose(loc, body * [1, -1, -1], atol=1e-5)
+        # the velocity: the two rows' places in pyproj's ECEF, over their time
+        e0, e1 = (np.array(to_ecef.transform(*xyz[r])) for r in (i, j))
+        vel = np.array([pdu.velocity.x, pdu.velocity.y, pdu.velocity.z])
+        np.testing.assert_allclose(vel, (e1 - e0) / (tr.t[j] - tr.t[i]), rtol=1e-5, atol=1e-5)
+    # event numbers count per issuing site and application
+    by_app = {}
+    for d in sorted(decoded, key=lambda d: d[0]):
+        key = (d[2].issuingEntityID.siteID, d[2].issuingEntityID.applicationID)
+        by_app.setdefault(key, []).append(d[2].eventID.eventNumber)
+    assert all(v == list(range(1, len(v) + 1)) for v in by_app.values())
+
+
+def _is_collision(frame):
+    return len(frame) >= 14 + 20 + 8 + 12 and frame[12:14] == b"\x08\x00" and frame[23] == 17 \
+        and frame[42 + 2] == 4 and struct.unpack(">H", frame[42 + 8:42 + 10])[0] == 60
+
+
+def test_the_reader_reads_the_same_entity_states(exercise, tmp_path):
+    path, review = exercise
+    out = tmp_path / "out.pcap"
+    n = write_collision_pdus(review, str(path), str(out), _vehicle_of)
+    before, c0 = read_capture(str(path))
+    after, c1 = read_capture(str(out))
+    for name in ("t", "entity", "location", "orientation", "velocity", "version", "timestamp"):
+        np.testing.assert_array_equal(getattr(after, name), getattr(before, name), err_msg=name)
+    assert c1.pdu_types.get(4, 0) == c0.pdu_types.get(4, 0) + n
+    assert c1.packets == c0.packets + n
+
+
+def test_the_pdu_time_and_dis_timestamp(exercise, tmp_path):
+    path, review = exercise
+    out = tmp_path / "out.pcap"
+    write_collision_pdus(review, str(path), str(out), _vehicle_of)
+    _, recs = _records(out.read_bytes())
+    ev = next(e for e in review.events if e["kind"] == "vehicle")
+    first = recs[0][0] * 10 ** 6 + recs[0][1]
+    hits = [r for r in recs if _is_collision(r[2]) and r[0] * 10 ** 6 + r[1] == first + round(ev["t"] * 1e6)]
+    assert len(hits) == 2
+    hits = [r for r in hits if struct.unpack(">3H", r[2][42 + 12:42 + 18]) == (1, 1, 1)]
+    # the sender's clock style: entity 1:1:1's ES PDUs say (1000 + 2k) | 1, absolute, 2 s apart (rows 0, 1)
+    stamp = struct.unpack(">I", hits[0][2][42 + 4:42 + 8])[0]
+    assert stamp & 1 == 1
+    assert abs((stamp >> 1) - (500 + round(1.3 * 2 ** 31 / 3600))) <= 1
+
+
+def test_pcapng_keeps_its_blocks_and_adds_enhanced_packet_blocks(tmp_path):
+    frames = _frames([(1, 1, 1), (1, 1, 2)], [0.0, 2.0, 4.0, 6.0])
+    packets = [(0, round(ts * 10 ** 9), f) for ts, f in frames]
+    data = C.pcapng([(1, 9, 262144)], packets)
+    path = tmp_path / "ex.pcapng"
+    path.write_bytes(data)
+    states, _ = read_capture(str(path))
+    review = _review(states)
+    review.events.extend(e for e in _events(review) if e["kind"] == "vehicle")
+    out = tmp_path / "out.pcapng"
+    assert write_collision_pdus(review, str(path), str(out), _vehicle_of) == 2
+    got = out.read_bytes()
+    blocks_in, blocks_out = _blocks(data), _blocks(got)
+    assert [b for b in blocks_out if not (b[0] == 6 and _is_collision(b[1][28:]))] == blocks_in
+    added = [b for b in blocks_out if b[0] == 6 and _is_collision(b[1][28:])]
+    assert len(added) == 2
+    ev = review.events[0]
+    t0 = round(frames[0][0] * 10 ** 9)
+    for _, raw in added:
+        iface, hi, lo = struct.unpack("<III", raw[8:20])
+        assert iface == 0 and abs(((hi << 32) | lo) - (t0 + ev["t"] * 1e9)) < 2e3  # t has 6 decimals
+    after, _ = read_capture(str(out))
+    np.testing.assert_array_equal(after.t, states.t)
+
+
+def _blocks(data):
+    out, pos = [], 0
+    while pos < len(data):
+        btype, blen = struct.unpack_from("<II", data, pos)
+        out.append((btype, data[pos:pos + blen]))
+        pos += blen
+    return out
+
+
+def test_a_dis6_capture_gets_dis6_pdus(tmp_path):
+    opendis = pytest.importorskip("opendis")  # noqa: F841
+    from opendis.PduFactory import createPdu
+
+    path = tmp_path / "six.pcap"
+    path.write_bytes(C.pcap(_frames([(3, 4, 5), (3, 4, 6)], [0.0, 2.0, 4.0, 6.0], version=6)))
+    states, _ = read_capture(str(path))
+    review = _review(states)
+    review.events.extend(e for e in _events(review) if e["kind"] == "vehicle")
+    out = tmp_path / "out.pcap"
+    assert write_collision_pdus(review, str(path), str(out), _vehicle_of) == 2
+    _, recs = _records(out.read_bytes())
+    pdus = [createPdu(_decode(r[2])[2]) for r in recs if _is_collision(r[2])]
+    assert [p.protocolVersion for p in pdus] == [6, 6]
+    assert {(p.issuingEntityID.entityID, p.collidingEntityID.entityID) for p in pdus} == {(5, 6), (6, 5)}
+
+
+def test_a_capture_that_was_not_replayed_is_refused(exercise, tmp_path):
+    path, review = exercise
+    other = tmp_path / "other.pcap"
+    other.write_bytes(C.pcap(_frames([(7, 7, 7)], [0.0, 2.0])))
+    with pytest.raises(InputError, match="none of its entities"):
+        write_collision_pdus(review, str(other), str(tmp_path / "o.pcap"), _vehicle_of)
+    shifted = tmp_path / "shifted.pcap"
+    shifted.write_bytes(C.pcap(_frames([(1, 1, 1), (1, 1, 2), (2, 5, 9)], [0.0, 2.5, 4.0, 6.0, 8.0])))
+    with pytest.raises(InputError, match="no packet at that time"):
+        write_collision_pdus(review, str(shifted), str(tmp_path / "o.pcap"), _vehicle_of)
+    assert not (tmp_path / "o.pcap").exists()
