@@ -312,3 +312,77 @@ def test_a_capture_that_was_not_replayed_is_refused(exercise, tmp_path):
     with pytest.raises(InputError, match="no packet at that time"):
         write_collision_pdus(review, str(shifted), str(tmp_path / "o.pcap"), _vehicle_of)
     assert not (tmp_path / "o.pcap").exists()
+
+
+def _poses_review(poses_csv, crs):
+    """The review's tracks read back from a replay's poses CSV (by the csv module, per entity)."""
+    import csv
+
+    with open(poses_csv, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    tracks = []
+    for name in dict.fromkeys(r["entity"] for r in rows):
+        mine = [r for r in rows if r["entity"] == name]
+        col = {k: np.array([float(r[k]) if r[k] not in ("", "nan") else np.nan for r in mine])
+               for k in ("step", "t", "x", "y", "z", "yaw_deg", "qw", "qx", "qy", "qz")}
+        status = np.array([("ok", "partly_off", "off").index(r["status"]) for r in mine], np.uint8)
+        tracks.append(Track(name, col["step"].astype(np.int64), col["t"], col["x"], col["y"], col["z"], col["yaw_deg"],
+                            np.column_stack([col[k] for k in ("qw", "qx", "qy", "qz")]), status))
+    return tuple(tracks)
+
+
+def test_two_tanks_driven_into_each_other_replayed_then_written_back(tmp_path):
+    """A real replay: two T-72s on flat ground 30 m apart, driving at each other at 3 m/s; the capture
+    written back holds their contact as two Collision PDUs at the event's time."""
+    import json
+
+    import rasterio
+    from rasterio.transform import from_origin
+
+    from tankcd_cli import api
+    from tests.io.test_geodesy import _dis_euler_from_enu
+
+    to_geo = pyproj.Transformer.from_crs(CRS, "EPSG:4326", always_xy=True)
+    x0, y0 = pyproj.Transformer.from_crs("EPSG:4326", CRS, always_xy=True).transform(10.0, 50.0)
+    x0, y0 = np.round(x0), np.round(y0)
+    tif = tmp_path / "flat.tif"
+    with rasterio.open(tif, "w", driver="GTiff", height=100, width=100, count=1, dtype="float32", crs=CRS,
+                       transform=from_origin(x0 - 100, y0 + 100, 2.0, 2.0)) as dst:
+        dst.write(np.full((100, 100), 150.0, np.float32), 1)
+    frames = []
+    for k in range(11):  # 0 to 5 s, 2 Hz
+        t = 0.5 * k
+        for ent, (x, yaw) in ((1, (x0 - 15 + 3 * t, 0.0)), (2, (x0 + 15 - 3 * t, np.pi))):
+            lon, lat = to_geo.transform(x, y0)
+            ori = _dis_euler_from_enu(yaw, 0.0, 0.0, lon, lat)
+            frames.append((T0 + t + 0.001 * ent,
+                           C.ethernet(C.ipv4(C.udp(C.es_dis7(1, 3, ent, ecef(lon, lat), ori, timestamp=1))))))
+    path = tmp_path / "head_on.pcap"
+    path.write_bytes(C.pcap(frames))
+    poses, events = tmp_path / "p.csv", tmp_path / "e.jsonl"
+    api.replay_to_files(str(path), poses=str(poses), events=str(events), terrain=str(tif))
+    evs = [json.loads(line) for line in events.read_text().splitlines()]
+    contact = [e for e in evs if e["kind"] == "vehicle"]
+    assert len(contact) == 1 and contact[0]["a"] == "1:3:1" and contact[0]["b"] == "1:3:2"
+    review = Review(tracks=_poses_review(poses, CRS), events=evs, crs_wkt=pyproj.CRS(CRS).to_wkt())
+    out = tmp_path / "out.pcap"
+    n = write_collision_pdus(review, str(path), str(out), lambda e: vehicle_preset("t72"))
+    assert n == 2 + sum(e["kind"] in ("obstacle", "terrain") for e in evs)
+    _, recs = _records(out.read_bytes())
+    first = recs[0][0] + recs[0][1] * 1e-6
+    pdus = [(r[0] + r[1] * 1e-6 - first, struct.unpack(">3H3H", _decode(r[2])[2][12:24]), _decode(r[2])[2])
+            for r in recs if _is_collision(r[2])]
+    ev = contact[0]
+    both = [p for p in pdus if abs(p[0] - ev["t"]) < 2e-6]
+    assert sorted(p[1] for p in both) == [(1, 3, 1, 1, 3, 2), (1, 3, 2, 1, 3, 1)]
+    for _, ids, payload in both:
+        vx, vy, vz, mass, lx, ly, lz = struct.unpack(">3ff3f", payload[32:60])
+        assert mass == pytest.approx(41500.0)
+        assert np.hypot(np.hypot(vx, vy), vz) == pytest.approx(3.0, rel=1e-3)  # 3 m/s, the rows' difference
+        # head on, guns level and forward: the muzzles meet first, each at its tank's muzzle in its own
+        # frame: ahead by the ring's place, the trunnion's and the tube's length, up (z down) by the trunnion
+        v = vehicle_preset("t72")
+        assert ev["a_part"] == ev["b_part"] == "gun"
+        assert lx == pytest.approx(v.turret_x + v.trunnion_forward + v.gun_length, abs=0.02), (ids, lx, ly, lz)
+        assert ly == pytest.approx(0.0, abs=v.gun_radius + 0.01)
+        assert lz == pytest.approx(-v.trunnion_height, abs=v.gun_radius + 0.01)
