@@ -21,7 +21,7 @@ Masses (the standard asks for the issuing entity's, kg): combat weights of the p
 from __future__ import annotations
 
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 
 import numpy as np
@@ -37,6 +37,7 @@ ENTITY_STATE_PDU_TYPE = 1
 COLLISION_PDU_LENGTH = 60
 INELASTIC = 0  # collision type (SISO-REF-010 UID 189)
 NO_ENTITY = (0, 0, 0)
+ROW_SNAP = 1e-6  # s: an event this close to a row of its issuer is at that row (events' t has 6 decimals)
 TIME_TOLERANCE = 1e-5  # s: a track's t against its capture's (the poses CSV writes t to 6 decimals)
 DIS_TIME_UNITS = (1 << 31) / 3600.0  # DIS timestamp units per second (3600 s / 2^31)
 _PACKET_BLOCKS = (2, 3, 6)  # pcapng: packet, simple packet, enhanced packet blocks
@@ -75,9 +76,10 @@ def write_collision_pdus(review, capture: str, path: str, vehicle_of) -> int:
     from tankcd_cli.io.dis import read_capture
 
     states, _ = read_capture(capture)
-    shift = _check_replayed(review, states, capture)
-    pdus = collision_pdus(review, set(np.unique(states.entity).tolist()), vehicle_of, shift, capture)
-    plan = _plan(pdus, states)
+    groups = _ByEntity(states)
+    shift = _check_replayed(review, groups, capture)
+    pdus = collision_pdus(review, set(groups.rows), vehicle_of, shift, capture)
+    plan = _plan(pdus, groups)
     with atomic_path(path, ".pcap") as tmp:
         templates = _first_pass(capture, plan)
         with open(tmp, "wb", buffering=1 << 20) as out:
@@ -86,25 +88,38 @@ def write_collision_pdus(review, capture: str, path: str, vehicle_of) -> int:
 
 
 # -- which capture --------------------------------------------------------------------------------------
-def _check_replayed(review, states, capture: str) -> float:
+class _ByEntity:
+    """The capture's Entity State PDUs grouped by entity, each group in time order (one sort for all)."""
+
+    def __init__(self, states):
+        names, inverse = np.unique(states.entity, return_inverse=True)
+        order = np.lexsort((states.t, inverse))
+        starts = np.searchsorted(inverse[order], np.arange(len(names) + 1))
+        self.states = states
+        self.rows = {str(n): order[starts[k]:starts[k + 1]] for k, n in enumerate(names)}
+
+    def times(self, name: str) -> np.ndarray:
+        return self.states.t[self.rows[name]]
+
+
+def _check_replayed(review, groups: _ByEntity, capture: str) -> float:
     """The review's time minus the capture's (0 for a capture replayed alone; an exercise of several
     files aligned on their clocks shifts it), checked over every entity in common."""
     ours = {tr.entity: tr for tr in review.tracks}
-    common = sorted(set(ours) & set(np.unique(states.entity).tolist()))
+    common = sorted(set(ours) & set(groups.rows))
     if not common:
         names = ", ".join(sorted(ours)[:3]) or "none"
         raise InputError(capture, f"not the replayed capture: none of its entities is a vehicle of the review "
                                   f"(the review's: {names})")
-    shifts = []
+    shift = None
     for name in common:
-        cap_t = np.sort(states.t[states.entity == name])
+        cap_t = groups.times(name)
         tr_t = ours[name].t[np.isfinite(ours[name].t)]
-        if len(tr_t):
-            shifts.append(float(tr_t.min() - cap_t[0]))
-    shift = shifts[0] if shifts else 0.0
-    for name in common:
-        cap_t = np.sort(states.t[states.entity == name])
-        tr_t = ours[name].t[np.isfinite(ours[name].t)] - shift
+        if not len(tr_t):
+            continue
+        if shift is None:  # the first entity's first rows in both say how the clocks stand
+            shift = float(tr_t.min() - cap_t[0])
+        tr_t = tr_t - shift
         k = np.clip(np.searchsorted(cap_t, tr_t), 1, max(len(cap_t) - 1, 1))
         near = np.minimum(np.abs(cap_t[k - 1] - tr_t), np.abs(cap_t[np.minimum(k, len(cap_t) - 1)] - tr_t))
         bad = np.flatnonzero(near > TIME_TOLERANCE)
@@ -113,7 +128,7 @@ def _check_replayed(review, states, capture: str) -> float:
             raise InputError(capture, f"not the replayed capture: entity '{name}' has a row at t = "
                                       f"{tr_t[i] + shift:.6f} s in the review and no packet at that time "
                                       f"in the capture (nearest {near[i]:.6f} s away)")
-    return shift
+    return 0.0 if shift is None else shift
 
 
 # -- the contacts ----------------------------------------------------------------------------------------
@@ -271,15 +286,19 @@ class _Planned:
     event_number: int
 
 
-def _plan(pdus: list, states) -> list:
+def _plan(pdus: list, groups: _ByEntity) -> list:
     """Each PDU with the issuer's last Entity State packet at or before its time (its first when none)."""
+    states = groups.states
     out = []
     counters: dict = {}
     for pdu in pdus:
-        name = "%d:%d:%d" % pdu.issuer
-        rows = np.flatnonzero(states.entity == name)
-        before = rows[states.t[rows] <= pdu.t + 1e-9]
-        k = before[np.argmax(states.t[before])] if len(before) else rows[np.argmin(states.t[rows])]
+        rows = groups.rows["%d:%d:%d" % pdu.issuer]
+        times = states.t[rows]
+        j = int(np.searchsorted(times, pdu.t))
+        near = [i for i in (j - 1, j) if 0 <= i < len(times) and abs(times[i] - pdu.t) <= ROW_SNAP]
+        if near:  # a contact at one of the issuer's rows (its t written to 6 decimals): at that packet's time
+            pdu = replace(pdu, t=float(times[near[-1]]))
+        k = rows[max(int(np.searchsorted(times, pdu.t, side="right")) - 1, 0)]
         key = pdu.issuer[:2]
         counters[key] = counters.get(key, 0) + 1
         out.append(_Planned(pdu, int(states.packet[k]), float(states.t[k]), int(states.timestamp[k]), counters[key]))

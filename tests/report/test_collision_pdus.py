@@ -209,6 +209,12 @@ def test_collision_pdus_in_the_capture(exercise, tmp_path):
         e0, e1 = (np.array(to_ecef.transform(*xyz[r])) for r in (i, j))
         vel = np.array([pdu.velocity.x, pdu.velocity.y, pdu.velocity.z])
         np.testing.assert_allclose(vel, (e1 - e0) / (tr.t[j] - tr.t[i]), rtol=1e-5, atol=1e-5)
+    # a contact at a row of its issuer comes right after that row's packet (the wall at a's third row)
+    wall = [d for d in decoded if d[2].collidingEntityID.entityID == 0 and d[2].issuingEntityID.entityID == 1]
+    assert len(wall) == 1
+    before = wall[0][3][2]
+    assert before[42 + 2] == 1 and struct.unpack(">3H", before[42 + 12:42 + 18]) == (1, 1, 1)
+    assert wall[0][0] == wall[0][3][0] + wall[0][3][1] * 1e-6
     # event numbers count per issuing site and application
     by_app = {}
     for d in sorted(decoded, key=lambda d: d[0]):
@@ -386,3 +392,58 @@ def test_two_tanks_driven_into_each_other_replayed_then_written_back(tmp_path):
         assert lx == pytest.approx(v.turret_x + v.trunnion_forward + v.gun_length, abs=0.02), (ids, lx, ly, lz)
         assert ly == pytest.approx(0.0, abs=v.gun_radius + 0.01)
         assert lz == pytest.approx(-v.trunnion_height, abs=v.gun_radius + 0.01)
+
+
+def _link_frames(link_of, entities, times):
+    """The exercise's frames with the IPv4 datagrams re-framed by ``link_of(ip_packet)``."""
+    out = []
+    for ts, frame in _frames(entities, times):
+        if frame[12:14] == b"\x08\x00":
+            ip = frame[14:14 + struct.unpack(">H", frame[16:18])[0]]
+            out.append((ts, link_of(ip)))
+        else:
+            out.append((ts, frame))
+    return out
+
+
+def _as_ipv6(ip4):
+    """An IPv4 UDP datagram as the same UDP datagram over IPv6 (checksum 0 as the helpers write it)."""
+    return C.ipv6(ip4[20:])
+
+
+@pytest.mark.parametrize("link, link_of, ip_at", [
+    (113, C.sll, 16), (276, C.sll2, 20), (101, lambda ip: ip, 0), (0, C.null, 4),
+    (1, lambda ip: C.ethernet(ip, vlans=((0x8100, 7),)), 18),
+    (1, lambda ip: C.ethernet(_as_ipv6(ip), ethertype=0x86DD), 14),
+], ids=["sll", "sll2", "raw", "null", "vlan", "ipv6"])
+def test_every_link_layer_the_reader_takes(tmp_path, link, link_of, ip_at):
+    path = tmp_path / "l.pcap"
+    frames = _link_frames(link_of, [(1, 1, 1), (1, 1, 2)], [0.0, 2.0, 4.0, 6.0])
+    path.write_bytes(C.pcap(frames, link=link))
+    states, c0 = read_capture(str(path))
+    review = _review(states)
+    review.events.extend(e for e in _events(review) if e["kind"] == "vehicle")
+    out = tmp_path / "out.pcap"
+    assert write_collision_pdus(review, str(path), str(out), _vehicle_of) == 2
+    _, rec_in = _records(path.read_bytes())
+    _, rec_out = _records(out.read_bytes())
+    added = [r for r in rec_out if r not in rec_in]
+    assert [r for r in rec_out if r in rec_in] == rec_in and len(added) == 2
+    for sec, sub, frame in added:  # the issuer's own packet's link header, then a whole IP packet
+        issuer = struct.unpack(">3H", frame[-60 + 12:-60 + 18])
+        es = next(f for _, _, f in rec_in if len(f) > 144 and struct.unpack(">3H", f[-144 + 12:-144 + 18]) == issuer)
+        assert frame[:ip_at] == es[:ip_at]
+        ip = frame[ip_at:]
+        if ip[0] >> 4 == 4:
+            assert struct.unpack(">H", ip[2:4])[0] == len(ip) and _ones_sum(ip[:20]) == 0xFFFF
+            pseudo = ip[12:20] + struct.pack(">BBH", 0, 17, len(ip) - 20)
+            udp = ip[20:]
+        else:
+            assert struct.unpack(">H", ip[4:6])[0] == len(ip) - 40 and ip[6] == 17
+            udp = ip[40:]
+            pseudo = ip[8:40] + struct.pack(">IxxxB", len(udp), 17)
+        assert struct.unpack(">H", udp[4:6])[0] == len(udp) == 68
+        assert _ones_sum(pseudo + udp) == 0xFFFF  # the UDP checksum holds
+    after, c1 = read_capture(str(out))
+    np.testing.assert_array_equal(after.t, states.t)
+    assert c1.pdu_types.get(4, 0) == 2 and c1.udp_not_dis == c0.udp_not_dis
