@@ -75,6 +75,8 @@ def write_collision_pdus(review, capture: str, path: str, vehicle_of) -> int:
     from tankcd_cli.io.atomic import atomic_path
     from tankcd_cli.io.dis import read_capture
 
+    if capture == "-":  # read three times: its entity states, the framing of its PDUs, its copy
+        raise InputError("<stdin>", "the replayed capture (--capture) must be a file, not standard input")
     states, _ = read_capture(capture)
     groups = _ByEntity(states)
     shift = _check_replayed(review, groups, capture)
