@@ -530,3 +530,39 @@ def test_a_pcapng_of_two_sections_gets_each_pdu_in_its_issuers_section(tmp_path)
     after, counts = read_capture(str(out))
     np.testing.assert_array_equal(after.t, states.t)
     assert counts.pdu_types[4] == 6
+
+
+@pytest.mark.parametrize("suffix", ["pcap", "pcapng"])
+def test_wireshark_decodes_the_collision_pdus_with_good_checksums(tmp_path, suffix):
+    """Wireshark's own DIS dissector (tshark, where installed) on the output: every Collision PDU whole,
+    its IP and UDP checksums good, its ids and time as the events say; nothing malformed."""
+    import shutil
+    import subprocess
+
+    tshark = shutil.which("tshark")
+    if tshark is None:
+        pytest.skip("tshark (Wireshark) not installed")
+    frames = _frames([(1, 1, 1), (1, 1, 2), (2, 5, 9)], [0.0, 2.0, 4.0, 6.0, 8.0])
+    path = tmp_path / f"ex.{suffix}"
+    path.write_bytes(C.pcap(frames) if suffix == "pcap" else
+                     C.pcapng([(1, 6, 0)], [(0, round((ts - T0) * 1e6) + T0 * 10 ** 6, f) for ts, f in frames]))
+    states, _ = read_capture(str(path))
+    review = _review(states)
+    review.events.extend(_events(review))
+    out = tmp_path / f"out.{suffix}"
+    assert write_collision_pdus(review, str(path), str(out), _vehicle_of) == 4
+    dis = ["-d", "udp.port==3000,dis", "-d", "udp.port==4002,dis", "-d", "udp.port==4003,dis"]
+    got = subprocess.run([tshark, "-r", str(out), *dis, "-o", "ip.check_checksum:TRUE", "-o", "udp.check_checksum:TRUE",
+                          "-Y", "dis.pdu_type==4", "-T", "fields", "-e", "frame.time_epoch", "-e", "ip.checksum.status",
+                          "-e", "udp.checksum.status", "-e", "dis.proto_ver", "-e", "dis.entity_id_site",
+                          "-e", "dis.entity_id_application", "-e", "dis.entity_id_entity"],
+                         capture_output=True, text=True, check=True).stdout.split("\n")
+    rows = sorted(line.split("\t") for line in got if line)
+    want = sorted([[f"{T0 + 1}.300000000", "1", "1", "7", "1,1", "1,1", "1,2"],
+                   [f"{T0 + 1}.300000000", "1", "1", "7", "1,1", "1,1", "2,1"],
+                   [f"{T0 + 2}.000100000", "1", "1", "7", "1,0", "1,0", "2,0"],  # the ground under 1:1:2's row
+                   [f"{T0 + 4}.000000000", "1", "1", "7", "1,0", "1,0", "1,0"]])  # the wall at 1:1:1's row
+    assert rows == want
+    bad = subprocess.run([tshark, "-r", str(out), *dis, "-Y", "_ws.malformed or _ws.expert.severity >= error"],
+                         capture_output=True, text=True, check=True).stdout
+    assert bad.strip() == ""
