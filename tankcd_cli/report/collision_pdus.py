@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 from fractions import Fraction
 
 import numpy as np
@@ -307,9 +308,25 @@ def _plan(pdus: list, groups: _ByEntity) -> list:
     return out
 
 
+class _Record(NamedTuple):
+    """One pcap record or pcapng block, as the file holds it, and where its packet lies."""
+
+    raw: bytes  # the record (its 16-byte header and frame) or the whole block
+    packet: int  # 1-based packet number as the reader counts them; 0 for a block that is no packet
+    section: int  # pcapng section from 0 (0 for a pcap)
+    interface: int  # the packet's interface in its section (-1: no packet)
+    ticks: int | None  # its time in the interface's units since 1970 (less the interface's offset); None: none
+    units: int  # the interface's timestamp units per second
+    offset: int  # the interface's timestamp offset, s (if_tsoffset)
+    data: int  # where the frame starts in ``raw``
+    link: int  # the link type
+
+
+_NO_PACKET = dict(packet=0, interface=-1, ticks=None, units=0, offset=0, data=0, link=0)
+
+
 class _Walker:
-    """The records of a pcap or the blocks of a pcapng, in file order, as (raw bytes, packet number or 0,
-    section, interface, ticks, units, offset s) with the timestamp in the interface's integer units."""
+    """The records of a pcap or the blocks of a pcapng, in file order, as ``_Record``s."""
 
     def __init__(self, capture: str):
         self.capture = capture
@@ -352,7 +369,7 @@ class _Walker:
                 raise InputError(self.capture, "capture ends inside a record header")
             sec, sub, incl, _ = struct.unpack(e + "IIII", rec)
             packet += 1
-            yield rec + self._read(fh, incl), packet, 0, 0, sec * units + sub, units, 0, 16, self.link
+            yield _Record(rec + self._read(fh, incl), packet, 0, 0, sec * units + sub, units, 0, 16, self.link)
 
     def _pcapng(self, fh, first):
         e = "<"
@@ -362,7 +379,6 @@ class _Walker:
         last = None
         btype_raw = first
         self.endian = e
-        self.sections = []  # per section: its interfaces (link, units, offset)
         while True:
             if btype_raw is None:
                 btype_raw = fh.read(4)
@@ -378,8 +394,7 @@ class _Walker:
                 raw = btype_raw + lenb + bom + self._read(fh, blen - 12)
                 section += 1
                 interfaces = []
-                self.sections.append(interfaces)
-                yield raw, 0, section, -1, None, 0, 0, 0, 0  # the last section's PDUs are written before it
+                yield _Record(raw, section=section, **_NO_PACKET)  # the last section's PDUs go before it
                 self.endian = e
                 btype_raw = None
                 continue
@@ -389,7 +404,7 @@ class _Walker:
             btype_raw = None
             if btype == 1:
                 interfaces.append(_interface(raw, e))
-                yield raw, 0, section, -1, None, 0, 0, 0, 0
+                yield _Record(raw, section=section, **_NO_PACKET)
             elif btype in _PACKET_BLOCKS:
                 packet += 1
                 if btype == 3:
@@ -401,9 +416,9 @@ class _Walker:
                     ticks, data = (hi << 32) | lo, 28
                     last = (iface, ticks)
                 link, units, offset = interfaces[iface] if iface < len(interfaces) else (0, 10 ** 6, 0)
-                yield raw, packet, section, iface, ticks, units, offset, data, link
+                yield _Record(raw, packet, section, iface, ticks, units, offset, data, link)
             else:
-                yield raw, 0, section, -1, None, 0, 0, 0, 0
+                yield _Record(raw, section=section, **_NO_PACKET)
 
 
 def _interface(block: bytes, e: str):
@@ -554,6 +569,8 @@ def _second_pass(capture: str, out, plan: list, templates: dict) -> None:
             for p in pending.pop(section - 1, ()):
                 _write_pdu(out, walker, p)
         out.write(raw)
+    if not started and walker.format == "pcap":  # a pcap of no packet: its header
+        out.write(walker.header)
     for section in sorted(pending):
         for p in pending[section]:
             _write_pdu(out, walker, p)
