@@ -150,8 +150,9 @@ def collision_pdus(review, dis_entities: set, vehicle_of, shift: float = 0.0, so
 
     An obstacle or terrain contact gives one PDU at the first event of a run of events of the
     issuer's consecutive rows with the same kind and other party (a wall touched over ten rows is one
-    collision; the hull and both tracks in it, one); a vehicle contact two (each vehicle issues one,
-    naming the other, 0:0:0 when the other is no DIS entity).
+    collision; the hull and both tracks in it, one); an event ``between`` rows starts a new run
+    unless one began at the same row; a vehicle contact two (each vehicle issues one, naming the
+    other, 0:0:0 when the other is no DIS entity).
     """
     tracks = {tr.entity: tr for tr in review.tracks}
     single = review.tracks[0].entity if len(review.tracks) == 1 else None
@@ -173,8 +174,10 @@ def collision_pdus(review, dis_entities: set, vehicle_of, shift: float = 0.0, so
             row = int(np.searchsorted(track.step, int(ev["step"]))) if track is not None else 0
             prev = last_row.get(key)
             last_row[key] = row
-            if prev is not None and row <= prev + 1:
-                continue  # the same contact going on
+            # the same contact going on: at this row or the next (a contact begun along the motion is
+            # new, unless another part of the vehicle began it in the same step)
+            if prev is not None and (row <= prev if ev.get("between") else row <= prev + 1):
+                continue
             pairs = ((str(issuer), None),)
         for issuer, other in pairs:
             if issuer not in dis_entities or issuer not in tracks:

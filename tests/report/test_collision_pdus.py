@@ -566,3 +566,25 @@ def test_wireshark_decodes_the_collision_pdus_with_good_checksums(tmp_path, suff
     bad = subprocess.run([tshark, "-r", str(out), *dis, "-Y", "_ws.malformed or _ws.expert.severity >= error"],
                          capture_output=True, text=True, check=True).stdout
     assert bad.strip() == ""
+
+
+def test_one_pdu_where_a_contact_begins(exercise):
+    from tankcd_cli.report.collision_pdus import collision_pdus
+
+    _, review = exercise
+    a = review.tracks[0]
+
+    def wall(row, t, part="hull", between=False, b="wall"):
+        ev = {"step": int(a.step[row]), "t": t, "kind": "obstacle", "a": part, "b": b, "entity": a.entity,
+              "point": _near(a, a.t[row])}
+        return {**ev, "between": True} if between else ev
+
+    review = Review(tracks=review.tracks, crs_wkt=review.crs_wkt, events=[
+        wall(0, 0.5, between=True), wall(0, 0.6, "track_left", between=True),  # begins along 0-1, two parts
+        wall(1, float(a.t[1])), wall(2, float(a.t[2])),  # going on at rows 1 and 2
+        wall(2, float(a.t[2]), b="tree"),  # another obstacle: its own
+        wall(3, float(a.t[3]) + 0.5, between=True),  # off the wall at row 3, on again along 3-4
+        wall(4, float(a.t[4]), "track_right"),  # going on
+    ])
+    pdus = collision_pdus(review, {a.entity}, _vehicle_of)
+    assert [p.t for p in pdus] == [0.5, float(a.t[2]), float(a.t[3]) + 0.5]
