@@ -588,3 +588,12 @@ def test_one_pdu_where_a_contact_begins(exercise):
     ])
     pdus = collision_pdus(review, {a.entity}, _vehicle_of)
     assert [p.t for p in pdus] == [0.5, float(a.t[2]), float(a.t[3]) + 0.5]
+
+
+def test_no_contact_gives_the_capture_byte_for_byte(exercise, tmp_path):
+    path, review = exercise
+    quiet = Review(tracks=review.tracks, crs_wkt=review.crs_wkt,
+                   events=[e for e in review.events if e["kind"] in ("internal", "off_terrain")])
+    out = tmp_path / "same.pcap"
+    assert write_collision_pdus(quiet, str(path), str(out), _vehicle_of) == 0
+    assert out.read_bytes() == path.read_bytes()
