@@ -337,15 +337,12 @@ def _poses_review(poses_csv, crs):
     return tuple(tracks)
 
 
-def test_two_tanks_driven_into_each_other_replayed_then_written_back(tmp_path):
-    """A real replay: two T-72s on flat ground 30 m apart, driving at each other at 3 m/s; the capture
-    written back holds their contact as two Collision PDUs at the event's time."""
-    import json
-
+def write_head_on(tmp_path):
+    """(capture, terrain): two T-72s on flat ground 30 m apart driving at each other at 3 m/s for 5 s
+    at 2 Hz, as DIS 7 Entity State PDUs in a pcap, over a flat UTM GeoTIFF."""
     import rasterio
     from rasterio.transform import from_origin
 
-    from tankcd_cli import api
     from tests.io.test_geodesy import _dis_euler_from_enu
 
     to_geo = pyproj.Transformer.from_crs(CRS, "EPSG:4326", always_xy=True)
@@ -365,6 +362,17 @@ def test_two_tanks_driven_into_each_other_replayed_then_written_back(tmp_path):
                            C.ethernet(C.ipv4(C.udp(C.es_dis7(1, 3, ent, ecef(lon, lat), ori, timestamp=1))))))
     path = tmp_path / "head_on.pcap"
     path.write_bytes(C.pcap(frames))
+    return path, tif
+
+
+def test_two_tanks_driven_into_each_other_replayed_then_written_back(tmp_path):
+    """A real replay: two T-72s on flat ground 30 m apart, driving at each other at 3 m/s; the capture
+    written back holds their contact as two Collision PDUs at the event's time."""
+    import json
+
+    from tankcd_cli import api
+
+    path, tif = write_head_on(tmp_path)
     poses, events = tmp_path / "p.csv", tmp_path / "e.jsonl"
     api.replay_to_files(str(path), poses=str(poses), events=str(events), terrain=str(tif))
     evs = [json.loads(line) for line in events.read_text().splitlines()]

@@ -92,3 +92,22 @@ def test_replay_report_writes_the_report_of_the_run(run, tmp_path):
               "--report", "r3.pcap")
     assert res.exit_code == 3 and not (tmp_path / "p3.csv").exists()
     assert "capture" in res.stderr
+
+
+def test_replay_of_a_capture_reports_its_contacts_into_the_capture(run, tmp_path):
+    from tests.report.test_collision_pdus import _is_collision, _records, write_head_on
+
+    capture, tif = write_head_on(tmp_path)
+    res = run("replay", capture, "--terrain", tif, "--poses", "p.csv", "--events", "e.jsonl", "--report", "out.pcap")
+    assert res.exit_code == 0, res.stderr
+    _, original = _records(capture.read_bytes())
+    _, written = _records((tmp_path / "out.pcap").read_bytes())
+    assert [r for r in written if not _is_collision(r[2])] == original
+    vehicle = [json.loads(line) for line in (tmp_path / "e.jsonl").read_text().splitlines()
+               if json.loads(line)["kind"] == "vehicle"]
+    assert len(vehicle) == 1 and sum(_is_collision(r[2]) for r in written) >= 2
+    # the same by tankcd report
+    res = run("report", "p.csv", "e.jsonl", "--terrain", tif, "--capture", capture, "-o", "again.pcap")
+    assert res.exit_code == 0, res.stderr
+    assert (tmp_path / "again.pcap").read_bytes() == (tmp_path / "out.pcap").read_bytes()
+    assert "Collision PDUs" in res.stderr
