@@ -11,6 +11,7 @@ summary = api.replay_to_files("patrol.csv", poses="poses.csv", events="events.js
 store = api.classify("dem.tif", "dem.h5")              # the terrain store, as `tankcd classify` writes it
 events = api.collide("scene.toml", poses)              # the vehicle at given poses against the obstacles
 envelope = api.gun_envelope("t72")                     # the lowest safe gun elevation per turret azimuth
+api.report("poses.csv", "events.jsonl", "review.html", scene="scene.toml")  # or .geojson, .czml, .pcap
 ```
 
 Conventions are the command line's (docs/formats.md): metres, seconds, degrees in and out (radians
@@ -31,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 __all__ = ["open_terrain", "classify", "place", "load_world", "replay", "replay_to_files", "replay_windows",
-           "replay_fleet", "replay_mode", "run_replay", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe"]
+           "replay_fleet", "replay_mode", "run_replay", "export_trajectory", "collide", "gun_envelope", "vehicle", "trajectory_chunks", "describe", "report"]
 
 TRAJECTORY_COLUMNS = ("t", "x", "y", "yaw_deg", "turret_deg", "gun_deg")
 
@@ -715,3 +716,115 @@ def describe(path: str, scene: str | None = None) -> dict:
     from tankcd_cli.describe import describe_store
 
     return describe_store(str(path), scene)
+
+
+REPORT_SUFFIXES = (".html", ".geojson", ".czml", ".pcap")
+"""What ``report`` writes, by the output's suffix (any case): the review page, GeoJSON, CZML, a DIS
+capture with Collision PDUs."""
+
+
+def check_report(poses: str, events: str, output: str, capture: str | None = None,
+                 inputs: dict | None = None) -> str:
+    """The output's kind (one of ``REPORT_SUFFIXES``) after the checks ``report`` makes before any
+    work, each an InputError naming the file: a known suffix, ``capture`` exactly for ``.pcap``, no
+    output onto an input (``poses``, ``events``, ``capture``, and ``inputs``: label -> path), the
+    output's folder there. Nothing is read but the file system's names."""
+    import os
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.io.atomic import check_folders
+    from tankcd_cli.io.files import same_path
+
+    if output in (None, "", "-"):
+        raise InputError(str(output or "-"), "a review is written to a file (a name ending in "
+                         f"{', '.join(REPORT_SUFFIXES)}), not standard output")
+    kind = os.path.splitext(str(output))[1].lower()
+    if kind not in REPORT_SUFFIXES:
+        raise InputError(output, f"unknown output suffix {os.path.splitext(str(output))[1] or '(none)'!r}: "
+                                 f"give a name ending in {', '.join(REPORT_SUFFIXES)}")
+    if kind == ".pcap" and not capture:
+        raise InputError(output, "a .pcap review needs --capture, the DIS capture that was replayed (its packets "
+                                 "are copied with the Collision PDUs among them)")
+    if kind != ".pcap" and capture:
+        raise InputError(capture, f"--capture goes with a .pcap output only (the output is {kind})")
+    named = {"POSES": poses, "EVENTS": events, "--capture": capture, **(inputs or {})}
+    for label, path in named.items():
+        if path not in (None, "-") and same_path(str(output), str(path)):
+            raise InputError(output, f"the output is also {label} {path}: no output overwrites an input")
+    check_folders(output)
+    return kind
+
+
+def require_report_crs(kind: str, world, where: str | None = None) -> None:
+    """GeoJSON and CZML are in longitude and latitude: an InputError when ``world``'s terrain has no
+    CRS (``kind``: ``check_report``'s)."""
+    from tankcd_cli.errors import InputError
+
+    if kind in (".geojson", ".czml") and not world.crs:
+        raise InputError(where or "the terrain", f"the terrain has no CRS: {kind[1:].upper()} needs longitude and "
+                                                 "latitude (give the terrain a CRS, or write .html)")
+
+
+def report(poses: str, events: str, output: str, scene: str | None = None, terrain: str | None = None,
+           capture: str | None = None, world=None, vehicle: str = "t72", up: str | None = None,
+           progress: Callable[[str], None] | None = None) -> dict:
+    """Write what reviewers open of a replay's ``poses`` (CSV or Parquet) and ``events`` (JSON
+    Lines or Parquet), chosen by ``output``'s suffix (docs/formats.md, "Outputs for review"):
+    ``.html`` the review page over the terrain's class map, ``.geojson`` RFC 7946, ``.czml`` for
+    Cesium, ``.pcap`` the DIS ``capture`` that was replayed with a Collision PDU per contact.
+
+    The world (``scene=`` or ``terrain=`` with ``vehicle``, ``up``, or a loaded ``world=``) gives
+    the CRS and the vehicles' footprints. Every refusal is an InputError before anything is
+    written: an unknown suffix, ``capture`` missing for ``.pcap`` or given for another output, an
+    output onto an input, GeoJSON or CZML over a terrain without a CRS, and the checks of the poses
+    against the events (``report.inputs.read_review``). Returns {"output", "vehicles", "events",
+    "bytes"}."""
+    import os
+
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.report.inputs import read_review
+    from tankcd_cli.report.review import Source
+
+    say = progress or (lambda text: None)
+    inputs = {"--scene": scene, "--terrain": terrain}
+    if world is None and (scene is None) == (terrain is None):
+        raise ValueError("give scene= or terrain= (one of them), or world=")
+    if (scene is None) != (terrain is None):
+        from tankcd_cli.replay.world import WorldSpec, world_inputs
+
+        inputs.update(world_inputs(WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle, up=up)))
+    kind = check_report(poses, events, output, capture, inputs)
+    if kind == ".pcap" and not os.path.isfile(capture):
+        raise InputError(capture, "no such file" if not os.path.exists(capture) else "is not a file")
+    say("loading the world")
+    w = _world(world, scene, terrain, vehicle, up, False, say)
+    require_report_crs(kind, w, scene or terrain)
+    crs = w.crs
+    sources = [Source(role, str(path)) for role, path in (("scene", scene), ("terrain", terrain)) if path]
+    if capture:
+        from tankcd_cli.io.parquet import sha256_of
+
+        sources.append(Source("capture", str(capture), sha256_of(capture)))
+    say("reading the poses and events")
+    review = read_review(poses, events, crs_wkt=crs, sources=sources, vehicle_length=w.vehicle.hull_length,
+                         vehicle_width=w.vehicle.hull_width)
+    say(f"writing {output}")
+    if kind == ".html":
+        from tankcd_cli.report.background import terrain_background
+        from tankcd_cli.report.page import write_page
+
+        write_page(review, terrain_background(w), output)
+    elif kind == ".geojson":
+        from tankcd_cli.report.geojson import write_geojson
+
+        write_geojson(review, output)
+    elif kind == ".czml":
+        from tankcd_cli.report.czml import write_czml
+
+        write_czml(review, output)
+    else:
+        from tankcd_cli.report.collision_pdus import write_collision_pdus
+
+        write_collision_pdus(review, capture, output, lambda e: w.kinds[w.kind_of(e)].vehicle)
+    return {"output": str(output), "vehicles": len(review.tracks), "events": len(review.events),
+            "bytes": os.path.getsize(output) if os.path.isfile(output) else 0}
