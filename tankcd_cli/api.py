@@ -800,10 +800,13 @@ def report(poses: str, events: str, output: str, scene: str | None = None, terra
     w = _world(world, scene, terrain, vehicle, up, False, say)
     require_report_crs(kind, w, scene or terrain)
     crs = w.crs
-    sources = [Source(role, str(path)) for role, path in (("scene", scene), ("terrain", terrain)) if path]
-    if capture:
-        from tankcd_cli.io.parquet import sha256_of
+    from tankcd_cli.io.parquet import sha256_of
 
+    # the scene and the capture hashed (a terrain, maybe gigabytes, named only: the Parquet metadata
+    # carries the replay's own record of it)
+    sources = [Source("scene", str(scene), sha256_of(scene))] if scene else []
+    sources += [Source("terrain", str(terrain))] if terrain else []
+    if capture:
         sources.append(Source("capture", str(capture), sha256_of(capture)))
     say("reading the poses and events")
     review = read_review(poses, events, crs_wkt=crs, sources=sources, vehicle_length=w.vehicle.hull_length,

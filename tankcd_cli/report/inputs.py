@@ -80,12 +80,11 @@ def read_review(poses: str, events: str, crs_wkt: str = "", sources=(), vehicle_
 # --- Parquet metadata ------------------------------------------------------------------------------
 
 def _parquet_metadata(path: str) -> dict:
-    from tankcd_cli.io.parquet import pyarrow_modules
-
-    pyarrow_modules(path)  # pyarrow missing: one line naming the file
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise InputError(path, "reading Parquet needs pyarrow: pip install 'tankcd[parquet]'") from None
     try:
         kv = pq.read_schema(path).metadata or {}
     except (pa.ArrowInvalid, OSError) as exc:

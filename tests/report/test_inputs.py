@@ -273,3 +273,20 @@ def test_poses_without_the_columns_a_review_needs_are_refused(run, tmp_path):
     with pytest.raises(InputError, match="header lacks the poses columns step, z") as err:
         read_review(str(path), str(run / "e.jsonl"))
     assert "\n" not in str(err.value)
+
+
+def test_parquet_without_pyarrow_is_one_line_naming_the_extra(run, monkeypatch):
+    import sys
+
+    pytest.importorskip("pyarrow")  # (the fixture wrote the Parquet files with it)
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    with pytest.raises(InputError, match=r"p\.parquet: reading Parquet needs pyarrow: pip install 'tankcd\[parquet\]'"):
+        read_review(str(run / "p.parquet"), str(run / "e.jsonl"))
+
+
+def test_swapped_parquet_files_are_refused(run):
+    pytest.importorskip("pyarrow")
+    with pytest.raises(InputError, match="lacks the poses columns") as err:
+        read_review(str(run / "e.parquet"), str(run / "p.parquet"))
+    assert str(err.value).startswith(str(run / "e.parquet"))
