@@ -483,8 +483,9 @@ def read_events_parquet(path: str) -> tuple[list, list]:
 
 def check_events(tracks: list, events: list, where: list, name: str) -> None:
     """Each event against the poses: its step a pose row's, its entity (a vehicle event's a and b)
-    a vehicle of the poses, the step a row of that vehicle, its t that row's (an event at a row) or
-    between that row's and the vehicle's next row's (``"between": true``), to ``TIME_SLACK``.
+    a vehicle of the poses, the step a row of that vehicle, its t that row's (an event at a row; a
+    vehicle event's may be b's row at ``b_step``, where b begins to exist) or between that row's
+    and the vehicle's next row's (``"between": true``), to ``TIME_SLACK``.
     The first event in the file's order that fails is named."""
     n = len(events)
     if n == 0:
@@ -494,6 +495,9 @@ def check_events(tracks: list, events: list, where: list, name: str) -> None:
     t = np.full(n, np.nan)
     owner = np.full(n, -1, np.int64)
     between = np.zeros(n, bool)
+    # a vehicle event at a row may be at the other vehicle's row: where that one begins to exist
+    other = np.full(n, -1, np.int64)
+    other_step = np.zeros(n, np.int64)
     first_bad: dict = {}  # check -> first event failing it (checks by Python per event, then vectorized ones)
     for i, e in enumerate(events):
         s = e.get("step")
@@ -507,24 +511,33 @@ def check_events(tracks: list, events: list, where: list, name: str) -> None:
         ent = e.get("entity", e.get("a") if e.get("kind") == "vehicle" else "")
         owner[i] = by_name.get(ent if isinstance(ent, str) else "", -1)
         if owner[i] < 0 and "entity" not in first_bad:
-            first_bad["entity"] = (i, f"entity {ent!r} has no pose rows")
+            first_bad["entity"] = (i, f"entity {ent!r} has no pose rows" if "entity" in e or e.get("kind") == "vehicle"
+                                   else "the event names no entity, and the poses' vehicles all have names")
         if e.get("kind") == "vehicle":
             for side in ("a", "b"):
                 if e.get(side) not in by_name and "entity" not in first_bad:
                     first_bad["entity"] = (i, f"vehicle event's {side} {e.get(side)!r} has no pose rows")
         between[i] = e.get("between") is True
+        if e.get("kind") == "vehicle" and isinstance(e.get("b_step"), int) and not isinstance(e["b_step"], bool):
+            other[i], other_step[i] = by_name.get(e.get("b"), -1), e["b_step"]
     all_steps = np.unique(np.concatenate([tr.step for tr in tracks])) if tracks else np.zeros(0, np.int64)
     known = np.isin(step, all_steps)
     if not known.all():
         i = int(np.flatnonzero(~known)[0])
         first_bad["step"] = (i, f"step {step[i]} is no pose row's step")
     row_t = np.full(n, np.nan)
+    other_t = np.full(n, np.nan)  # a vehicle event's b at its b_step
     next_t = np.full(n, np.nan)
     for k, tr in enumerate(tracks):  # a loop per vehicle, vectorized over its events
+        order = np.argsort(tr.step, kind="stable")
+        theirs = np.flatnonzero(other == k)
+        if len(theirs):
+            at = np.minimum(np.searchsorted(tr.step[order], other_step[theirs]), len(order) - 1)
+            found = tr.step[order][at] == other_step[theirs]
+            other_t[theirs[found]] = tr.t[order[at[found]]]
         mine = np.flatnonzero((owner == k) & known)
         if not len(mine):
             continue
-        order = np.argsort(tr.step, kind="stable")
         at = np.searchsorted(tr.step[order], step[mine])
         hit = at < len(order)
         hit[hit] = tr.step[order][at[hit]] == step[mine][hit]
@@ -538,7 +551,7 @@ def check_events(tracks: list, events: list, where: list, name: str) -> None:
         next_t[mine[hit]] = tr.t[nxt]
     slack = TIME_SLACK * (1 + 1e-9)
     timed = np.isfinite(t) & np.isfinite(row_t)
-    at_row = timed & ~between & (np.abs(t - row_t) > slack)
+    at_row = timed & ~between & (np.abs(t - row_t) > slack) & ~(np.abs(t - other_t) <= slack)
     if at_row.any():
         i = int(np.flatnonzero(at_row)[0])
         first_bad["t"] = (i, f"t {t[i]:.6f} is not its row's t {row_t[i]:.6f} (step {step[i]}; an event at a row "

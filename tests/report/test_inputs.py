@@ -290,3 +290,33 @@ def test_swapped_parquet_files_are_refused(run):
     with pytest.raises(InputError, match="lacks the poses columns") as err:
         read_review(str(run / "e.parquet"), str(run / "p.parquet"))
     assert str(err.value).startswith(str(run / "e.parquet"))
+
+
+def test_a_contact_where_a_vehicle_begins_is_at_that_vehicles_row(tmp_path):
+    """bravo's first row (t 5.25) lies on alpha, between alpha's rows at 5.0 and 5.5: the replay
+    reports the contact at bravo's row (no "between"), with alpha's step; it is read, not refused."""
+    from tankcd_cli import api
+
+    flat(tmp_path)
+    scene(tmp_path)
+    rows = ["t,entity,x,y,yaw_deg"] + [f"{k * 0.5},alpha,{20 + k * 1.0},30,0" for k in range(21)]
+    rows += [f"{5.25 + k * 0.5},bravo,30,30.5,0" for k in range(10)]
+    (tmp_path / "late.csv").write_text("\n".join(rows) + "\n")
+    api.replay_to_files(str(tmp_path / "late.csv"), poses=str(tmp_path / "p.csv"), events=str(tmp_path / "e.jsonl"),
+                        scene=str(tmp_path / "scene.toml"))
+    review = read_review(str(tmp_path / "p.csv"), str(tmp_path / "e.jsonl"))
+    (event,) = [e for e in review.events if e["kind"] == "vehicle"]
+    alpha = review.track("alpha")
+    assert not event.get("between") and event["t"] == 5.25
+    assert alpha.t[np.flatnonzero(alpha.step == event["step"])[0]] == 5.0  # alpha's row is not the event's time
+    broken = dict(event, b_step=int(alpha.step[0]))  # b's row elsewhere: the time matches neither row
+    (tmp_path / "bad.jsonl").write_text(json.dumps(broken) + "\n")
+    with pytest.raises(InputError, match="is not its row's t"):
+        read_review(str(tmp_path / "p.csv"), str(tmp_path / "bad.jsonl"))
+
+
+def test_an_event_without_entity_in_an_exercise_is_refused(run, tmp_path):
+    events = _events(run)
+    k = next(i for i, e in enumerate(events) if e["kind"] != "vehicle")
+    del events[k]["entity"]
+    _refused(run, _write_events(tmp_path, events), "the event names no entity")
