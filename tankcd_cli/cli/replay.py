@@ -134,14 +134,6 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
     check_writable(poses_path, events_path)  # before the world is loaded
     check_folders(poses_path, events_path, png, summary_file)  # every output's folder, before any work
-    review_kind, capture = None, None
-    if report_path is not None:  # the review's own checks, before any work too
-        capture = _replayed_capture(trajectory, fmt) if not together else None
-        if report_path.lower().endswith(".pcap") and capture is None:
-            raise InputError(report_path, "a .pcap review copies the DIS capture replayed, with Collision PDUs "
-                                          "among its packets: the trajectory is no capture")
-        review_kind = api.check_report(poses_path, events_path, report_path,
-                                       capture if report_path.lower().endswith(".pcap") else None)
     report.kernels()
     step = report.progress("replay")
     spec = WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache)
@@ -149,6 +141,15 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file,
                     "--report": report_path})
+    review_kind, capture = None, None
+    if report_path is not None:  # the review's own checks (its clashes: above), before any work too
+        capture = _replayed_capture(trajectory, fmt) if not together else None
+        if report_path.lower().endswith(".pcap") and capture is None:
+            raise InputError(report_path, "a .pcap review copies the DIS capture replayed, with Collision PDUs "
+                                          "among its packets: the trajectory is no capture (or several files "
+                                          "--together: run tankcd report --capture on one)")
+        review_kind = api.check_report(poses_path, events_path, report_path,
+                                       capture if report_path.lower().endswith(".pcap") else None)
     world, loading = None, []
     if not (mode == "windows" and scheduler):  # on a cluster the workers load it
         # one piece's summary lists the world's warnings too
