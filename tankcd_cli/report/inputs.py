@@ -3,9 +3,11 @@
 
 Only what a review draws is kept: per pose row the step (int64), t, x, y, z, yaw_deg and the
 quaternion (float64) and the status (uint8). The poses CSV is read in blocks of bytes by the
-project's compiled CSV kernel (``io.csv_kernels.parse_rows``): one pass for the numbers and the
-entity, one for the status; a line the kernel leaves (a row with status ``off``, whose numbers are
-empty) is read here in Python, one line at a time.
+project's compiled CSV kernel (``io.csv_kernels.parse_rows``), three passes a block: the numbers
+every row has and the entity, the status, then z and the quaternion, which a row with status
+``off`` leaves empty (over the block with its empty cells filled by ``EMPTY``, read back as NaN, so
+that such rows stay on the compiled path). A line the kernel leaves (a bad cell) is read here in
+Python, which names the line and the column.
 
 Every refusal is an ``InputError`` (exit 3) naming the file and the line, row or event.
 """
