@@ -320,3 +320,22 @@ def test_an_event_without_entity_in_an_exercise_is_refused(run, tmp_path):
     k = next(i for i, e in enumerate(events) if e["kind"] != "vehicle")
     del events[k]["entity"]
     _refused(run, _write_events(tmp_path, events), "the event names no entity")
+
+
+@pytest.mark.parametrize("form", ["crlf", "reordered", "bom"])
+def test_columns_by_name_and_line_endings_read_alike(run, tmp_path, form):
+    """The same poses with CRLF line breaks, a BOM, or the columns in another order (rewritten with
+    the csv module) give the same tracks."""
+    text = (run / "p.csv").read_text()
+    path = tmp_path / f"{form}.csv"
+    if form == "crlf":
+        path.write_bytes(text.replace("\n", "\r\n").encode())
+    elif form == "bom":
+        path.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    else:
+        rows = list(csv.reader(text.splitlines()))
+        order = list(reversed(range(len(rows[0]))))
+        with open(path, "w", newline="") as fh:
+            csv.writer(fh, lineterminator="\n").writerows([[r[j] for j in order] for r in rows])
+    got = read_review(str(path), str(run / "e.jsonl"))
+    assert_same_tracks(got, csv_tracks(run / "p.csv"))
