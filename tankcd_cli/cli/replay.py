@@ -180,8 +180,9 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         got = api.report(poses_path, events_path, report_path, scene=scene, terrain=terrain,
                          capture=capture if review_kind == ".pcap" else None, world=world, vehicle=vehicle_name, up=up,
                          progress=report.progress("report"))
-        report.info(f"report: {got['vehicles']:,} vehicles, {got['events']:,} events; wrote {got['output']} "
-                    f"({got['bytes']:,} bytes)")
+        from tankcd_cli.cli.review_command import closing_line
+
+        report.info(closing_line(got))
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 

@@ -43,6 +43,13 @@ def report(reporter, poses, events, scene, terrain, output, capture, vehicle_nam
         raise click.UsageError("give --scene or --terrain (one of them): the world the replay ran in")
     result = api.report(poses, events, output, scene=scene, terrain=terrain, capture=capture, vehicle=vehicle_name,
                         up=up, progress=reporter.progress("report"))
-    reporter.info(f"report: {result['vehicles']:,} vehicle{'' if result['vehicles'] == 1 else 's'}, "
-                  f"{result['events']:,} event{'' if result['events'] == 1 else 's'}; wrote {result['output']} "
-                  f"({result['bytes']:,} bytes) ({reporter.elapsed():.2f} s)")
+    reporter.info(f"{closing_line(result)} ({reporter.elapsed():.2f} s)")
+
+
+def closing_line(result: dict) -> str:
+    """What a review wrote (``api.report``'s result), in one line for stderr."""
+    def counted(n: int, what: str) -> str:
+        return f"{n:,} {what}{'' if n == 1 else 's'}"
+
+    return (f"report: {counted(result['vehicles'], 'vehicle')}, {counted(result['events'], 'event')}; wrote "
+            f"{result['output']} ({result['bytes']:,} bytes)")
