@@ -719,88 +719,115 @@ def describe(path: str, scene: str | None = None) -> dict:
 
 
 REPORT_SUFFIXES = (".html", ".geojson", ".czml", ".pcap")
+"""What ``report`` writes, by the output's suffix (any case): the review page, GeoJSON, CZML, a DIS
+capture with Collision PDUs."""
 
 
-@dataclass(frozen=True)
-class ReportResult:
-    """What ``report`` wrote: the output, its size (bytes), the vehicles and events it holds, and
-    for a capture the Collision PDUs it added."""
+def check_report(poses: str, events: str, output: str, capture: str | None = None,
+                 inputs: dict | None = None) -> str:
+    """The output's kind (one of ``REPORT_SUFFIXES``) after the checks ``report`` makes before any
+    work, each an InputError naming the file: a known suffix, ``capture`` exactly for ``.pcap``, no
+    output onto an input (``poses``, ``events``, ``capture``, and ``inputs``: label -> path), the
+    output's folder there. Nothing is read but the file system's names."""
+    import os
 
-    output: str
-    bytes: int
-    vehicles: int
-    events: int
-    pdus: int = 0
+    from tankcd_cli.errors import InputError
+    from tankcd_cli.io.atomic import check_folders
+    from tankcd_cli.io.files import same_path
+
+    if output in (None, "", "-"):
+        raise InputError(str(output or "-"), "a review is written to a file (a name ending in "
+                         f"{', '.join(REPORT_SUFFIXES)}), not standard output")
+    kind = os.path.splitext(str(output))[1].lower()
+    if kind not in REPORT_SUFFIXES:
+        raise InputError(output, f"unknown output suffix {os.path.splitext(str(output))[1] or '(none)'!r}: "
+                                 f"give a name ending in {', '.join(REPORT_SUFFIXES)}")
+    if kind == ".pcap" and not capture:
+        raise InputError(output, "a .pcap review needs --capture, the DIS capture that was replayed (its packets "
+                                 "are copied with the Collision PDUs among them)")
+    if kind != ".pcap" and capture:
+        raise InputError(capture, f"--capture goes with a .pcap output only (the output is {kind})")
+    named = {"POSES": poses, "EVENTS": events, "--capture": capture, **(inputs or {})}
+    for label, path in named.items():
+        if path not in (None, "-") and same_path(str(output), str(path)):
+            raise InputError(output, f"the output is also {label} {path}: no output overwrites an input")
+    check_folders(output)
+    return kind
+
+
+def require_report_crs(kind: str, world, where: str | None = None) -> None:
+    """GeoJSON and CZML are in longitude and latitude: an InputError when ``world``'s terrain has no
+    CRS (``kind``: ``check_report``'s)."""
+    from tankcd_cli.errors import InputError
+
+    if kind in (".geojson", ".czml") and not world.crs:
+        raise InputError(where or "the terrain", f"the terrain has no CRS: {kind[1:].upper()} needs longitude and "
+                                                 "latitude (give the terrain a CRS, or write .html)")
 
 
 def report(poses: str, events: str, output: str, scene: str | None = None, terrain: str | None = None,
            capture: str | None = None, world=None, vehicle: str = "t72", up: str | None = None,
-           progress: Callable[[str], None] | None = None) -> ReportResult:
-    """A replay's outputs (``poses``: CSV or Parquet; ``events``: JSON Lines or Parquet; one vehicle
-    or an exercise) as what reviewers open, by ``output``'s suffix (docs/formats.md, "Outputs for
-    review"): ``.html`` the page to review, ``.geojson`` (RFC 7946), ``.czml`` (Cesium), ``.pcap``
-    the DIS ``capture`` that was replayed with a Collision PDU for each contact. The terrain (a
-    scene's, ``terrain``, or ``world``) gives the CRS and the picture. Checked before anything is
-    written (InputError, one line): the suffix, a capture for ``.pcap`` (and only there), a CRS for
-    GeoJSON and CZML, an output that is one of the inputs, and poses and events of one run."""
+           progress: Callable[[str], None] | None = None) -> dict:
+    """Write what reviewers open of a replay's ``poses`` (CSV or Parquet) and ``events`` (JSON
+    Lines or Parquet), chosen by ``output``'s suffix (docs/formats.md, "Outputs for review"):
+    ``.html`` the review page over the terrain's class map, ``.geojson`` RFC 7946, ``.czml`` for
+    Cesium, ``.pcap`` the DIS ``capture`` that was replayed with a Collision PDU per contact.
+
+    The world (``scene=`` or ``terrain=`` with ``vehicle``, ``up``, or a loaded ``world=``) gives
+    the CRS and the vehicles' footprints. Every refusal is an InputError before anything is
+    written: an unknown suffix, ``capture`` missing for ``.pcap`` or given for another output, an
+    output onto an input, GeoJSON or CZML over a terrain without a CRS, and the checks of the poses
+    against the events (``report.inputs.read_review``). Returns {"output", "vehicles", "events",
+    "bytes"}."""
     import os
 
     from tankcd_cli.errors import InputError
-    from tankcd_cli.io.files import same_path
-    from tankcd_cli.io.parquet import sha256_of
     from tankcd_cli.report.inputs import read_review
+    from tankcd_cli.report.review import Source
 
-    suffix = os.path.splitext(str(output))[1].lower()
-    if suffix not in REPORT_SUFFIXES:
-        raise InputError(str(output), f"a report is {', '.join(REPORT_SUFFIXES)} (by the output's suffix), "
-                                      f"not {suffix or 'a name without a suffix'}")
-    if suffix == ".pcap" and capture is None:
-        raise InputError(str(output), "a .pcap report needs the DIS capture that was replayed (--capture, capture=)")
-    if suffix != ".pcap" and capture is not None:
-        raise InputError(str(capture), f"a capture is only used by a .pcap report, not {suffix}")
-    for role, path in (("poses", poses), ("events", events), ("capture", capture), ("scene", scene),
-                       ("terrain", terrain)):
-        if path is not None and os.path.exists(str(output)) and same_path(str(path), str(output)):
-            raise InputError(str(output), f"is the {role} input; a report never overwrites an input")
-    if progress:
-        progress("loading the terrain")
-    w = _world(world, scene, terrain, vehicle, up, False, None)
-    sources = []
-    for role, path in (("scene", scene), ("terrain", terrain)):
-        if path is not None:
-            sources.append(_source(role, str(path), sha256_of))
-    review_kw = {"crs_wkt": w.crs or "", "vehicle_length": float(w.vehicle.hull_length),
-                 "vehicle_width": float(w.vehicle.hull_width)}
-    if suffix in (".geojson", ".czml") and not review_kw["crs_wkt"].strip():
-        raise InputError(str(terrain or scene), f"the terrain has no CRS; a {suffix} report needs one (longitude "
-                                                "and latitude)")
-    if progress:
-        progress("reading the poses and events")
-    review = read_review(str(poses), str(events), sources=tuple(sources), **review_kw)
-    if progress:
-        progress(f"writing {output}")
-    pdus = 0
-    if suffix == ".html":
+    say = progress or (lambda text: None)
+    inputs = {"--scene": scene, "--terrain": terrain}
+    if world is None and (scene is None) == (terrain is None):
+        raise ValueError("give scene= or terrain= (one of them), or world=")
+    if (scene is None) != (terrain is None):
+        from tankcd_cli.replay.world import WorldSpec, world_inputs
+
+        inputs.update(world_inputs(WorldSpec(scene=scene, terrain=terrain, vehicle=vehicle, up=up)))
+    kind = check_report(poses, events, output, capture, inputs)
+    if kind == ".pcap" and not os.path.isfile(capture):
+        raise InputError(capture, "no such file" if not os.path.exists(capture) else "is not a file")
+    say("loading the world")
+    w = _world(world, scene, terrain, vehicle, up, False, say)
+    require_report_crs(kind, w, scene or terrain)
+    crs = w.crs
+    from tankcd_cli.io.parquet import sha256_of
+
+    # the scene and the capture hashed (a terrain, maybe gigabytes, named only: the Parquet metadata
+    # carries the replay's own record of it)
+    sources = [Source("scene", str(scene), sha256_of(scene))] if scene else []
+    sources += [Source("terrain", str(terrain))] if terrain else []
+    if capture:
+        sources.append(Source("capture", str(capture), sha256_of(capture)))
+    say("reading the poses and events")
+    review = read_review(poses, events, crs_wkt=crs, sources=sources, vehicle_length=w.vehicle.hull_length,
+                         vehicle_width=w.vehicle.hull_width)
+    say(f"writing {output}")
+    if kind == ".html":
         from tankcd_cli.report.background import terrain_background
         from tankcd_cli.report.page import write_page
 
-        write_page(review, terrain_background(w), str(output))
-    elif suffix == ".geojson":
+        write_page(review, terrain_background(w), output)
+    elif kind == ".geojson":
         from tankcd_cli.report.geojson import write_geojson
 
-        write_geojson(review, str(output))
-    elif suffix == ".czml":
+        write_geojson(review, output)
+    elif kind == ".czml":
         from tankcd_cli.report.czml import write_czml
 
-        write_czml(review, str(output))
+        write_czml(review, output)
     else:
         from tankcd_cli.report.collision_pdus import write_collision_pdus
 
-        pdus = write_collision_pdus(review, str(capture), str(output), lambda e: w.kinds[w.kind_of(e)].vehicle)
-    return ReportResult(str(output), os.path.getsize(str(output)), len(review.tracks), len(review.events), int(pdus))
-
-
-def _source(role: str, path: str, sha256_of):
-    from tankcd_cli.report.review import Source
-
-    return Source(role, path, sha256_of(path) if path != "-" else "")
+        write_collision_pdus(review, capture, output, lambda e: w.kinds[w.kind_of(e)].vehicle)
+    return {"output": str(output), "vehicles": len(review.tracks), "events": len(review.events),
+            "bytes": os.path.getsize(output) if os.path.isfile(output) else 0}

@@ -29,7 +29,8 @@ COMMANDS = {
     "export": ("tankcd_cli.cli.export", "Write a trajectory (CSV, GPX, DIS capture) as the CSV replay reads."),
     "envelope": ("tankcd_cli.cli.envelope", "Lowest safe gun elevation per turret azimuth (the rear fuel drums)."),
     "replay": ("tankcd_cli.cli.replay", "Replay a trajectory over a terrain: one pose per row."),
-    "report": ("tankcd_cli.cli.review_command", "A replay's poses and events as a page, GeoJSON, CZML or DIS Collision PDUs."),
+    "report": ("tankcd_cli.cli.review_command", "A replay's poses and events as a page, GeoJSON, CZML or a capture "
+                                                "with Collision PDUs."),
     "tradeoff": ("tankcd_cli.cli.tradeoff", "Measure what accuracy costs in time: tables, CSV and plots."),
 }
 

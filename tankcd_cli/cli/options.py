@@ -267,6 +267,8 @@ NO_OUT_DIR = "no --out-dir"
 POSES_TO_STDOUT = "one replay's poses to standard output"
 EVENTS_TO_STDOUT = "one replay's events to standard output"
 SUMMARY_TO_STDOUT = "the summary to standard output"
+POSES_NOT_A_FILE = "the poses not written to a file"
+EVENTS_NOT_A_FILE = "the events not written to a file"
 # checked first: what decides the replay's inputs and world
 REPLAY_FIRST_RULES = (
     Refused("together", ("out_dir", "jobs", "scheduler"), "--together replays the files as one world into --poses "
@@ -308,6 +310,10 @@ REPLAY_LAST_RULES = (
     Refused(EVENTS_TO_STDOUT, (SUMMARY_TO_STDOUT,), "events already go to stdout: give --summary FILE"),
     Refused("window_seconds", (STDIN,), "--window-seconds reads a trajectory file (each window reads its own rows), "
                                         "not standard input"),
+    Refused("report_path", (FLEET,), "--report reviews one replay's --poses and --events; a fleet writes a pair per "
+                                     "trajectory (run tankcd report on each)"),
+    Refused("report_path", (POSES_NOT_A_FILE, EVENTS_NOT_A_FILE),
+            "--report reads the replay's outputs back: give --poses FILE and --events FILE (not standard output)"),
 )
 REPLAY_VALUES = (
     Positive("window_seconds", "a window's length in seconds"),
@@ -332,6 +338,7 @@ def check_replay_options(ctx: click.Context, mode: str) -> None:
         STDIN: "-" in (p.get("trajectories") or ()), NO_OUT_DIR: p.get("out_dir") is None,
         POSES_TO_STDOUT: one and p.get("poses_path") == "-", EVENTS_TO_STDOUT: one and p.get("events_path") == "-",
         SUMMARY_TO_STDOUT: one and summary == "-",
+        POSES_NOT_A_FILE: p.get("poses_path") in (None, "-"), EVENTS_NOT_A_FILE: p.get("events_path") in (None, "-"),
     }
     check_option_combinations(ctx, REPLAY_FIRST_RULES + REPLAY_RULES, conditions)
     check_option_values(ctx, REPLAY_VALUES)

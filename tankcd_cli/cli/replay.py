@@ -10,7 +10,7 @@ import click
 from tankcd_cli import api
 from tankcd_cli.cli.options import (REPLAY_VEHICLE_HELP, check_replay_options, no_dash_directory, no_stdin,
                                     refuse_clashes, vehicle_option, verbosity_options)
-from tankcd_cli.errors import collected_warnings
+from tankcd_cli.errors import InputError, collected_warnings
 from tankcd_cli.io.atomic import atomic_path, check_folders, committed_together, output_text
 from tankcd_cli.io.input_formats import FORMAT_NAMES, with_format
 from tankcd_cli.replay.drawing import ReplayDrawing
@@ -75,12 +75,12 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
               help="The closing summary as JSON: one line on stderr (under -q too), or into FILE (- for stdout).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
               help="Draw the path over the class map, obstacles' footprints and the events, to this PNG.")
-@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
-              help="Then write the report of this run (tankcd report): .html, .geojson, .czml, or .pcap of a DIS "
-                   "capture replayed; needs --poses and --events files.")
 @click.option("--png-colour", "png_colour", type=click.Choice(["path", "matcher"]), default="path",
               show_default=True,
               help="With --png: colour the drawn path plainly or by the matcher that placed each pose.")
+@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None, metavar="OUT",
+              help="Then review the replay's --poses and --events files into OUT, as tankcd report -o OUT does "
+                   "(.html, .geojson, .czml, or .pcap when the trajectory is a DIS capture).")
 @click.option("--out-dir", type=click.Path(file_okay=False), default=None, callback=no_dash_directory,
               help="Fleet mode: one poses and one events file per trajectory here, and fleet.json.")
 @click.option("--out-format", type=click.Choice(list(OUTPUT_FORMATS)), default="csv", show_default=True,
@@ -102,8 +102,8 @@ SUMMARY_STDERR = "<stderr>"  # --summary given without a file
 def replay(report, trajectories, scene, terrain, poses_path, events_path, matcher, escalate, tolerance,
            attitude_tolerance, fmt, together,
            no_gates, discrete, vehicle_name, up, cache,
-           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, out_dir, out_format, jobs, scheduler,
-           split_lines, window_seconds, report_path):
+           fail_on_collision, allow_off_terrain, summary_path, png, png_colour, report_path, out_dir, out_format, jobs,
+           scheduler, split_lines, window_seconds):
     """Replay TRAJECTORY (CSV with t, x, y, yaw_deg, optional turret_deg, gun_deg; - for stdin):
     one pose row per trajectory row, in order, streamed in chunks, and the events of the
     effects the scene calls for (no obstacles, no obstacle checks; no drums or no turret
@@ -131,7 +131,6 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
         return _fleet(report, trajectories, scene, terrain, how, vehicle_name, up, out_dir, out_format, jobs, scheduler,
                       fail_on_collision, allow_off_terrain, summary_path, split_lines)
     trajectory = expand_trajectories(list(trajectories)) if mode == "together" else trajectories[0]
-    capture = _check_report(report_path, mode, trajectory, poses_path, events_path)
     summary_file = None if summary_path in (None, SUMMARY_STDERR, "-") else summary_path
     check_writable(poses_path, events_path)  # before the world is loaded
     check_folders(poses_path, events_path, png, summary_file)  # every output's folder, before any work
@@ -142,12 +141,23 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                     **world_inputs(spec)},
                    {"--poses": poses_path, "--events": events_path, "--png": png, "--summary": summary_file,
                     "--report": report_path})
+    review_kind, capture = None, None
+    if report_path is not None:  # the review's own checks (its clashes: above), before any work too
+        capture = _replayed_capture(trajectory, fmt) if not together else None
+        if report_path.lower().endswith(".pcap") and capture is None:
+            raise InputError(report_path, "a .pcap review copies the DIS capture replayed, with Collision PDUs "
+                                          "among its packets: the trajectory is no capture (or several files "
+                                          "--together: run tankcd report --capture on one)")
+        review_kind = api.check_report(poses_path, events_path, report_path,
+                                       capture if report_path.lower().endswith(".pcap") else None)
     world, loading = None, []
     if not (mode == "windows" and scheduler):  # on a cluster the workers load it
         # one piece's summary lists the world's warnings too
         with collected_warnings() if mode != "windows" else contextlib.nullcontext([]) as loading:
             world = api.load_world(scene=scene, terrain=terrain, vehicle=vehicle_name, up=up, cache=cache,
                                    progress=step)
+    if review_kind is not None and world is not None:
+        api.require_report_crs(review_kind, world, scene or terrain)
     drawing = ReplayDrawing(colour_by=png_colour) if png else None
     with committed_together():  # poses, events, picture and summary: all of them or none
         result = api.run_replay(trajectory, poses_path, events_path, window_seconds=window_seconds, together=together,
@@ -166,40 +176,27 @@ def replay(report, trajectories, scene, terrain, poses_path, events_path, matche
                 drawing.save(tmp, mesh_store if mesh_store is not None else _store_of(world.surface), world.obstacles)
         _write_summary(summary_path, result.as_dict())
     _report_summary(report, result.as_dict(), summary_path, result.effects, result.rows, written=True)
-    if report_path is not None:
-        done = api.report(poses_path, events_path, report_path, scene=scene, terrain=terrain, capture=capture,
-                          world=world, vehicle=vehicle_name, up=up, progress=report.progress("report"))
-        report.info(f"report: {done.vehicles:,} vehicles, {done.events:,} events to {report_path} "
-                    f"({done.bytes / 2**20:,.1f} MiB)")
+    if report_path is not None:  # the replay's files are whole now: read them back
+        got = api.report(poses_path, events_path, report_path, scene=scene, terrain=terrain,
+                         capture=capture if review_kind == ".pcap" else None, world=world, vehicle=vehicle_name, up=up,
+                         progress=report.progress("report"))
+        from tankcd_cli.cli.review_command import closing_line
+
+        report.info(closing_line(got))
     _exit_on_failures(result, fail_on_collision, allow_off_terrain)
 
 
-def _check_report(report_path, mode: str, trajectory, poses_path, events_path):
-    """--report's conditions, before any work: one run's poses and events in files, a report suffix,
-    and for .pcap a DIS capture replayed alone (which the report copies). Returns that capture."""
-    if report_path is None:
-        return None
-    import os
-
-    from tankcd_cli.errors import InputError
-
-    if mode == "fleet":
-        raise click.UsageError("--report writes the report of one run; for a fleet run tankcd report on each "
-                               "trajectory's outputs")
-    if poses_path in (None, "-") or events_path in (None, "-"):
-        raise click.UsageError("--report reads the run's outputs again: give --poses and --events files")
-    suffix = os.path.splitext(report_path)[1].lower()
-    if suffix not in api.REPORT_SUFFIXES:
-        raise InputError(report_path, f"a report is {', '.join(api.REPORT_SUFFIXES)} (by the output's suffix), "
-                                      f"not {suffix or 'a name without a suffix'}")
-    if suffix != ".pcap":
-        return None
+def _replayed_capture(trajectory, fmt) -> str | None:
+    """The trajectory when it is a DIS capture (by --format, its name or its first bytes), else None."""
     from tankcd_cli.io.trajectory.formats import trajectory_format
 
-    if isinstance(trajectory, (list, tuple)) or trajectory == "-" or \
-            trajectory_format(str(trajectory)) not in ("pcap", "pcapng"):
-        raise InputError(report_path, "a .pcap report copies the DIS capture replayed: replay one capture file")
-    return str(trajectory)
+    if not isinstance(trajectory, str) or trajectory == "-":
+        return None
+    try:
+        kind = trajectory_format(trajectory, fmt)
+    except (OSError, ValueError):  # unreadable: the replay itself names what is wrong
+        return None
+    return str(trajectory) if kind in ("pcap", "pcapng") else None
 
 
 def _store_of(surface):
