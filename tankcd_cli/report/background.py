@@ -69,7 +69,7 @@ def worst_class_blocks(classes: np.ndarray, max_pixels: int) -> tuple[np.ndarray
         return classes, 1
     hb, wb = -(-h // k), -(-w // k)
     padded = np.full((hb * k, wb * k), -1, dtype=np.int16)
-    padded[:h, :w] = np.where(classes == NO_CLASS, -1, classes)
+    padded[:h, :w] = np.where(classes == NO_CLASS, -1, classes.astype(np.int16))
     worst = padded.reshape(hb, k, wb, k).max(axis=(1, 3))
     return np.where(worst < 0, NO_CLASS, worst).astype(np.uint8), k
 
