@@ -158,7 +158,9 @@ def browser():
         options.add_argument(arg)  # a proxy that refuses: nothing reaches a network
     options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    driver.set_window_size(1280, 800)
+    # the page's viewport itself 1280 x 800 (the window's size includes what a window has around it)
+    driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
+                           {"width": 1280, "height": 800, "deviceScaleFactor": 1, "mobile": False})
     yield driver
     driver.quit()
 
@@ -222,6 +224,11 @@ def test_the_page_in_a_browser(browser, tmp_path):
     assert not severe, severe
 
 
+def _screenshot(driver, name: str):
+    driver.execute_script("window.scrollTo(0, 0)")
+    driver.save_screenshot(str(ROOT / "docs" / name))
+
+
 def _sample_replay(folder: Path):
     poses, events = folder / "poses.csv", folder / "events.jsonl"
     scene = str(SAMPLE / "scene.toml")
@@ -241,7 +248,7 @@ def test_a_replay_of_the_sample_scene_in_a_browser(browser, tmp_path):
     first = min(range(len(review.events)), key=lambda i: (review.events[i]["t"], i))
     _click_event(browser, first, review.events[first]["t"])
     if SCREENSHOTS:
-        browser.save_screenshot(str(ROOT / "docs" / "report_sample.png"))
+        _screenshot(browser, "report_sample.png")
 
 
 def test_an_exercise_in_a_browser(browser, tmp_path):
@@ -257,4 +264,4 @@ def test_an_exercise_in_a_browser(browser, tmp_path):
     contact = next(i for i, e in enumerate(review.events) if e["kind"] == "vehicle")
     _click_event(browser, contact, review.events[contact]["t"])
     if SCREENSHOTS:
-        browser.save_screenshot(str(ROOT / "docs" / "report_exercise.png"))
+        _screenshot(browser, "report_exercise.png")
