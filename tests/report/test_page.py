@@ -194,8 +194,8 @@ def _check_playback(driver, review, times):
 
 
 def _click_event(driver, i: int, want_t: float):
-    row = driver.find_element("css selector", f'#events tbody tr[data-i="{i}"]')
-    driver.execute_script("arguments[0].scrollIntoView({block: 'center'})", row)
+    row = driver.find_element("css selector", f'#events .ev[data-i="{i}"]')
+    driver.execute_script("arguments[0].scrollIntoView({block: 'center', inline: 'nearest'})", row)
     row.click()
     assert driver.execute_script("return window.tankcdReview.time()") == pytest.approx(want_t, abs=1e-9)
     assert "selected" in row.get_attribute("class")
@@ -212,20 +212,20 @@ def test_the_page_in_a_browser(browser, tmp_path):
     for name in ("alpha", "bravo", "charlie"):
         assert name in text
     assert "ab" * 32 in text and "0.1.0" in text  # provenance: a source's SHA-256, the version
-    assert len(browser.find_elements("css selector", "#events tbody tr")) == len(review.events)
+    assert len(browser.find_elements("css selector", "#events .ev")) == len(review.events)
     _check_playback(browser, review, np.r_[0.0, 0.05, 4.99, 5.0, 12.345, 33.3, np.linspace(0, 64.9, 23), 64.9])
     for i in (1, 3, 0):
         _click_event(browser, i, review.events[i]["t"])
     # the kind filter hides rows of that kind only
     browser.find_element("css selector", 'input.kindfilter[value="vehicle"]').click()
-    shown = [r for r in browser.find_elements("css selector", "#events tbody tr") if r.is_displayed()]
+    shown = [r for r in browser.find_elements("css selector", "#events .ev") if r.is_displayed()]
     assert len(shown) == 3
     severe = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
     assert not severe, severe
 
 
 def _screenshot(driver, name: str):
-    driver.execute_script("window.scrollTo(0, 0)")
+    driver.execute_script("window.scrollTo(0, 0); document.getElementById('eventbox').scrollLeft = 0")
     driver.save_screenshot(str(ROOT / "docs" / name))
 
 
@@ -241,7 +241,7 @@ def test_a_replay_of_the_sample_scene_in_a_browser(browser, tmp_path):
     out = tmp_path / "sample.html"
     write_page(review, terrain_background(api.load_world(scene=scene)), str(out))
     _open(browser, out)
-    assert len(browser.find_elements("css selector", "#events tbody tr")) == len(review.events) > 50
+    assert len(browser.find_elements("css selector", "#events .ev")) == len(review.events) > 50
     tr = review.tracks[0]
     rng = np.random.default_rng(1)
     _check_playback(browser, review, np.r_[tr.t[0], rng.uniform(tr.t[0], tr.t[-1], 25), tr.t[-1]])
@@ -259,7 +259,7 @@ def test_an_exercise_in_a_browser(browser, tmp_path):
     write_page(review, terrain_background(api.load_world(scene=str(SAMPLE / "scene.toml"))), str(out))
     _open(browser, out)
     assert browser.execute_script("return window.tankcdReview.vehicles") == ["lead", "close", "back"]
-    assert len(browser.find_elements("css selector", "#events tbody tr")) == len(review.events)
+    assert len(browser.find_elements("css selector", "#events .ev")) == len(review.events)
     _check_playback(browser, review, np.linspace(0.0, 52.9, 17))
     contact = next(i for i, e in enumerate(review.events) if e["kind"] == "vehicle")
     _click_event(browser, contact, review.events[contact]["t"])

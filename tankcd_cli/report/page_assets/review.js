@@ -4,7 +4,10 @@
 (function () {
   "use strict";
 
+  var STARTED = performance.now(), TIMINGS = { script: Math.round(STARTED) };
+  function mark(name) { TIMINGS[name] = Math.round(performance.now() - STARTED); }
   var D = JSON.parse(document.getElementById("tankcd-data").textContent);
+  mark("parsed");
   var BY_TIME = D.clock === "t";
   var SCALE = BY_TIME ? 1000 : 1;
   var OX = D.origin[0], OY = D.origin[1];
@@ -53,6 +56,7 @@
     return ca - cb || a - b;
   });
 
+  mark("decoded");
   var T0 = Infinity, T1 = -Infinity;
   V.forEach(function (v) { if (v.t.length) { T0 = Math.min(T0, v.t[0]); T1 = Math.max(T1, v.t[v.t.length - 1]); } });
   if (!isFinite(T0)) { T0 = 0; T1 = 0; }
@@ -107,18 +111,23 @@
     if (e.closing_speed !== undefined && e.closing_speed !== null) { detail.push(e.closing_speed.toFixed(2) + " m/s"); }
     if (e.depth !== undefined && e.depth !== null) { detail.push("depth " + e.depth.toFixed(3) + " m"); }
     if (e.status !== undefined) { detail.push(esc(e.status)); }
-    rows.push('<tr data-i="' + i + '"><td class="num">' + esc(fmtClock(EC[i])) + '</td><td><span class="kind" style="background:' +
-      esc(k.colour) + '"></span>' + esc(e.kind) + "</td><td>" + esc(e.entity !== undefined ? e.entity : "") + "</td><td>" + esc(e.a) +
-      "</td><td>" + esc(e.b) + "</td><td>" + parts + "</td><td>" + where + "</td><td>" + detail.join(", ") + "</td></tr>");
+    rows.push('<div class="ev" data-i="' + i + '"><span class="num">' + esc(fmtClock(EC[i])) + '</span><span><span class="kind" style="background:' +
+      esc(k.colour) + '"></span>' + esc(e.kind) + "</span><span>" + esc(e.entity !== undefined ? e.entity : "") + "</span><span>" + esc(e.a) +
+      "</span><span>" + esc(e.b) + "</span><span>" + parts + "</span><span>" + where + "</span><span>" + detail.join(", ") + "</span></div>");
   });
-  eventbox.innerHTML = '<table id="events"><thead><tr><th class="num">' + (BY_TIME ? "t, s" : "step") +
-    "</th><th>kind</th><th>vehicle</th><th>a</th><th>b</th><th>parts</th><th>when</th><th>detail</th></tr></thead><tbody>" +
-    rows.join("") + "</tbody></table>";
+  // rows in blocks the browser lays out only when scrolled to (content-visibility): 34,000 rows in
+  // one table cost seconds of layout before the page could draw
+  var blocks = [];
+  for (var b0 = 0; b0 < rows.length; b0 += 200) { blocks.push('<div class="evblock">' + rows.slice(b0, b0 + 200).join("") + "</div>"); }
+  eventbox.innerHTML = '<div id="events"><div class="evhead"><span class="num">' + (BY_TIME ? "t, s" : "step") +
+    "</span><span>kind</span><span>vehicle</span><span>a</span><span>b</span><span>parts</span><span>when</span><span>detail</span></div>" +
+    blocks.join("") + "</div>";
   side.appendChild(eventbox);
   main.appendChild(side);
   document.body.appendChild(main);
+  mark("event rows");
   var rowOf = new Array(E.length);
-  Array.prototype.forEach.call(eventbox.querySelectorAll("tbody tr"), function (tr) { rowOf[+tr.getAttribute("data-i")] = tr; });
+  Array.prototype.forEach.call(eventbox.querySelectorAll("div.ev"), function (tr) { rowOf[+tr.getAttribute("data-i")] = tr; });
 
   var controls = el("div", { id: "controls" });
   controls.innerHTML = '<button type="button" id="play">play</button>' +
@@ -135,22 +144,27 @@
   var vsec = el("section", { "class": "block" });
   vsec.appendChild(el("h2", {}, "vehicles"));
   var vbox = el("div", { id: "vehiclebox" });
-  var vh = '<table id="vehicles"><thead><tr><th>show</th><th>vehicle</th><th class="num">from</th><th class="num">to</th>' +
-    '<th class="num">rows</th><th class="num">distance, m</th>' +
-    kindsPresent.map(function (k) { return '<th class="num">' + esc(k.name) + "</th>"; }).join("") +
-    "<th>first contact</th><th>closing speeds, m/s</th></tr></thead><tbody>";
+  // a grid of divs in blocks laid out only when scrolled to, as the events: a table of 1,000 rows
+  // with a checkbox each cost the page a second before it could draw
+  var columns = "52px minmax(120px, 1.4fr) 124px 124px 64px 104px " + kindsPresent.map(function () { return "84px "; }).join("") +
+    "150px minmax(150px, 2fr)";
+  var vh = '<div id="vehicles" style="--columns: ' + columns + '"><div class="vhead"><span>show</span><span>vehicle</span><span class="num">from</span>' +
+    '<span class="num">to</span><span class="num">rows</span><span class="num">distance, m</span>' +
+    kindsPresent.map(function (k) { return '<span class="num">' + esc(k.name) + "</span>"; }).join("") +
+    "<span>first contact</span><span>closing speeds, m/s</span></div>";
   V.forEach(function (v, k) {
     var s = v.stats, first = s.first === null ? '<span class="muted">none</span>' :
       '<a class="jump" data-event="' + s.first + '">' + esc(fmtClock(EC[s.first])) + " " + esc(E[s.first].kind) + "</a>";
     var cl = s.closing.length ? "max " + Math.max.apply(null, s.closing).toFixed(2) + " (" + s.closing.map(function (c) { return c.toFixed(2); }).slice(0, 8).join(", ") + (s.closing.length > 8 ? ", ..." : "") + ")" : "";
-    vh += '<tr data-v="' + k + '"><td><input type="checkbox" class="vshow" data-v="' + k + '" checked></td>' +
-      '<td class="name" title="show it at the current time"><span class="sw" style="background:' + v.colour + '"></span>' + esc(v.label) + "</td>" +
-      '<td class="num">' + esc(fmtClock(s.from)) + '</td><td class="num">' + esc(fmtClock(s.to)) + '</td><td class="num">' + v.rows +
-      '</td><td class="num">' + s.distance.toFixed(1) + "</td>" +
-      kindsPresent.map(function (kd) { return '<td class="num">' + (s.contacts[kd.name] || 0) + "</td>"; }).join("") +
-      "<td>" + first + "</td><td>" + cl + "</td></tr>";
+    if (k % 100 === 0) { vh += (k ? "</div>" : "") + '<div class="vblock">'; }
+    vh += '<div class="vrow" data-v="' + k + '"><span class="vshow on" role="checkbox" aria-checked="true" title="show or hide" data-v="' + k + '"></span>' +
+      '<span class="name" title="show it at the current time"><span class="sw" style="background:' + v.colour + '"></span>' + esc(v.label) + "</span>" +
+      '<span class="num">' + esc(fmtClock(s.from)) + '</span><span class="num">' + esc(fmtClock(s.to)) + '</span><span class="num">' + v.rows +
+      '</span><span class="num">' + s.distance.toFixed(1) + "</span>" +
+      kindsPresent.map(function (kd) { return '<span class="num">' + (s.contacts[kd.name] || 0) + "</span>"; }).join("") +
+      "<span>" + first + "</span><span>" + cl + "</span></div>";
   });
-  vbox.innerHTML = vh + "</tbody></table>";
+  vbox.innerHTML = vh + (V.length ? "</div>" : "") + "</div>";
   vsec.appendChild(vbox);
   document.body.appendChild(vsec);
 
@@ -158,7 +172,7 @@
   var psec = el("section", { "class": "block", id: "provenance" });
   var ph = "<h2>provenance</h2><p>tankcd " + esc(P.tankcd_version || "(version not recorded)") +
     ". Tracks drawn and played within " + tol.position_m + " m of the poses' positions and " + tol.heading_deg +
-    " degrees of their headings at every time (" + tol.rows + " rows kept as " + tol.vertices + " vertices); every event kept.</p>" +
+    " deg of their headings at every time (" + tol.rows + " rows kept as " + tol.vertices + " vertices); every event kept.</p>" +
     "<table><thead><tr><th>role</th><th>path</th><th>SHA-256</th></tr></thead><tbody>";
   P.sources.forEach(function (s) { ph += "<tr><td>" + esc(s.role) + "</td><td>" + esc(s.path) + "</td><td><code>" + esc(s.sha256 || "(not hashed)") + "</code></td></tr>"; });
   ph += "</tbody></table><h2>settings</h2><pre>" + esc(JSON.stringify(P.settings, null, 1)) + "</pre>";
@@ -167,6 +181,7 @@
   document.body.appendChild(psec);
 
   /* ---------- the map ---------- */
+  mark("tables");
   var ctx = canvas.getContext("2d");
   var layer = document.createElement("canvas"), lctx = layer.getContext("2d");
   var img = new Image(), imgReady = false;
@@ -220,16 +235,22 @@
       }
       lctx.stroke();
     });
-    for (var i = 0; i < E.length; i++) {
-      if (isNaN(EX[i]) || !eventShown(i)) { continue; }
-      var k = KIND[E[i].kind];
-      lctx.fillStyle = k ? k.colour : "#000";
-      lctx.strokeStyle = "#fff";
-      lctx.lineWidth = 1;
+    // one path per kind: a fill and a stroke per kind, not per event (34,000 events)
+    lctx.strokeStyle = "#fff";
+    lctx.lineWidth = 1;
+    D.kinds.forEach(function (kd) {
+      if (!nKinds[kd.name] || !kindShown[kd.name]) { return; }
+      lctx.fillStyle = kd.colour;
       lctx.beginPath();
-      lctx.arc(sx(EX[i]), sy(EY[i]), 3.5, 0, 2 * Math.PI);
-      lctx.fill(); lctx.stroke();
-    }
+      for (var i = 0; i < E.length; i++) {
+        if (E[i].kind !== kd.name || isNaN(EX[i]) || !eventShown(i)) { continue; }
+        var ex = sx(EX[i]), ey = sy(EY[i]);
+        if (ex < -5 || ey < -5 || ex > cw + 5 || ey > chh + 5) { continue; }
+        lctx.moveTo(ex + 3.5, ey);
+        lctx.arc(ex, ey, 3.5, 0, 2 * Math.PI);
+      }
+      lctx.stroke(); lctx.fill();  // every halo first, then every dot over them
+    });
     layerDirty = false;
     var metres = 100 / view.s, p10 = Math.pow(10, Math.floor(Math.log10(metres)));
     var nice = [1, 2, 5, 10].map(function (m) { return m * p10; }).filter(function (m) { return m <= metres; }).pop() || p10;
@@ -342,30 +363,32 @@
   playButton.addEventListener("click", function () { setPlaying(!playing); });
   slider.addEventListener("input", function () { setTime(parseFloat(slider.value)); });
   eventbox.addEventListener("click", function (ev) {
-    var tr = ev.target.closest("tr[data-i]");
+    var tr = ev.target.closest("div.ev[data-i]");
     if (tr) { setPlaying(false); selectEvent(+tr.getAttribute("data-i")); }
   });
   vbox.addEventListener("click", function (ev) {
     var a = ev.target.closest("a.jump");
     if (a) { setPlaying(false); selectEvent(+a.getAttribute("data-event")); return; }
-    var name = ev.target.closest("td.name");
+    var show = ev.target.closest("span.vshow");
+    if (show) { showVehicle(+show.getAttribute("data-v"), !V[+show.getAttribute("data-v")].shown); applyFilters(); return; }
+    var name = ev.target.closest("span.name");
     if (name) {
       var v = V[+name.parentNode.getAttribute("data-v")], p = poseAt(v, now) || (v.x.length ? [v.x[0], v.y[0]] : null);
       if (p) { view.cx = p[0]; view.cy = p[1]; layerDirty = true; redraw(); }
     }
   });
-  vbox.addEventListener("change", function (ev) {
-    if (ev.target.classList.contains("vshow")) { V[+ev.target.getAttribute("data-v")].shown = ev.target.checked; applyFilters(); }
-  });
+  function showVehicle(k, on) {
+    V[k].shown = on;
+    var box = vbox.querySelector('span.vshow[data-v="' + k + '"]');
+    if (box) { box.classList.toggle("on", on); box.setAttribute("aria-checked", on ? "true" : "false"); }
+  }
   filters.addEventListener("change", function (ev) {
     if (ev.target.classList.contains("kindfilter")) { kindShown[ev.target.value] = ev.target.checked; applyFilters(); }
   });
   document.getElementById("vehiclefilter").addEventListener("input", function (ev) {
     var words = ev.target.value.split(",").map(function (w) { return w.trim().toLowerCase(); }).filter(function (w) { return w; });
     V.forEach(function (v, k) {
-      v.shown = !words.length || words.some(function (w) { return v.name.toLowerCase().indexOf(w) >= 0; });
-      var box = vbox.querySelector('input.vshow[data-v="' + k + '"]');
-      if (box) { box.checked = v.shown; }
+      showVehicle(k, !words.length || words.some(function (w) { return v.name.toLowerCase().indexOf(w) >= 0; }));
     });
     applyFilters();
   });
@@ -400,7 +423,9 @@
   fit();
   setTime(T0);
 
+  mark("drawn");
   window.tankcdReview = {
+    timings: TIMINGS,
     vehicles: V.map(function (v) { return v.name; }),
     events: E.length,
     setTime: function (c) { setTime(c); draw(); },
