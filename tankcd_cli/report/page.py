@@ -146,22 +146,27 @@ def page_data(review, background, tolerance_m: float = POSITION_TOLERANCE_M,
     vehicles, rows, vertices = [], 0, 0
     for k, tr in enumerate(review.tracks):
         clock = np.asarray(tr.t if by_time else tr.step, dtype=float)
+        x, y, yaw = (np.asarray(a, dtype=float) for a in (tr.x, tr.y, tr.yaw_deg))
+        # a row without a position or heading cannot be drawn: playback goes from the row before to the one after
+        ok = np.isfinite(clock) & np.isfinite(x) & np.isfinite(y) & np.isfinite(yaw)
+        if not ok.all():
+            clock, x, y, yaw = clock[ok], x[ok], y[ok], yaw[ok]
         scale = 1000.0 if by_time else 1.0
         tq = np.round(clock * scale).astype(np.int64)
-        xq = np.round((np.asarray(tr.x, dtype=float) - origin[0]) * 100).astype(np.int64)
-        yq = np.round((np.asarray(tr.y, dtype=float) - origin[1]) * 100).astype(np.int64)
-        hq = np.round(np.degrees(np.unwrap(np.radians(np.asarray(tr.yaw_deg, dtype=float)))) * 100).astype(np.int64)
+        xq = np.round((x - origin[0]) * 100).astype(np.int64)
+        yq = np.round((y - origin[1]) * 100).astype(np.int64)
+        hq = np.round(np.degrees(np.unwrap(np.radians(yaw))) * 100).astype(np.int64)
         # simplified on the rounded values: the bound holds for what the page has
         kept = simplify_track(tq / scale, xq / 100.0, yq / 100.0, hq / 100.0, tolerance_m, tolerance_deg)
         mine = of_vehicle[k]
         # events without a point are marked where their vehicle is at their time
         no_point = [i for i in mine if not np.isfinite(ev_at[i, 0]) and np.isfinite(ev_clock[i])]
-        if no_point and len(tr):
-            ev_at[no_point, 0] = np.interp(ev_clock[no_point], clock, tr.x)
-            ev_at[no_point, 1] = np.interp(ev_clock[no_point], clock, tr.y)
+        if no_point and len(clock):
+            ev_at[no_point, 0] = np.interp(ev_clock[no_point], clock, x)
+            ev_at[no_point, 1] = np.interp(ev_clock[no_point], clock, y)
         vehicles.append({"name": tr.entity, "rows": len(tr), "t": _deltas(tq[kept]), "x": _deltas(xq[kept]),
                          "y": _deltas(yq[kept]), "h": _deltas(hq[kept]),
-                         "stats": vehicle_stats(tr, clock, events, mine, ev_clock)})
+                         "stats": vehicle_stats(x, y, clock, events, mine, ev_clock)})
         rows += len(tr)
         vertices += len(kept)
     at = np.round((ev_at - origin) * 100)
@@ -186,12 +191,13 @@ def page_data(review, background, tolerance_m: float = POSITION_TOLERANCE_M,
     }
 
 
-def vehicle_stats(track, clock: np.ndarray, events: list, mine: list, ev_clock: np.ndarray) -> dict:
+def vehicle_stats(x: np.ndarray, y: np.ndarray, clock: np.ndarray, events: list, mine: list,
+                  ev_clock: np.ndarray) -> dict:
     """One vehicle's row of the page's table: its time span (first, last clock value), the distance
     its footprint centre travels along its rows, m, its contacts by kind, its first contact (the
     index of the event, in the events' order, of least time) and the closing speeds, m/s, of its
-    contacts with other vehicles. ``mine``: the indices of its events."""
-    x, y = np.asarray(track.x, dtype=float), np.asarray(track.y, dtype=float)
+    contacts with other vehicles. x, y, clock : (n,) its drawable rows; ``mine``: the indices of
+    its events."""
     step = np.hypot(np.diff(x), np.diff(y))
     by_kind: dict = {}
     for i in mine:

@@ -134,6 +134,17 @@ def _data_of_text(html: str) -> str:
     return re.search(r'id="tankcd-data">(.*?)</script>', html, re.S).group(1)
 
 
+def test_rows_without_a_position_are_left_out_of_the_drawing():
+    review = small_review()
+    tr = review.tracks[0]
+    x = tr.x.copy()
+    x[10:20] = np.nan
+    holed = type(tr)(tr.entity, tr.step, tr.t, x, tr.y, tr.z, tr.yaw_deg, tr.quaternion, tr.status)
+    data = page_data(type(review)((holed,), review.events[:1]), _small_background())
+    t = np.cumsum(data["vehicles"][0]["t"])
+    assert not np.isin(np.round(tr.t[10:20] * 1000), t).any() and json.dumps(data, allow_nan=False)
+
+
 def test_a_review_without_times_plays_by_step():
     review = small_review()
     tr = review.tracks[0]

@@ -272,6 +272,7 @@
   function draw() {
     frameQueued = false;
     if (layerDirty) { drawLayer(); }
+    if (TIMINGS.first_frame === undefined) { TIMINGS.first_frame = Math.round(performance.now()); }  // since navigation
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.clearRect(0, 0, canvas.width, canvas.height);
     ctx.drawImage(layer, 0, 0);
