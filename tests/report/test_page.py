@@ -178,12 +178,16 @@ def browser():
 
 def _open(driver, path: Path):
     """Load the page and wait for its hook; no console error on the way."""
-    from selenium.webdriver.support.ui import WebDriverWait
-
     driver.get(path.resolve().as_uri())
-    WebDriverWait(driver, 20).until(lambda d: d.execute_script("return !!(window.tankcdReview && window.tankcdReview.ready)"))
+    _wait(driver, 20).until(lambda d: d.execute_script("return !!(window.tankcdReview && window.tankcdReview.ready)"))
     severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
     assert not severe, severe
+
+
+def _wait(driver, seconds: float):
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    return WebDriverWait(driver, seconds)
 
 
 def _check_playback(driver, review, times):
@@ -231,8 +235,31 @@ def test_the_page_in_a_browser(browser, tmp_path):
     browser.find_element("css selector", 'input.kindfilter[value="vehicle"]').click()
     shown = [r for r in browser.find_elements("css selector", "#events .ev") if r.is_displayed()]
     assert len(shown) == 3
+    browser.find_element("css selector", 'input.kindfilter[value="vehicle"]').click()
+    # the vehicle filter: bravo's events only (the contact with alpha, the terrain)
+    browser.find_element("id", "vehiclefilter").send_keys("bra")
+    shown = [r.get_attribute("data-i") for r in browser.find_elements("css selector", "#events .ev") if r.is_displayed()]
+    assert sorted(shown) == ["1", "2"]
+    browser.find_element("id", "vehiclefilter").clear()
+    browser.find_element("id", "vehiclefilter").send_keys(",")
+    # playback pauses at the next event shown, at its time, and selects it
+    browser.execute_script("window.tankcdReview.setTime(9.0)")
+    browser.find_element("css selector", '#speed option[value="120"]').click()
+    browser.find_element("id", "play").click()
+    _wait(browser, 10).until(lambda d: d.find_element("id", "play").text == "play")
+    assert browser.execute_script("return window.tankcdReview.time()") == pytest.approx(10.0, abs=1e-9)
+    assert "selected" in browser.find_element("css selector", '#events .ev[data-i="0"]').get_attribute("class")
     severe = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
     assert not severe, severe
+
+
+def test_an_empty_review_in_a_browser(browser, tmp_path):
+    out = tmp_path / "empty.html"
+    write_page(type(small_review())((), []), _small_background(), str(out))
+    _open(browser, out)
+    assert browser.execute_script("return [window.tankcdReview.vehicles, window.tankcdReview.events]") == [[], 0]
+    browser.execute_script("window.tankcdReview.setTime(3)")
+    assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
 
 
 def _screenshot(driver, name: str):
