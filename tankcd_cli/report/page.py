@@ -11,7 +11,10 @@ Data (the JSON in ``<script type="application/json" id="tankcd-data">``): coordi
 as integer steps of 1 ms (or rows' steps where the poses have no times: ``clock`` says which);
 headings as 0.01 degree steps, unwrapped (no jump at +-180) so that they interpolate linearly.
 Each vehicle's arrays are delta-encoded (the first value, then differences): small integers
-keep an hour of 1,000 vehicles a few tens of MB.
+keep an hour of 1,000 vehicles a few tens of MB. ``status``: [[vertex, status], ...] where its
+status (``review.STATUS``: 0 ok, 1 partly_off, 2 off) changes, from 0; the rows on either side of
+a change are kept, so that the status at any time is the status of the last kept vertex at or
+before it, exactly the poses' own.
 """
 
 from __future__ import annotations
@@ -148,9 +151,10 @@ def page_data(review, background, tolerance_m: float = POSITION_TOLERANCE_M,
         clock = np.asarray(tr.t if by_time else tr.step, dtype=float)
         x, y, yaw = (np.asarray(a, dtype=float) for a in (tr.x, tr.y, tr.yaw_deg))
         # a row without a position or heading cannot be drawn: playback goes from the row before to the one after
+        status = np.asarray(tr.status, dtype=np.int64)
         ok = np.isfinite(clock) & np.isfinite(x) & np.isfinite(y) & np.isfinite(yaw)
         if not ok.all():
-            clock, x, y, yaw = clock[ok], x[ok], y[ok], yaw[ok]
+            clock, x, y, yaw, status = clock[ok], x[ok], y[ok], yaw[ok], status[ok]
         scale = 1000.0 if by_time else 1.0
         tq = np.round(clock * scale).astype(np.int64)
         xq = np.round((x - origin[0]) * 100).astype(np.int64)
@@ -158,6 +162,11 @@ def page_data(review, background, tolerance_m: float = POSITION_TOLERANCE_M,
         hq = np.round(np.degrees(np.unwrap(np.radians(yaw))) * 100).astype(np.int64)
         # simplified on the rounded values: the bound holds for what the page has
         kept = simplify_track(tq / scale, xq / 100.0, yq / 100.0, hq / 100.0, tolerance_m, tolerance_deg)
+        # a change of status kept exactly: the row where it changes and the one before it
+        change = np.flatnonzero(np.diff(status)) + 1
+        if len(change):
+            kept = np.union1d(kept, np.r_[change - 1, change])
+        runs = np.flatnonzero(np.r_[status[kept][:1] != 0, np.diff(status[kept]) != 0]) if len(kept) else kept
         mine = of_vehicle[k]
         # events without a point are marked where their vehicle is at their time
         no_point = [i for i in mine if not np.isfinite(ev_at[i, 0]) and np.isfinite(ev_clock[i])]
@@ -166,7 +175,8 @@ def page_data(review, background, tolerance_m: float = POSITION_TOLERANCE_M,
             ev_at[no_point, 1] = np.interp(ev_clock[no_point], clock, y)
         vehicles.append({"name": tr.entity, "rows": len(tr), "t": _deltas(tq[kept]), "x": _deltas(xq[kept]),
                          "y": _deltas(yq[kept]), "h": _deltas(hq[kept]),
-                         "stats": vehicle_stats(x, y, clock, events, mine, ev_clock)})
+                         "status": [[int(i), int(status[kept][i])] for i in runs],
+                         "stats": _plain(vehicle_stats(x, y, clock, events, mine, ev_clock))})
         rows += len(tr)
         vertices += len(kept)
     at = np.round((ev_at - origin) * 100)

@@ -22,10 +22,13 @@ def track(name: str, t, x, y, yaw_deg) -> Track:
 
 def small_review() -> Review:
     """Three vehicles on a 240 m x 160 m terrain at (500000, 4500000): a weaving one, a straight
-    one that starts later, one that turns on the spot; four events of four kinds."""
+    one that starts later (off the terrain for 5 s, then partly off for 1 s), one that turns on
+    the spot; four events of four kinds."""
     t = np.arange(0.0, 60.0, 0.1)
     alpha = track("alpha", t, 500020 + 2 * t, 4500050 + 10 * np.sin(t / 5), np.degrees(np.arctan2(2 * np.cos(t / 5), 2)))
     bravo = track("bravo", t + 5, 500150 - 1.5 * t, 4500040 + 0.5 * t, np.full(len(t), 160.0))
+    bravo.status[100:150] = 2  # off the terrain, then partly off
+    bravo.status[150:160] = 1
     charlie = track("charlie", t[:200], np.full(200, 500200.0), np.full(200, 4500120.0), np.linspace(170, 530, 200))
     events = [
         {"step": 100, "t": 10.0, "kind": "obstacle", "a": "hull", "b": "wall", "point": [500040.0, 4500050.0, 101.0],

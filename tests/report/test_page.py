@@ -229,6 +229,11 @@ def test_the_page_in_a_browser(browser, tmp_path):
     assert "ab" * 32 in text and "0.1.0" in text  # provenance: a source's SHA-256, the version
     assert len(browser.find_elements("css selector", "#events .ev")) == len(review.events)
     _check_playback(browser, review, np.r_[0.0, 0.05, 4.99, 5.0, 12.345, 33.3, np.linspace(0, 64.9, 23), 64.9])
+    bravo = review.tracks[1]
+    for c in np.r_[bravo.t[[0, 99, 100, 120, 149, 150, 155, 159, 160]], bravo.t[99] + 0.05, bravo.t[159] + 0.05, 30.0]:
+        browser.execute_script("window.tankcdReview.setTime(arguments[0])", float(c))
+        want = ("ok", "partly_off", "off")[bravo.status[np.searchsorted(bravo.t, c, side="right") - 1]]
+        assert browser.execute_script("return window.tankcdReview.statusOf('bravo')") == want, c
     for i in (1, 3, 0):
         _click_event(browser, i, review.events[i]["t"])
     # the kind filter hides rows of that kind only

@@ -32,7 +32,7 @@
 
   var V = D.vehicles.map(function (v, k) {
     return { name: v.name, label: v.name === "" ? "(vehicle)" : v.name, rows: v.rows, t: undelta(v.t, SCALE),
-             x: undelta(v.x, 100), y: undelta(v.y, 100), h: undelta(v.h, 100), stats: v.stats,
+             x: undelta(v.x, 100), y: undelta(v.y, 100), h: undelta(v.h, 100), stats: v.stats, off: v.status,
              colour: colourOf(k), shown: true };
   });
   var E = D.events;
@@ -189,9 +189,17 @@
   var view = { cx: (ext[0] + ext[1]) / 2, cy: (ext[2] + ext[3]) / 2, s: 1 };
   var dpr = 1, cw = 1, chh = 1, layerDirty = true, frameQueued = false;
 
+  // what fit shows: the terrain, and any track that strays beyond it
+  var box = ext.slice();
+  V.forEach(function (v) {
+    for (var i = 0; i < v.x.length; i++) {
+      if (v.x[i] < box[0]) { box[0] = v.x[i]; } else if (v.x[i] > box[1]) { box[1] = v.x[i]; }
+      if (v.y[i] < box[2]) { box[2] = v.y[i]; } else if (v.y[i] > box[3]) { box[3] = v.y[i]; }
+    }
+  });
   function fit() {
-    var w = Math.max(ext[1] - ext[0], 1), h = Math.max(ext[3] - ext[2], 1);
-    view.cx = (ext[0] + ext[1]) / 2; view.cy = (ext[2] + ext[3]) / 2;
+    var w = Math.max(box[1] - box[0], 1), h = Math.max(box[3] - box[2], 1);
+    view.cx = (box[0] + box[1]) / 2; view.cy = (box[2] + box[3]) / 2;
     view.s = Math.min(cw / w, chh / h) * 0.96;
     layerDirty = true; redraw();
   }
@@ -266,7 +274,11 @@
     while (hi - lo > 1) { var mid = (lo + hi) >> 1; if (t[mid] <= c) { lo = mid; } else { hi = mid; } }
     var dt = t[hi] - t[lo], u = dt > 0 ? (c - t[lo]) / dt : 0;
     if (u > 1) { u = 1; }
-    return [v.x[lo] + u * (v.x[hi] - v.x[lo]), v.y[lo] + u * (v.y[hi] - v.y[lo]), v.h[lo] + u * (v.h[hi] - v.h[lo])];
+    var row = c >= t[hi] ? hi : lo, status = 0;  // the status of the last row at or before c
+    var a = 0, b = v.off.length;  // the last change at or before the row
+    while (a < b) { var m = (a + b) >> 1; if (v.off[m][0] <= row) { a = m + 1; } else { b = m; } }
+    if (a > 0) { status = v.off[a - 1][1]; }
+    return [v.x[lo] + u * (v.x[hi] - v.x[lo]), v.y[lo] + u * (v.y[hi] - v.y[lo]), v.h[lo] + u * (v.h[hi] - v.h[lo]), status];
   }
 
   function draw() {
@@ -286,10 +298,13 @@
       var l = Math.max(LEN * view.s, 6), w = Math.max(WID * view.s, 3);
       ctx.save();
       ctx.translate(x, y); ctx.rotate(a);
-      ctx.fillStyle = v.colour; ctx.globalAlpha = 0.55;
+      // off the terrain (status 2) hollow and dashed, partly off (1) paler
+      ctx.fillStyle = v.colour; ctx.globalAlpha = p[3] === 2 ? 0 : (p[3] === 1 ? 0.25 : 0.55);
       ctx.fillRect(-l / 2, -w / 2, l, w);
       ctx.globalAlpha = 1; ctx.strokeStyle = "#111"; ctx.lineWidth = 1;
+      if (p[3]) { ctx.setLineDash([3, 2]); }
       ctx.strokeRect(-l / 2, -w / 2, l, w);
+      ctx.setLineDash([]);
       ctx.beginPath(); ctx.moveTo(0, 0); ctx.lineTo(l / 2 + 6, 0); ctx.stroke();  // heading
       ctx.restore();
       if (labels) { ctx.fillStyle = "#111"; ctx.font = "11px sans-serif"; ctx.fillText(v.label, x + l / 2 + 4, y - 4); }
@@ -435,6 +450,10 @@
       for (var k = 0; k < V.length; k++) {
         if (V[k].name === name) { var p = poseAt(V[k], now); return p ? [p[0] + OX, p[1] + OY] : null; }
       }
+      return null;
+    },
+    statusOf: function (name) {
+      for (var k = 0; k < V.length; k++) { if (V[k].name === name) { var p = poseAt(V[k], now); return p ? ["ok", "partly_off", "off"][p[3]] : null; } }
       return null;
     },
     headingOf: function (name) {
