@@ -150,8 +150,8 @@ def page_data(review, background, tolerance_m: float = POSITION_TOLERANCE_M,
     for k, tr in enumerate(review.tracks):
         clock = np.asarray(tr.t if by_time else tr.step, dtype=float)
         x, y, yaw = (np.asarray(a, dtype=float) for a in (tr.x, tr.y, tr.yaw_deg))
-        # a row without a position or heading cannot be drawn: playback goes from the row before to the one after
         status = np.asarray(tr.status, dtype=np.int64)
+        # a row without a position or heading cannot be drawn: playback goes from the row before to the one after
         ok = np.isfinite(clock) & np.isfinite(x) & np.isfinite(y) & np.isfinite(yaw)
         if not ok.all():
             clock, x, y, yaw, status = clock[ok], x[ok], y[ok], yaw[ok], status[ok]
