@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tankcd_cli.collision.vehicle_body import VehicleBody, group_placements
+from tankcd_cli.collision.vehicle_body import VehicleBody
 from tankcd_cli.geometry.motion import quaternion_matrix, rotation_angle
 
 MARGIN = 0.01
@@ -62,6 +62,9 @@ class GroupSpheres:
     offset: np.ndarray
     radius: np.ndarray
 
+    def take(self, idx) -> "GroupSpheres":
+        return GroupSpheres(self.offset[idx], self.radius[idx])
+
 
 def group_spheres(body: VehicleBody, q0, c0, q1, turret0, dturret, gun0, dgun) -> GroupSpheres:
     """The group spheres of M segments of one kind of vehicle: hull attitude q0 -> q1 (M, 4), origin
@@ -69,20 +72,32 @@ def group_spheres(body: VehicleBody, q0, c0, q1, turret0, dturret, gun0, dgun) -
     (``replay.between_rows.Segments``'s fields). Each sphere holds its group throughout the segment
     once its centre is carried along with the hull origin (the module's docstring)."""
     q0 = np.asarray(q0, dtype=float)
-    c0 = np.asarray(c0, dtype=float)
     m = len(q0)
     offset = np.zeros((m, SLOTS, 3))
     radius = np.full((m, SLOTS), np.nan)
     R0 = quaternion_matrix(q0)
     turn = rotation_angle(q0, q1)
+    angles = (np.asarray(turret0, float), np.asarray(gun0, float))
     for g in body.groups:
-        R, t = group_placements(body, g, R0, c0, np.asarray(turret0, float), np.asarray(gun0, float))
         lo, hi = g.tree.lo[0, :3], g.tree.hi[0, :3]
-        centre = np.einsum("nij,j->ni", R, 0.5 * (lo + hi)) + t
-        offset[:, g.kind] = centre - c0
+        # the box centre articulated (the gun turns first, then the turret: ``group_placements``), then
+        # turned with the hull: its offset from the hull origin
+        point = np.broadcast_to(0.5 * (lo + hi), (m, 3))
+        for joint, angle in list(zip(body.joints(g.kind), angles))[::-1]:
+            point = _turned(point, np.asarray(joint.axis, float), np.asarray(joint.point, float), angle)
+        offset[:, g.kind] = np.einsum("nij,nj->ni", R0, point)
         half = 0.5 * float(np.linalg.norm(hi - lo)) * (1 + 1e-9)
         radius[:, g.kind] = half + g.bound_rate(0.0, turn, dturret, dgun)
     return GroupSpheres(offset, radius)
+
+
+def _turned(points: np.ndarray, axis: np.ndarray, through: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Points (N, 3) turned by ``angle`` (N,) rad about the line through ``through`` along ``axis``
+    (right hand, as ``geometry.motion.axis_rotation``), by Rodrigues' formula."""
+    u = axis / np.linalg.norm(axis)
+    v = points - through
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    return v * c + np.cross(u, v) * s + np.outer(v @ u, u) * (1 - c) + through
 
 
 def clear_spans(spheres_a: GroupSpheres, a_t0, a_t1, a_c0, a_c1, spheres_b: GroupSpheres, b_t0, b_t1, b_c0,
@@ -94,30 +109,102 @@ def clear_spans(spheres_a: GroupSpheres, a_t0, a_t1, a_c0, a_c1, spheres_b: Grou
     u1 = np.asarray(u1, dtype=float)
 
     def origin(t0, t1, c0, c1):
-        length = np.asarray(t1, float) - np.asarray(t0, float)
+        t0 = np.asarray(t0, float)
+        length = np.asarray(t1, float) - t0
         v = np.where(length[:, None] > 0, (c1 - c0) / np.where(length > 0, length, 1.0)[:, None], 0.0)
         return c0 + (u0 - t0)[:, None] * v, v
 
-    pa, va = origin(a_t0, a_t1, a_c0, a_c1)
-    pb, vb = origin(b_t0, b_t1, b_c0, b_c1)
-    p0 = pa - pb  # the origins' difference at u0
-    vel = va - vb
-    vv = np.einsum("ij,ij->i", vel, vel)
+    pa, va = origin(a_t0, a_t1, np.asarray(a_c0, float), np.asarray(a_c1, float))
+    pb, vb = origin(b_t0, b_t1, np.asarray(b_c0, float), np.asarray(b_c1, float))
+    p0 = (pa - pb).T  # (3, P): the origins' difference at u0, by coordinate
+    vel = (va - vb).T
+    vv = (vel * vel).sum(axis=0)
+    moving = vv > 0
+    inv = np.where(moving, 1.0 / np.where(moving, vv, 1.0), 0.0)
     span = np.maximum(u1 - u0, 0.0)
+    off_a = np.moveaxis(spheres_a.offset, 0, -1)  # (3 groups, 3, P)
+    off_b = np.moveaxis(spheres_b.offset, 0, -1)
     clear = np.ones(len(u0), dtype=bool)
     for ga in range(SLOTS):
         ra = spheres_a.radius[:, ga]
         for gb in range(SLOTS):
-            rb = spheres_b.radius[:, gb]
-            present = ~(np.isnan(ra) | np.isnan(rb))
+            reach = ra + spheres_b.radius[:, gb] + MARGIN
+            present = ~np.isnan(reach)  # an absent group (NaN radius) never decides
             if not present.any():
                 continue
-            d0 = p0 + spheres_a.offset[:, ga] - spheres_b.offset[:, gb]
+            d0 = p0 + off_a[ga] - off_b[gb]
             # the least |d0 + tau vel| over tau in [0, span]: the convex quadratic's minimiser, clipped
-            with np.errstate(invalid="ignore", divide="ignore"):
-                tau = np.where(vv > 0, -np.einsum("ij,ij->i", d0, vel) / np.where(vv > 0, vv, 1.0), 0.0)
-            tau = np.clip(tau, 0.0, span)
-            least = np.linalg.norm(d0 + tau[:, None] * vel, axis=1)
-            apart = least > np.where(present, ra + rb, 0.0) + MARGIN
-            clear &= apart | ~present
+            tau = np.clip(-(d0 * vel).sum(axis=0) * inv, 0.0, span)
+            d = d0 + tau * vel
+            least2 = (d * d).sum(axis=0)
+            clear &= (least2 > np.where(present, reach, 0.0) ** 2) | ~present
     return clear
+
+
+@dataclass(frozen=True)
+class StretchSpheres:
+    """Each of V vehicles' group spheres over a stretch of time: the vehicle's line (its origin at
+    ``t0``, ``c0`` (V,), (V, 3) and at ``t1``, ``c1``: where its segments begin and end in the
+    stretch), and spheres about the line, offset (V, 3, 3) from it, radius (V, 3) m (NaN for a group
+    the body has not): ``clear_spans`` takes them as each vehicle's one segment."""
+
+    t0: np.ndarray
+    t1: np.ndarray
+    c0: np.ndarray
+    c1: np.ndarray
+    spheres: GroupSpheres
+
+
+def stretch_spheres(owner: np.ndarray, n: int, spheres: GroupSpheres, t0, t1, c0, c1, w0: float,
+                    w1: float) -> StretchSpheres:
+    """The spheres of n vehicles over the stretch [w0, w1] from their segments in it: owner (M,) the
+    vehicle (0..n-1) of each segment, its spheres (``group_spheres``), time span t0, t1 (M,) s and
+    hull origin c0, c1 (M, 3) m at its ends.
+
+    Proof. A vehicle's line L(t) runs through its origin where its first segment in the stretch
+    begins and where its last one ends (any line would do: it decides the bound's tightness, not its
+    truth). On segment k (clipped to the stretch: [a, b]) the origin c(t) moves at constant velocity,
+    so c(t) - L(t) is affine there and its length, convex, is largest at a or b: E, the largest
+    over the segments' ends, bounds |c(t) - L(t)| wherever the vehicle moves. Group g lies in the
+    sphere of radius r_kg about o_kg + c(t) (``group_spheres``), so in the sphere of radius
+    r_kg + |o_kg - o_g| + E about o_g + L(t), o_g the first segment's offset: the sphere of the
+    largest of these radii over the segments holds the group throughout the stretch, about a centre
+    moving on a straight line at constant velocity: what ``clear_spans`` proves apart."""
+    owner = np.asarray(owner, dtype=np.int64)
+    t0 = np.asarray(t0, float)
+    t1 = np.asarray(t1, float)
+    c0 = np.asarray(c0, float)
+    c1 = np.asarray(c1, float)
+    length = t1 - t0
+    vel = np.where(length[:, None] > 0, (c1 - c0) / np.where(length > 0, length, 1.0)[:, None], 0.0)
+    a = np.clip(t0, w0, w1)
+    b = np.clip(t1, a, w1)
+    ca = c0 + (a - t0)[:, None] * vel
+    cb = c0 + (b - t0)[:, None] * vel
+    # each vehicle's first segment (earliest a) and last (latest b)
+    order = np.lexsort((a, owner))
+    first = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]
+    order = np.lexsort((b, owner))
+    last = order[np.r_[owner[order][1:] != owner[order][:-1], True]]
+    lt0 = np.zeros(n)
+    lt1 = np.zeros(n)
+    lc0 = np.zeros((n, 3))
+    lc1 = np.zeros((n, 3))
+    lt0[owner[first]], lc0[owner[first]] = a[first], ca[first]
+    lt1[owner[last]], lc1[owner[last]] = b[last], cb[last]
+    span = lt1 - lt0
+    lvel = np.where(span[:, None] > 0, (lc1 - lc0) / np.where(span > 0, span, 1.0)[:, None], 0.0)
+
+    def off_line(t, c):
+        return np.linalg.norm(c - (lc0[owner] + (t - lt0[owner])[:, None] * lvel[owner]), axis=1)
+
+    dev = np.maximum(off_line(a, ca), off_line(b, cb))
+    far = np.zeros(n)
+    np.maximum.at(far, owner, dev)
+    offset = np.zeros((n, SLOTS, 3))
+    offset[owner[first]] = spheres.offset[first]
+    grown = spheres.radius + np.linalg.norm(spheres.offset - offset[owner], axis=2)
+    radius = np.full((n, SLOTS), -np.inf)
+    np.maximum.at(radius, owner, grown)  # NaN (an absent group) stays NaN
+    radius = radius + far[:, None] * (1 + 1e-9) + 1e-9
+    return StretchSpheres(lt0, lt1, lc0, lc1, GroupSpheres(offset, radius))

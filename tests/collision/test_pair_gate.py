@@ -156,3 +156,18 @@ def test_segments_starting_at_different_times_are_taken_where_their_common_span_
     clear, touches, (u0, u1) = _verdicts(body, seg.take([0]), body, seg.take([1]))
     assert (u0.tolist(), u1.tolist()) == ([1.0], [2.0])
     assert touches.tolist() == [True] and clear.tolist() == [False]
+
+
+def test_the_group_centres_are_where_group_placements_puts_the_boxes_centres():
+    # the gate turns each box centre by Rodrigues' formula; group_placements (matrices) is the reference
+    from tankcd_cli.collision.vehicle_body import group_placements
+    from tankcd_cli.geometry.motion import quaternion_matrix
+
+    rng = np.random.default_rng(4)
+    seg = _segments(rng, 50)
+    body = _body("t72")
+    got = group_spheres(body, seg.q0, seg.c0, seg.q1, seg.turret0, seg.dturret, seg.gun0, seg.dgun)
+    for g in body.groups:
+        R, t = group_placements(body, g, quaternion_matrix(seg.q0), seg.c0, seg.turret0, seg.gun0)
+        centre = np.einsum("nij,j->ni", R, 0.5 * (g.tree.lo[0, :3] + g.tree.hi[0, :3])) + t
+        np.testing.assert_allclose(got.offset[:, g.kind] + seg.c0, centre, atol=1e-9)

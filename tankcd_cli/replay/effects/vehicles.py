@@ -66,7 +66,7 @@ import tempfile
 import numpy as np
 
 from tankcd_cli.collision.broad_phase import candidate_pairs
-from tankcd_cli.collision.pair_gate import GroupSpheres, clear_spans, group_spheres
+from tankcd_cli.collision.pair_gate import GroupSpheres, clear_spans, group_spheres, stretch_spheres
 from tankcd_cli.collision.vehicles import SpanMotion, first_vehicle_contacts
 from tankcd_cli.errors import warn
 from tankcd_cli.gates import GateTally
@@ -285,28 +285,51 @@ class VehicleContacts:
         # the span begins where one of the two vehicles begins to exist: a contact there is new
         fresh = (s.fresh[i] & (u0 == s.t0[i])) | (s.fresh[j] & (u0 == s.t0[j]))
         if self.gates.enabled and len(i):
-            keep = ~self._clear(s, k, i, j, u0, u1)
+            keep = ~self._clear(s, k, i, j, u0, u1, w0, w1)
             i, j, u0, u1, fresh = i[keep], j[keep], u0[keep], u1[keep], fresh[keep]
         return self._spans(s, k, i, j, u0, u1, fresh)
 
-    def _clear(self, s, kinds, i, j, u0, u1) -> np.ndarray:
+    def _clear(self, s, kinds, i, j, u0, u1, w0, w1) -> np.ndarray:
         """(P,) bool: the common spans [u0, u1] of segments i and j that ``collision.pair_gate`` proves
-        free of contact (they need no narrow phase). Counted in the gates as ``vehicle_pairs``: per
-        pair of vehicles with candidate spans in the window, asked about, and skipped when every one
-        of its spans is proven clear."""
+        free of contact (they need no narrow phase): first each pair of vehicles over the whole window
+        (each vehicle's spheres about one line, ``stretch_spheres``: one test for all the pair's
+        spans), then span by span for the pairs that test leaves. Counted in the gates as
+        ``vehicle_pairs``: per pair of vehicles with candidate spans in the window, asked about, and
+        skipped when every one of its spans is proven clear."""
         offset = np.zeros((len(s), 3, 3))
         radius = np.full((len(s), 3), np.nan)
-        for kind in np.unique(kinds):
-            sel = np.flatnonzero(kinds == kind)
+        paired = np.zeros(len(s), dtype=bool)
+        paired[i] = paired[j] = True  # the spheres of the segments in a candidate pair only
+        for kind in np.unique(kinds[paired]):
+            sel = np.flatnonzero(paired & (kinds == kind))
             g = group_spheres(self.world.kinds[int(kind)].body, s.q0[sel], s.c0[sel], s.q1[sel], s.turret0[sel],
                               s.dturret[sel], s.gun0[sel], s.dgun[sel])
             offset[sel], radius[sel] = g.offset, g.radius
-        clear = clear_spans(GroupSpheres(offset[i], radius[i]), s.t0[i], s.t1[i], s.c0[i], s.c1[i],
-                            GroupSpheres(offset[j], radius[j]), s.t0[j], s.t1[j], s.c0[j], s.c1[j], u0, u1)
-        ea, eb = np.minimum(s.entity[i], s.entity[j]), np.maximum(s.entity[i], s.entity[j])
-        pair, where = np.unique(ea * (int(s.entity.max()) + 1) + eb, return_inverse=True)
+        # the window's vehicles, numbered 0..n-1, and the pairs of them
+        segs = np.flatnonzero(paired)
+        vehicles, owner = np.unique(s.entity[segs], return_inverse=True)
+        code = np.zeros(len(s), dtype=np.int64)
+        code[segs] = owner.reshape(-1)
+        n = len(vehicles)
+        va, vb = np.minimum(code[i], code[j]), np.maximum(code[i], code[j])
+        pair, where = np.unique(va * n + vb, return_inverse=True)
+        where = where.reshape(-1)
+        line = stretch_spheres(code[segs], n, GroupSpheres(offset[segs], radius[segs]), s.t0[segs], s.t1[segs],
+                               s.c0[segs], s.c1[segs], w0, w1)
+        pa, pb = pair // n, pair % n
+        ones = np.ones(len(pair))
+        pair_clear = clear_spans(line.spheres.take(pa), line.t0[pa], line.t1[pa], line.c0[pa], line.c1[pa],
+                                 line.spheres.take(pb), line.t0[pb], line.t1[pb], line.c0[pb], line.c1[pb],
+                                 w0 * ones, w1 * ones)
+        clear = pair_clear[where]
+        rest = np.flatnonzero(~clear)
+        if len(rest):
+            a, b = i[rest], j[rest]
+            clear[rest] = clear_spans(GroupSpheres(offset[a], radius[a]), s.t0[a], s.t1[a], s.c0[a], s.c1[a],
+                                      GroupSpheres(offset[b], radius[b]), s.t0[b], s.t1[b], s.c0[b], s.c1[b],
+                                      u0[rest], u1[rest])
         unproven = np.zeros(len(pair), dtype=bool)
-        np.logical_or.at(unproven, where.reshape(-1), ~clear)
+        np.logical_or.at(unproven, where, ~clear)
         self.gates.add("vehicle_pairs", len(pair), int((~unproven).sum()))
         return clear
 
