@@ -171,3 +171,82 @@ def test_the_group_centres_are_where_group_placements_puts_the_boxes_centres():
         R, t = group_placements(body, g, quaternion_matrix(seg.q0), seg.c0, seg.turret0, seg.gun0)
         centre = np.einsum("nij,j->ni", R, 0.5 * (g.tree.lo[0, :3] + g.tree.hi[0, :3])) + t
         np.testing.assert_allclose(got.offset[:, g.kind] + seg.c0, centre, atol=1e-9)
+
+
+def _paths(rng, vehicles, steps, w0, w1, reach):
+    """Each vehicle's motion over [w0, w1] as a chain of rigid segments (its rows: positions, yaw,
+    turret and gun joined end to end, each row interval its own segment), some starting before w0
+    or ending after w1: Segments with entity the vehicle."""
+    parts = []
+    for v in range(vehicles):
+        t = np.sort(rng.uniform(w0 - 0.5, w1 + 0.5, steps + 1))
+        c = np.cumsum(rng.normal(0, 1.5, (steps + 1, 3)) * [1, 1, 0.03], axis=0) + rng.uniform(-reach, reach, 3) * [
+            1, 1, 0]
+        yaw = np.cumsum(rng.normal(0, 15, steps + 1)) + rng.uniform(-180, 180)
+        q = quaternion_from_euler(np.zeros(steps + 1), np.radians(rng.normal(0, 3, steps + 1)), np.radians(yaw))
+        turret = np.cumsum(rng.normal(0, 0.5, steps + 1)) * rng.choice([0, 1])
+        gun = np.clip(np.cumsum(rng.normal(0, 0.05, steps + 1)), -0.1, 0.3)
+        k = np.arange(steps)
+        parts.append(Segments(np.full(steps, v), k, t[k], t[k + 1], q[k], c[k], q[k + 1], c[k + 1], turret[k],
+                              turret[k + 1] - turret[k], gun[k], gun[k + 1] - gun[k], np.zeros(steps, bool)))
+    return Segments.join(parts)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([6.0, 12.0, 20.0]))
+def test_a_pair_of_vehicles_cleared_over_a_window_has_no_contact_in_any_of_its_spans(seed, reach):
+    from tankcd_cli.collision.pair_gate import stretch_spheres
+
+    rng = np.random.default_rng(seed)
+    w0, w1 = 4.0, 6.0
+    body = _body("t72")
+    n = 6
+    seg = _paths(rng, n, 8, w0, w1, reach)
+    seg = seg.take(np.flatnonzero((seg.t1 >= w0) & (seg.t0 <= w1)))
+    spheres = group_spheres(body, seg.q0, seg.c0, seg.q1, seg.turret0, seg.dturret, seg.gun0, seg.dgun)
+    line = stretch_spheres(seg.entity, n, spheres, seg.t0, seg.t1, seg.c0, seg.c1, w0, w1)
+    va, vb = np.triu_indices(n, 1)
+    ones = np.ones(len(va))
+    clear = clear_spans(line.spheres.take(va), line.t0[va], line.t1[va], line.c0[va], line.c1[va],
+                        line.spheres.take(vb), line.t0[vb], line.t1[vb], line.c0[vb], line.c1[vb], w0 * ones, w1 * ones)
+    # every span of every pair of segments of two vehicles within the window: the exact check
+    i, j = np.meshgrid(np.arange(len(seg)), np.arange(len(seg)), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    keep = seg.entity[i] < seg.entity[j]
+    i, j = i[keep], j[keep]
+    u0 = np.maximum(np.maximum(seg.t0[i], seg.t0[j]), w0)
+    u1 = np.minimum(np.minimum(seg.t1[i], seg.t1[j]), w1)
+    both = u1 >= u0
+    i, j, u0, u1 = i[both], j[both], u0[both], u1[both]
+    idx = np.arange(len(i))
+    ma, mb = _cut(seg.take(i), idx, u0, u1), _cut(seg.take(j), idx, u0, u1)
+    touches = np.zeros(len(i), bool)
+    touches[first_vehicle_contacts(body, ma, body, mb).span] = True
+    touches[first_vehicle_contacts(body, _still(ma, idx), body, _still(mb, idx)).span] = True
+    touching_pairs = set(zip(seg.entity[i][touches].tolist(), seg.entity[j][touches].tolist()))
+    cleared = {(int(a), int(b)) for a, b in zip(va[clear], vb[clear])}
+    assert not (cleared & touching_pairs), f"pairs cleared with a contact: {cleared & touching_pairs}"
+    if reach == 6.0:
+        assert touching_pairs
+    if reach == 20.0:
+        assert cleared
+
+
+def test_a_vehicle_leaving_its_line_is_bounded_by_how_far_it_leaves_it():
+    # a drives a V over [0, 2] s: (-10, 0) to (0, 8) to (10, 0); b stands at (0, 11), 3 m to a's side
+    # at 1 s (hulls 3.46 m wide: they touch), 11 m from the line through a's ends
+    from tankcd_cli.collision.pair_gate import stretch_spheres
+
+    body = _body("t72")
+    q = quaternion_from_euler(np.zeros(3), np.zeros(3), np.zeros(3))
+    z = np.zeros(3)
+    seg = Segments(np.array([0, 0, 1]), np.arange(3), np.array([0.0, 1.0, 0.0]), np.array([1.0, 2.0, 2.0]), q,
+                   np.array([[-10.0, 0, 0], [0, 8, 0], [0, 11, 0]]), q, np.array([[0.0, 8, 0], [10, 0, 0], [0, 11, 0]]),
+                   z, z, z, z, np.zeros(3, bool))
+    clear, touches, _ = _verdicts(body, seg.take([0, 1]), body, seg.take([2, 2]))
+    assert touches.any() and not (clear & touches).any()
+    spheres = group_spheres(body, seg.q0, seg.c0, seg.q1, seg.turret0, seg.dturret, seg.gun0, seg.dgun)
+    line = stretch_spheres(seg.entity, 2, spheres, seg.t0, seg.t1, seg.c0, seg.c1, 0.0, 2.0)
+    both = clear_spans(line.spheres.take([0]), line.t0[:1], line.t1[:1], line.c0[:1], line.c1[:1],
+                       line.spheres.take([1]), line.t0[1:], line.t1[1:], line.c0[1:], line.c1[1:], [0.0], [2.0])
+    assert both.tolist() == [False]
