@@ -30,6 +30,12 @@ common spans of their segments:
    origin's two places grown by the vehicle's radius, which no point of it leaves under any
    articulation) and time span clipped to the window; pairs of different vehicles whose boxes and
    spans overlap. The cost grows with the vehicles and the pairs that come close.
+
+   *The pair gate* (``collision.pair_gate``; off with the gates): each pair of vehicles among the
+   candidates is tested over the whole window (spheres of its rigid groups about one line per
+   vehicle, apart under their relative motion), then span by span where that proves nothing; a
+   span proven free of contact takes no narrow phase, and gives no event either way. Counted as
+   the gate ``vehicle_pairs``.
 3. **Narrow phase** (``collision.vehicles.first_vehicle_contacts``): both segments cut to their
    common span (still rigid motions), every group of one against every group of the other, both
    moving, with the guarantees of ``bvh.sweep``: never missed, a pass within 1 mm may count, the
