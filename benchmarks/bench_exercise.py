@@ -24,6 +24,11 @@ The ratio is exercise over separate. Peak memory is each process's largest resid
 many minutes at ``--long-hz`` (with ``--long-vehicles`` vehicles; its file written in blocks, never
 held in memory), to show that
 time grows with the rows and memory does not.
+
+With ``--gates`` the exercise alone is replayed with the gates and with ``--no-gates``, alternated
+``--repeat`` times (no separate trajectories): the walls, the ratio of each pair, the peak memory,
+the time in the checks between vehicles and the ``vehicle_pairs`` gate's tally, the outputs
+compared byte for byte; the section is appended to ``--out`` (default results/gates.md).
 """
 
 from __future__ import annotations
@@ -148,6 +153,51 @@ def run(args: list) -> tuple[float, float, str]:
     return float(wall), int(rss) / 1024, proc.stderr
 
 
+def gates_section(a, tmp: str, store: str) -> None:
+    """The exercise replayed with the gates and with --no-gates, alternated; a section appended to a.out."""
+    import filecmp
+
+    path, rows = write_exercise(tmp, a.vehicles, a.minutes, a.hz, separate=False)
+    load = os.getloadavg()
+    runs = {True: [], False: []}
+    summaries = {}
+    for _ in range(a.repeat):
+        for gates in (True, False):
+            tag = "on" if gates else "off"
+            args = ["-q", "replay", path, "--terrain", store, "--poses", os.path.join(tmp, f"{tag}.poses.csv"),
+                    "--events", os.path.join(tmp, f"{tag}.events.jsonl"), "--summary",
+                    os.path.join(tmp, f"{tag}.summary.json")] + ([] if gates else ["--no-gates"])
+            runs[gates].append(run(args))
+            with open(os.path.join(tmp, f"{tag}.summary.json")) as fh:
+                summaries[gates] = json.load(fh)
+    same = all(filecmp.cmp(os.path.join(tmp, f"on.{n}"), os.path.join(tmp, f"off.{n}"), shallow=False)
+               for n in ("poses.csv", "events.jsonl"))
+    ratios = sorted(on[0] / off[0] for on, off in zip(runs[True], runs[False]))
+    pairs = summaries[True]["gates"].get("vehicle_pairs", {})
+    command = (f"nice python benchmarks/bench_exercise.py --gates --vehicles {a.vehicles} --minutes {a.minutes:g} "
+               f"--hz {a.hz:g} --repeat {a.repeat}")
+    lines = [f"## Pairs of vehicles: {a.vehicles:,} vehicles, {a.minutes:g} min at {a.hz:g} Hz", "",
+             f"`{command}`: {rows:,} rows (the exercise of bench_exercise.py: platoons of four abreast, 12 m apart, "
+             f"crossing), whole processes, the gates on and `--no-gates` alternated {a.repeat} times; best of each, "
+             f"the ratio of each pair. Machine: {platform.machine()}, {os.cpu_count()} cores (shared). Load before "
+             f"the runs: `{load[0]:.2f} {load[1]:.2f} {load[2]:.2f}`.", "",
+             "| gates | wall s | peak MB | vehicles s | contacts between vehicles | vehicle_pairs checked | skipped |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for gates in (True, False):
+        s = summaries[gates]
+        p = s["gates"].get("vehicle_pairs", {})
+        lines.append(f"| {'on' if gates else 'off'} | {min(r[0] for r in runs[gates]):.1f} | "
+                     f"{max(r[1] for r in runs[gates]):.0f} | {s['seconds_by_effect'].get('vehicles', 0):.1f} | "
+                     f"{s['vehicle_contacts']:,} | {p.get('checked', '-')} | {p.get('skipped', '-')} |")
+    lines += ["", f"- gates on / off: {', '.join(f'{r:.2f}x' for r in ratios)}; pair-windows proven clear: "
+              f"{100 * pairs.get('share_skipped', 0):.1f}%; poses and events {'identical' if same else 'DIFFER'}."]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    old = open(a.out).read().rstrip("\n") + "\n\n" if os.path.exists(a.out) else ""
+    with open(a.out, "w") as fh:
+        fh.write(old + text)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--vehicles", type=int, default=1000)
@@ -157,9 +207,13 @@ def main() -> None:
     ap.add_argument("--long-hz", type=float, default=10.0)
     ap.add_argument("--long-vehicles", type=int, default=None, help="vehicles of the long run (default: --vehicles)")
     ap.add_argument("--repeat", type=int, default=2, help="pairs of runs (exercise, separate), best of each")
-    ap.add_argument("--out", default=os.path.join(HERE, "results", "exercise.md"))
+    ap.add_argument("--out", default=None, help="default results/exercise.md (results/gates.md with --gates)")
+    ap.add_argument("--gates", action="store_true",
+                    help="the exercise with the gates and with --no-gates, alternated; a section appended to --out")
     ap.add_argument("--keep", default=None, help="keep the inputs and outputs in this folder")
     a = ap.parse_args()
+    if a.out is None:
+        a.out = os.path.join(HERE, "results", "gates.md" if a.gates else "exercise.md")
     tmp = a.keep or tempfile.mkdtemp(prefix="tankcd-exercise-")
     os.makedirs(tmp, exist_ok=True)
     try:
@@ -168,6 +222,9 @@ def main() -> None:
         if not os.path.exists(store):
             write_terrain(terrain)
             subprocess.run([sys.executable, "-m", "tankcd_cli", "-q", "classify", terrain, "-o", store], check=True)
+        if a.gates:
+            gates_section(a, tmp, store)
+            return
         start = time.perf_counter()
         path, rows = write_exercise(tmp, a.vehicles, a.minutes, a.hz, separate=True)
         made = time.perf_counter() - start

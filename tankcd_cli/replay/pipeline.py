@@ -104,7 +104,7 @@ def start_run(world: World, options: ReplayOptions, turret_moves: bool, entities
     if entities:
         run.seconds = dict.fromkeys(seconds_keys(options.continuous, True), 0.0)
         (between_vehicles,) = [e for e in BY_STAGE if not e.own]
-        run.vehicles = between_vehicles.start(world, options.continuous, source, ordered)
+        run.vehicles = between_vehicles.start(world, options.continuous, source, ordered, gates=run.gates)
     return run
 
 

@@ -57,6 +57,7 @@ from typing import Callable
 import numpy as np
 
 from tankcd_cli.errors import SetupWarning, collected_warnings, warn
+from tankcd_cli.gates import GateTally
 from tankcd_cli.io.trajectory import TrajectoryChunk, TrajectoryReader, split_trajectory, trajectory_format, utc_text
 from tankcd_cli.matching.match import Poses
 from tankcd_cli.replay.effects import vehicles
@@ -600,7 +601,7 @@ def _replay_window(world, options: ReplayOptions, task: WindowTask) -> WindowRes
             pass
     if gathered is not None and gathered.parts:
         t0 = time.perf_counter()
-        found = _contacts(world, options, task, gathered.parts, next_step, chunk_of)
+        found = _contacts(world, options, task, gathered.parts, next_step, chunk_of, run.gates)
         run.seconds["vehicles"] += time.perf_counter() - t0  # the local run's time in its vehicle checks
         counts.add(None, None, [e for _, e in found])
         for (k, seq), e in found:
@@ -699,7 +700,7 @@ def _read_window(world, task: WindowTask):
     return lead, pieces, trailing, (got["step"], got["entity"])
 
 
-def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of) -> list:
+def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of, gates=None) -> list:
     """The vehicle contacts of a task's contact windows, each window run with the segments the local
     run had buffered when it closed it, in the buffer's order: ((window, order), Event) pairs."""
     from tankcd_cli.replay.between_rows import Segments
@@ -708,7 +709,8 @@ def _contacts(world, options, task: WindowTask, parts, next_step, chunk_of) -> l
     kinds = np.concatenate([np.full(len(s), k, np.int64) for k, s in parts])
     seg = Segments.join([s for _, s in parts])
     arrived = chunk_of(next_step(seg.step))  # the local chunk that read the interval's later row
-    contacts = vehicles.VehicleContacts(world, continuous=options.continuous)
+    contacts = vehicles.VehicleContacts(world, continuous=options.continuous,
+                                        gates=GateTally(enabled=options.gates) if gates is None else gates)
     contacts.names = task.names
     first = task.windows[0]
 

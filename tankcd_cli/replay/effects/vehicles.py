@@ -30,6 +30,12 @@ common spans of their segments:
    origin's two places grown by the vehicle's radius, which no point of it leaves under any
    articulation) and time span clipped to the window; pairs of different vehicles whose boxes and
    spans overlap. The cost grows with the vehicles and the pairs that come close.
+
+   *The pair gate* (``collision.pair_gate``; off with the gates): each pair of vehicles among the
+   candidates is tested over the whole window (spheres of its rigid groups about one line per
+   vehicle, apart under their relative motion), then span by span where that proves nothing; a
+   span proven free of contact takes no narrow phase, and gives no event either way. Counted as
+   the gate ``vehicle_pairs``.
 3. **Narrow phase** (``collision.vehicles.first_vehicle_contacts``): both segments cut to their
    common span (still rigid motions), every group of one against every group of the other, both
    moving, with the guarantees of ``bvh.sweep``: never missed, a pass within 1 mm may count, the
@@ -66,8 +72,10 @@ import tempfile
 import numpy as np
 
 from tankcd_cli.collision.broad_phase import candidate_pairs
+from tankcd_cli.collision.pair_gate import GroupSpheres, clear_spans, group_spheres, stretch_spheres
 from tankcd_cli.collision.vehicles import SpanMotion, first_vehicle_contacts
 from tankcd_cli.errors import warn
+from tankcd_cli.gates import GateTally
 from tankcd_cli.geometry.motion import quaternion_slerp
 from tankcd_cli.replay.between_rows import Segments
 from tankcd_cli.replay.effects.effect import Effect, Event, EventKind
@@ -82,8 +90,9 @@ class VehicleContacts:
     windows close (``ready``) and at the end (``finish``)."""
 
     def __init__(self, world, continuous: bool = True, window: float | None = None, horizon: float | None = None,
-                 source: str = "trajectory", ordered: bool = True):
+                 source: str = "trajectory", ordered: bool = True, gates: GateTally | None = None):
         self.world = world
+        self.gates = GateTally() if gates is None else gates  # ``vehicle_pairs``: spans proven clear
         self.continuous = continuous
         self.window = WINDOW if window is None else window
         self.horizon = HORIZON if horizon is None else horizon
@@ -281,7 +290,54 @@ class VehicleContacts:
         i, j, u0, u1 = i[own], j[own], u0[own], u1[own]
         # the span begins where one of the two vehicles begins to exist: a contact there is new
         fresh = (s.fresh[i] & (u0 == s.t0[i])) | (s.fresh[j] & (u0 == s.t0[j]))
+        if self.gates.enabled and len(i):
+            keep = ~self._clear(s, k, i, j, u0, u1, w0, w1)
+            i, j, u0, u1, fresh = i[keep], j[keep], u0[keep], u1[keep], fresh[keep]
         return self._spans(s, k, i, j, u0, u1, fresh)
+
+    def _clear(self, s, kinds, i, j, u0, u1, w0, w1) -> np.ndarray:
+        """(P,) bool: the common spans [u0, u1] of segments i and j that ``collision.pair_gate`` proves
+        free of contact (they need no narrow phase): first each pair of vehicles over the whole window
+        (each vehicle's spheres about one line, ``stretch_spheres``: one test for all the pair's
+        spans), then span by span for the pairs that test leaves. Counted in the gates as
+        ``vehicle_pairs``: per pair of vehicles with candidate spans in the window, asked about, and
+        skipped when every one of its spans is proven clear."""
+        offset = np.zeros((len(s), 3, 3))
+        radius = np.full((len(s), 3), np.nan)
+        paired = np.zeros(len(s), dtype=bool)
+        paired[i] = paired[j] = True  # the spheres of the segments in a candidate pair only
+        for kind in np.unique(kinds[paired]):
+            sel = np.flatnonzero(paired & (kinds == kind))
+            g = group_spheres(self.world.kinds[int(kind)].body, s.q0[sel], s.c0[sel], s.q1[sel], s.turret0[sel],
+                              s.dturret[sel], s.gun0[sel], s.dgun[sel])
+            offset[sel], radius[sel] = g.offset, g.radius
+        # the window's vehicles, numbered 0..n-1, and the pairs of them
+        segs = np.flatnonzero(paired)
+        vehicles, owner = np.unique(s.entity[segs], return_inverse=True)
+        code = np.zeros(len(s), dtype=np.int64)
+        code[segs] = owner.reshape(-1)
+        n = len(vehicles)
+        va, vb = np.minimum(code[i], code[j]), np.maximum(code[i], code[j])
+        pair, where = np.unique(va * n + vb, return_inverse=True)
+        where = where.reshape(-1)
+        line = stretch_spheres(code[segs], n, GroupSpheres(offset[segs], radius[segs]), s.t0[segs], s.t1[segs],
+                               s.c0[segs], s.c1[segs], w0, w1)
+        pa, pb = pair // n, pair % n
+        ones = np.ones(len(pair))
+        pair_clear = clear_spans(line.spheres.take(pa), line.t0[pa], line.t1[pa], line.c0[pa], line.c1[pa],
+                                 line.spheres.take(pb), line.t0[pb], line.t1[pb], line.c0[pb], line.c1[pb],
+                                 w0 * ones, w1 * ones)
+        clear = pair_clear[where]
+        rest = np.flatnonzero(~clear)
+        if len(rest):
+            a, b = i[rest], j[rest]
+            clear[rest] = clear_spans(GroupSpheres(offset[a], radius[a]), s.t0[a], s.t1[a], s.c0[a], s.c1[a],
+                                      GroupSpheres(offset[b], radius[b]), s.t0[b], s.t1[b], s.c0[b], s.c1[b],
+                                      u0[rest], u1[rest])
+        unproven = np.zeros(len(pair), dtype=bool)
+        np.logical_or.at(unproven, where, ~clear)
+        self.gates.add("vehicle_pairs", len(pair), int((~unproven).sum()))
+        return clear
 
     def _spans(self, s, kinds, i, j, u0, u1, fresh) -> list:
         """The contacts that begin in the common spans [u0, u1] of segments i and j (``fresh``: the
@@ -480,10 +536,12 @@ class Vehicles(Effect):
     def runs(self, vehicle: Vehicle, obstacles: bool, turret_moves: bool) -> bool:
         return False  # a vehicle alone: nothing to meet (an exercise starts it: ``start``)
 
-    def start(self, world, continuous: bool, source: str, ordered: bool) -> VehicleContacts:
+    def start(self, world, continuous: bool, source: str, ordered: bool,
+              gates: GateTally | None = None) -> VehicleContacts:
         """The checks between the vehicles of an exercise in ``world`` (``ordered``: its rows in time
-        order across vehicles, else spilled and checked at the end)."""
-        return VehicleContacts(world, continuous=continuous, source=source, ordered=ordered)
+        order across vehicles, else spilled and checked at the end; ``gates``: the run's tally, whose
+        switch decides whether the pair gate runs)."""
+        return VehicleContacts(world, continuous=continuous, source=source, ordered=ordered, gates=gates)
 
 
 VEHICLES = Vehicles()
