@@ -20,6 +20,7 @@ LAYERS = [
     ("collision", ["tankcd_cli.collision"]),
     ("runs", ["tankcd_cli.replay", "tankcd_cli.tradeoff", "tankcd_cli.plots", "tankcd_cli.sample",
               "tankcd_cli.describe", "tankcd_cli.describe_outputs", "tankcd_cli.describe_terrain"]),
+    ("review", ["tankcd_cli.report"]),
     ("library face", ["tankcd_cli.api"]),
     ("command line", ["tankcd_cli.cli", "tankcd_cli.__main__"]),
 ]

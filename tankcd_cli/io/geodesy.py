@@ -168,7 +168,10 @@ def wrap_angle(a):
 
 # -- the terrain's CRS ---------------------------------------------------------------------------------
 @functools.lru_cache(maxsize=8)
-def _crs(crs_wkt: str, source: str | None):
+def lonlat_to_crs(crs_wkt: str, source: str | None):
+    """A pyproj Transformer from WGS 84 longitude, latitude to the terrain's projected CRS (x, y in
+    metres), cached; an InputError naming ``source`` for no CRS, one pyproj cannot read, or a
+    geographic one."""
     if not crs_wkt or not crs_wkt.strip():
         raise InputError(source, NO_CRS)
     from pyproj import CRS, Transformer
@@ -186,7 +189,7 @@ def _crs(crs_wkt: str, source: str | None):
 
 def project(lon_deg, lat_deg, crs_wkt: str, source: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """lon, lat (N,) deg (WGS 84) -> x, y (N,) in the projected CRS ``crs_wkt`` (any form pyproj takes)."""
-    x, y = _crs(crs_wkt, source).transform(np.asarray(lon_deg, dtype=np.float64), np.asarray(lat_deg, dtype=np.float64))
+    x, y = lonlat_to_crs(crs_wkt, source).transform(np.asarray(lon_deg, dtype=np.float64), np.asarray(lat_deg, dtype=np.float64))
     return np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
 
 

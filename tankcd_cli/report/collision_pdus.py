@@ -210,7 +210,7 @@ def pose_at(track, t: float, crs_wkt: str, source: str = ""):
     time (converted to ECEF: each row's position as longitude, latitude and height). A row without a
     pose (off the terrain) takes its neighbour's; a track of one row stands still.
     """
-    from tankcd_cli.io.geodesy import _crs, geodetic_to_ecef
+    from tankcd_cli.io.geodesy import geodetic_to_ecef, lonlat_to_crs
 
     ts = track.t
     n = len(ts)
@@ -232,7 +232,7 @@ def pose_at(track, t: float, crs_wkt: str, source: str = ""):
     origin = (1 - f) * xyz[0] + f * xyz[1]
     rotation = quaternion_matrix(slerp(q[0], q[1], f))
     if span > 0:
-        lon, lat = _crs(crs_wkt, source).transform(xyz[:, 0], xyz[:, 1], direction="INVERSE")
+        lon, lat = lonlat_to_crs(crs_wkt, source).transform(xyz[:, 0], xyz[:, 1], direction="INVERSE")
         ecef = geodetic_to_ecef(np.asarray(lon), np.asarray(lat), z)
         velocity = (ecef[1] - ecef[0]) / span
     else:
