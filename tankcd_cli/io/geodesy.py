@@ -189,7 +189,8 @@ def lonlat_to_crs(crs_wkt: str, source: str | None):
 
 def project(lon_deg, lat_deg, crs_wkt: str, source: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """lon, lat (N,) deg (WGS 84) -> x, y (N,) in the projected CRS ``crs_wkt`` (any form pyproj takes)."""
-    x, y = lonlat_to_crs(crs_wkt, source).transform(np.asarray(lon_deg, dtype=np.float64), np.asarray(lat_deg, dtype=np.float64))
+    x, y = lonlat_to_crs(crs_wkt, source).transform(np.asarray(lon_deg, dtype=np.float64),
+                                                    np.asarray(lat_deg, dtype=np.float64))
     return np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
 
 
