@@ -778,7 +778,7 @@ def report(poses: str, events: str, output: str, scene: str | None = None, terra
     written: an unknown suffix, ``capture`` missing for ``.pcap`` or given for another output, an
     output onto an input, GeoJSON or CZML over a terrain without a CRS, and the checks of the poses
     against the events (``report.inputs.read_review``). Returns {"output", "vehicles", "events",
-    "bytes"}."""
+    "bytes"}, and for a capture "pdus": the Collision PDUs added."""
     import os
 
     from tankcd_cli.errors import InputError
@@ -825,9 +825,11 @@ def report(poses: str, events: str, output: str, scene: str | None = None, terra
         from tankcd_cli.report.czml import write_czml
 
         write_czml(review, output)
-    else:
+    pdus = None
+    if kind == ".pcap":
         from tankcd_cli.report.collision_pdus import write_collision_pdus
 
-        write_collision_pdus(review, capture, output, lambda e: w.kinds[w.kind_of(e)].vehicle)
+        pdus = write_collision_pdus(review, capture, output, lambda e: w.kinds[w.kind_of(e)].vehicle)
     return {"output": str(output), "vehicles": len(review.tracks), "events": len(review.events),
-            "bytes": os.path.getsize(output) if os.path.isfile(output) else 0}
+            "bytes": os.path.getsize(output) if os.path.isfile(output) else 0,
+            **({"pdus": int(pdus)} if pdus is not None else {})}

@@ -51,5 +51,6 @@ def closing_line(result: dict) -> str:
     def counted(n: int, what: str) -> str:
         return f"{n:,} {what}{'' if n == 1 else 's'}"
 
-    return (f"report: {counted(result['vehicles'], 'vehicle')}, {counted(result['events'], 'event')}; wrote "
-            f"{result['output']} ({result['bytes']:,} bytes)")
+    pdus = f", {counted(result['pdus'], 'Collision PDU')} added" if "pdus" in result else ""
+    return (f"report: {counted(result['vehicles'], 'vehicle')}, {counted(result['events'], 'event')}{pdus}; "
+            f"wrote {result['output']} ({result['bytes']:,} bytes)")
