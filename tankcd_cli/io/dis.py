@@ -492,26 +492,7 @@ class DisCapture:
             pos = 0
 
     def _interface(self, block: bytes, big: bool, at: int):
-        fmt = ">" if big else "<"
-        link, _, snap = struct.unpack(fmt + "HHI", block[8:16])
-        units, offset = 10 ** 6, 0
-        k = 16
-        while k + 4 <= len(block) - 4:
-            code, size = struct.unpack(fmt + "HH", block[k:k + 4])
-            value = block[k + 4:k + 4 + size]
-            if code == 0:
-                break
-            if code == 9 and size >= 1:  # if_tsresol: 10^-v s, or 2^-v s with the high bit set
-                v = value[0]
-                exp = v & 0x7f
-                if exp > (63 if v & 0x80 else 19):
-                    raise InputError(self.name, f"pcapng interface timestamp resolution {v:#x} is finer than this "
-                                                "reader takes (2^-63 or 10^-19 s)", where=f"byte {at}")
-                units = (1 << exp) if v & 0x80 else 10 ** exp
-            elif code == 14 and size >= 8:  # if_tsoffset, s
-                offset = struct.unpack(fmt + "q", value[:8])[0]
-            k += 4 + size + (-size % 4)
-        return link, units, offset, snap
+        return pcapng_interface(block, big, self.name, f"byte {at}")
 
     @staticmethod
     def _tables(interfaces):
@@ -594,3 +575,30 @@ def trajectory_columns(states: EntityStates, crs_wkt: str, source: str | None = 
             "yaw_deg": np.degrees(frame["grid_yaw"]), "turret_deg": np.degrees(turret), "gun_deg": np.degrees(gun),
             "h": frame["h"], "pitch_deg": np.degrees(frame["pitch"]), "roll_deg": np.degrees(frame["roll"]),
             "lon": frame["lon"], "lat": frame["lat"], "packet": states.packet}
+
+
+def pcapng_interface(block: bytes, big: bool, source: str | None = None, where: str | None = None) -> tuple:
+    """(link type, time units a second, time offset s, snap length) of a pcapng Interface Description
+    Block (``block``: the whole block; ``big``: the section's byte order). Its options
+    ``if_tsresol`` (10^-v s, or 2^-v s with the high bit set; 10^-6 without) and ``if_tsoffset``
+    (0 without); a resolution finer than 2^-63 or 10^-19 s is an InputError naming ``source``."""
+    fmt = ">" if big else "<"
+    link, _, snap = struct.unpack(fmt + "HHI", block[8:16])
+    units, offset = 10 ** 6, 0
+    k = 16
+    while k + 4 <= len(block) - 4:
+        code, size = struct.unpack(fmt + "HH", block[k:k + 4])
+        value = block[k + 4:k + 4 + size]
+        if code == 0:
+            break
+        if code == 9 and size >= 1:
+            v = value[0]
+            exp = v & 0x7f
+            if exp > (63 if v & 0x80 else 19):
+                raise InputError(source, f"pcapng interface timestamp resolution {v:#x} is finer than this "
+                                         "reader takes (2^-63 or 10^-19 s)", where=where)
+            units = (1 << exp) if v & 0x80 else 10 ** exp
+        elif code == 14 and size >= 8:
+            offset = struct.unpack(fmt + "q", value[:8])[0]
+        k += 4 + size + (-size % 4)
+    return link, units, offset, snap

@@ -375,6 +375,8 @@ class _Walker:
             yield _Record(rec + self._read(fh, incl), packet, 0, 0, sec * units + sub, units, 0, 16, self.link)
 
     def _pcapng(self, fh, first):
+        from tankcd_cli.io.dis import pcapng_interface
+
         e = "<"
         section = -1
         interfaces: list = []
@@ -406,7 +408,7 @@ class _Walker:
             raw = btype_raw + lenb + self._read(fh, blen - 8)
             btype_raw = None
             if btype == 1:
-                interfaces.append(_interface(raw, e))
+                interfaces.append(pcapng_interface(raw, e == ">", self.capture)[:3])
                 yield _Record(raw, section=section, **_NO_PACKET)
             elif btype in _PACKET_BLOCKS:
                 packet += 1
@@ -422,24 +424,6 @@ class _Walker:
                 yield _Record(raw, packet, section, iface, ticks, units, offset, data, link)
             else:
                 yield _Record(raw, section=section, **_NO_PACKET)
-
-
-def _interface(block: bytes, e: str):
-    link = struct.unpack(e + "H", block[8:10])[0]
-    units, offset = 10 ** 6, 0
-    k = 16
-    while k + 4 <= len(block) - 4:
-        code, size = struct.unpack(e + "HH", block[k:k + 4])
-        value = block[k + 4:k + 4 + size]
-        if code == 0:
-            break
-        if code == 9 and size >= 1:
-            v = value[0]
-            units = (1 << (v & 0x7F)) if v & 0x80 else 10 ** (v & 0x7F)
-        elif code == 14 and size >= 8:
-            offset = struct.unpack(e + "q", value[:8])[0]
-        k += 4 + size + (-size % 4)
-    return link, units, offset
 
 
 @dataclass
