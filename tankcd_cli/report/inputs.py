@@ -82,16 +82,18 @@ def read_review(poses: str, events: str, crs_wkt: str = "", sources=(), vehicle_
 # --- Parquet metadata ------------------------------------------------------------------------------
 
 def _parquet_metadata(path: str) -> dict:
+    """tankcd's key-value metadata of a Parquet input (``io.parquet.file_metadata``), its failures
+    one line naming the file."""
     try:
         import pyarrow as pa
-        import pyarrow.parquet as pq
     except ImportError:
         raise InputError(path, "reading Parquet needs pyarrow: pip install 'tankcd[parquet]'") from None
+    from tankcd_cli.io.parquet import file_metadata
+
     try:
-        kv = pq.read_schema(path).metadata or {}
+        return file_metadata(path)
     except (pa.ArrowInvalid, OSError) as exc:
         raise InputError(path, f"not a Parquet file ({str(exc).splitlines()[0][:120]})") from None
-    return {k.decode(): v.decode() for k, v in kv.items() if not k.startswith(b"ARROW:")}
 
 
 def _metadata_list(meta: dict) -> list:
