@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tankcd_cli.bvh.sweep import chain_placements, first_contacts, motion_rows
+from tankcd_cli.collision._contact_pairs import near_triangle_pairs
 from tankcd_cli.collision.vehicle_body import VehicleBody, group_of
 from tankcd_cli.geometry.motion import rotation_angle
 
@@ -153,29 +154,15 @@ def contact_centres(body_a: VehicleBody, motion_a: SpanMotion, body_b: VehicleBo
             each.append(np.matmul(g.tree.triangles.reshape(1, -1, 3), np.transpose(R, (0, 2, 1))) + t[:, None, :])
         placed.append(np.concatenate(each, axis=1).reshape(len(span), -1, 3, 3))  # (K, m, 3, 3) world, at s
     reach = 2 * CONTACT_BAND + 1e-3  # the sweep's pair lies within 1 mm; the band's pairs within 1 mm of it
-    batch = []
-    for i in range(len(span)):
-        A, B = placed[0][i], placed[1][i]
-        alo, ahi, blo, bhi = A.min(axis=1), A.max(axis=1), B.min(axis=1), B.max(axis=1)
-        near_a, near_b = np.arange(len(A)), np.arange(len(B))
-        for _ in range(3):  # each side's triangles in the box of the other's near ones, shrinking to the contact
-            lo, hi = blo[near_b].min(axis=0, initial=np.inf), bhi[near_b].max(axis=0, initial=-np.inf)
-            near_a = near_a[((alo[near_a] <= hi + reach) & (ahi[near_a] >= lo - reach)).all(axis=1)]
-            lo, hi = alo[near_a].min(axis=0, initial=np.inf), ahi[near_a].max(axis=0, initial=-np.inf)
-            near_b = near_b[((blo[near_b] <= hi + reach) & (bhi[near_b] >= lo - reach)).all(axis=1)]
-        if not len(near_a) or not len(near_b):
-            continue
-        close = ((alo[near_a, None] <= bhi[None, near_b] + reach)
-                 & (ahi[near_a, None] >= blo[None, near_b] - reach)).all(axis=2)
-        ia, ib = np.nonzero(close)
-        ia, ib = _plane_separated(A[near_a[ia]], B[near_b[ib]], reach, ia, ib)
-        if len(ia):
-            batch.append((i, A[near_a[ia]], B[near_b[ib]]))
-    if not batch:
+    A, B = placed
+    owner, ia, ib = near_triangle_pairs(A, B, reach)
+    P, Q = A[owner, ia], B[owner, ib]
+    keep = _plane_separated(P, Q, reach)
+    if not keep.any():
         return out
+    owner, P, Q = owner[keep], P[keep], Q[keep]
     # every hit's pairs at once (the features' numpy work once, not once a hit)
-    owner = np.concatenate([np.full(len(P), i) for i, P, _ in batch])
-    d, cp, cq = triangle_pair_features(np.concatenate([b[1] for b in batch]), np.concatenate([b[2] for b in batch]))
+    d, cp, cq = triangle_pair_features(P, Q)
     d = np.where(np.isfinite(d), d, np.inf)
     least = np.full(len(span), np.inf)
     np.minimum.at(least, owner, d.min(axis=1))
@@ -267,9 +254,10 @@ def _moves(motion: SpanMotion, span: np.ndarray) -> np.ndarray:
             | (motion.dturret[span] != 0) | (motion.dgun[span] != 0))
 
 
-def _plane_separated(P: np.ndarray, Q: np.ndarray, reach: float, ia: np.ndarray, ib: np.ndarray):
-    """The pairs (P[j], Q[j]) (J, 3, 3) that may come within ``reach``: those whose other triangle lies
-    farther than ``reach`` beyond either one's plane are dropped (a lower bound of their distance)."""
+def _plane_separated(P: np.ndarray, Q: np.ndarray, reach: float) -> np.ndarray:
+    """(J,) bool: the pairs (P[j], Q[j]) (J, 3, 3) that may come within ``reach``: those whose other
+    triangle lies farther than ``reach`` beyond either one's plane are dropped (a lower bound of their
+    distance)."""
     keep = np.ones(len(P), bool)
     for X, Y in ((P, Q), (Q, P)):
         n = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
@@ -278,7 +266,31 @@ def _plane_separated(P: np.ndarray, Q: np.ndarray, reach: float, ia: np.ndarray,
         n[ok] /= size[ok, None]
         side = np.einsum("jvi,ji->jv", Y - X[:, :1], n)
         keep &= ~ok | ~((side > reach).all(axis=1) | (side < -reach).all(axis=1))
-    return ia[keep], ib[keep]
+    return keep
+
+
+def near_triangle_pairs_numpy(A: np.ndarray, B: np.ndarray, reach: float, rounds: int = 3):
+    """``collision._contact_pairs.near_triangle_pairs`` in numpy (placed triangles (K, m, 3, 3) in; owner,
+    ia, ib out): the compiled kernel's twin, which the tests hold it to."""
+    alo, ahi, blo, bhi = A.min(axis=2), A.max(axis=2), B.min(axis=2), B.max(axis=2)
+    owners, ias, ibs = [], [], []
+    for i in range(len(alo)):
+        al, ah, bl, bh = alo[i], ahi[i], blo[i], bhi[i]
+        near_a, near_b = np.arange(len(al)), np.arange(len(bl))
+        for _ in range(rounds):  # each side's triangles in the box of the other's near ones
+            lo, hi = bl[near_b].min(axis=0, initial=np.inf), bh[near_b].max(axis=0, initial=-np.inf)
+            near_a = near_a[((al[near_a] <= hi + reach) & (ah[near_a] >= lo - reach)).all(axis=1)]
+            lo, hi = al[near_a].min(axis=0, initial=np.inf), ah[near_a].max(axis=0, initial=-np.inf)
+            near_b = near_b[((bl[near_b] <= hi + reach) & (bh[near_b] >= lo - reach)).all(axis=1)]
+        close = ((al[near_a, None] <= bh[None, near_b] + reach) & (ah[near_a, None] >= bl[None, near_b] - reach)).all(axis=2)
+        a, b = np.nonzero(close)
+        owners.append(np.full(len(a), i, dtype=np.int64))
+        ias.append(near_a[a].astype(np.int64))
+        ibs.append(near_b[b].astype(np.int64))
+    if not owners:
+        z = np.zeros(0, dtype=np.int64)
+        return z, z.copy(), z.copy()
+    return np.concatenate(owners), np.concatenate(ias), np.concatenate(ibs)
 
 
 def _closing_speed(body_a, motion_a, body_b, motion_b, span, s, part_a, part_b, point) -> np.ndarray:
