@@ -2,7 +2,7 @@
 """The triangle pairs of first contacts between two placed bodies: for each contact, every pair of
 triangles whose boxes come within ``reach`` of each other, after shrinking each side to the box of
 the other's near triangles (``collision.vehicles.contact_centres``; its numpy twin is
-``near_triangle_pairs_numpy`` there, which the tests compare pair for pair)."""
+``collision.contact_pairs.near_triangle_pairs_numpy``, which the tests compare pair for pair)."""
 
 import numpy as np
 
