@@ -85,8 +85,12 @@ def run_tradeoff(out_dir: str, scene_path: str | None = None, trajectory: str | 
         else:
             from tankcd_cli.replay.world import WorldSpec
 
+            from tankcd_cli.tradeoff.gates import gates_stage
+
             say("rate: loading the world")
-            rate_stage(res, WorldSpec(scene=scene_path).load(), columns, budget, say, traj_name)
+            world = WorldSpec(scene=scene_path).load()
+            rate_stage(res, world, columns, budget, say, traj_name)
+            gates_stage(res, world, trajectory, columns, tmp, budget, say, traj_name)
         if quick:
             res.inputs["corpus_skipped"] = True  # its 45 s would be most of a quick run; its own test holds it
         else:
@@ -262,6 +266,30 @@ def rate_table(res: Results) -> str:
     return "\n".join(lines) + "\n"
 
 
+def gates_table(res: Results) -> str:
+    """The gates' section: per replay, each gate's share of its work proven to need no exact work, the
+    time with and without the gates, and whether the outputs are the same."""
+    if not res.gates:
+        return ""
+    lines = ["## What the gates skip", "",
+             "Each gate (docs/formats.md, \"Gates\") proves, from bounds alone, that some exact work can "
+             "find nothing, and skips only that work: the poses and events must be the same bytes with the gates "
+             "off (`--no-gates`), the truth here. The trajectory alone, and a column of vehicles driving it one "
+             "after another (the checks between vehicles and their gate); each replayed once a mode for its "
+             "outputs, then the two in turn (the ratio is gates on over off, pair by pair: median, "
+             "lowest-highest). Shares: of the work items each gate was asked about (certificate: key-point "
+             "poses; vehicle_pairs: pairs of vehicles in a window), those it proved need no exact work.", "",
+             "| replay | rows | vehicles | skipped by gate | gates on | gates off | on / off | outputs |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in res.gates:
+        shares = ", ".join(f"{g} {v['share_skipped']:.1%} of {v['checked']:,}" for g, v in r.tally.items()) or "none ran"
+        lines.append(f"| {r.case} | {r.rows:,} | {r.vehicles} | {shares} | {fmt_value(r.on[0], 's')} "
+                     f"({fmt_value(r.on[1], 's')}-{fmt_value(r.on[2], 's')}) | {fmt_value(r.off[0], 's')} "
+                     f"({fmt_value(r.off[1], 's')}-{fmt_value(r.off[2], 's')}) | "
+                     f"{ratio_cell(r.ratio, r.ratio_lo, r.ratio_hi)} | {'the same' if r.identical else '**differ**'} |")
+    return "\n".join(lines) + "\n"
+
+
 def markdown(res: Results) -> str:
     m, inp = res.machine, res.inputs
     out = ["# What accuracy costs in time", "",
@@ -276,7 +304,7 @@ def markdown(res: Results) -> str:
            f"Inputs: scene {inp.get('scene')} (terrain {inp.get('terrain')}, vehicle {inp.get('vehicle')}, obstacles "
            f"{', '.join(inp.get('obstacles') or []) or 'none'}), trajectory {inp.get('trajectory')}; generated "
            "analytic surfaces and an obstacle course.", "", headline_table(res),
-           "![error versus time](tradeoff.png)", "", rate_table(res)]
+           "![error versus time](tradeoff.png)", "", rate_table(res), gates_table(res)]
     if inp.get("corpus_skipped"):
         out += ["## Which matcher each region class gets", "",
                 "Not measured in quick mode (the corpus alone takes most of a minute): run without `--quick`, or "

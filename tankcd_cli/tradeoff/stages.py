@@ -75,6 +75,7 @@ class Results:
     headline: dict = field(default_factory=dict)
     corpus: dict = field(default_factory=dict)  # the per-class matcher table (tradeoff.corpus)
     rates: list = field(default_factory=list)  # one RateRow per sampling rate (``rate_stage``)
+    gates: list = field(default_factory=list)  # one GateRow per replay with and without the gates (``tradeoff.gates``)
     machine: dict = field(default_factory=dict)
     inputs: dict = field(default_factory=dict)
 

@@ -42,10 +42,11 @@ def test_writes_the_three_files(report):
     assert (out / "tradeoff.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     md = (out / "tradeoff.md").read_text()
     for heading in ("## curvature", "## matching", "## collision", "## internal", "Headline", "Machine:",
-                    "## Sampling rate"):
+                    "## Sampling rate", "## What the gates skip"):
         assert heading in md
     assert "than reference" in output and ("x faster (pairs" in output or "within noise" in output)
-    assert {r["stage"] for r in rows} == {"headline", "curvature", "matching", "collision", "internal", "rate"}
+    assert {r["stage"] for r in rows} == {"headline", "curvature", "matching", "collision", "internal", "rate",
+                                          "gates"}
     assert "Not measured in quick mode" in md  # the corpus: tests/tradeoff/test_corpus.py holds it
 
 
@@ -56,6 +57,59 @@ def test_every_ratio_carries_its_spread(report):
     assert len(ratios) == 3 + 5
     for r in ratios:
         assert float(r["spread_lo"]) <= float(r["value"]) <= float(r["spread_hi"]), r
+
+
+def test_the_gates_change_no_output_and_say_what_share_they_skipped(report):
+    """The patrol alone and a column of vehicles driving it: the same outputs with the gates off, a
+    share in [0, 1] for each gate that ran (the certificate's on both, the pairs' on the column only),
+    and the cost ratio inside its pairs' range."""
+    out, rows, _ = report
+    gates = _values(rows, stage="gates")
+    cases = list(dict.fromkeys(r["case"] for r in gates))
+    assert len(cases) == 2 and "a column of 4 vehicles" in cases[1]
+    for case in cases:
+        assert float(_values(gates, case=case, measure="outputs_identical")[0]["value"]) == 1.0
+        shares = {r["variant"]: float(r["value"]) for r in _values(gates, case=case, measure="share_skipped")}
+        assert "certificate" in shares and all(0.0 <= v <= 1.0 for v in shares.values())
+        assert ("vehicle_pairs" in shares) == (case == cases[1])
+        ratio = _values(gates, case=case, measure="cost_vs_no_gates")[0]
+        assert float(ratio["spread_lo"]) <= float(ratio["value"]) <= float(ratio["spread_hi"])
+    md = (out / "tradeoff.md").read_text()
+    assert md.count("| the same |") == 2 and "**differ**" not in md
+
+
+def test_the_column_is_the_trajectory_driven_by_each_vehicle_in_turn(tmp_path):
+    """Read back by the project's reader: in time order, each vehicle's rows the route's own, shifted
+    by its place in the column times the delay."""
+    from tankcd_cli.io.trajectory import read_trajectory
+    from tankcd_cli.tradeoff.gates import write_column
+
+    t = np.arange(5) * 0.5
+    route = {"t": t, "x": 500000 + t, "y": 4500000 - 2 * t, "yaw_deg": 10 * t, "turret_deg": -t, "gun_deg": t / 10}
+    path = tmp_path / "column.csv"
+    assert write_column(str(path), route, vehicles=3, delay=0.7) == 15
+    chunks = list(read_trajectory(str(path)))
+    got_t = np.concatenate([c.t for c in chunks])
+    names = np.array(chunks[0].entity_names)[np.concatenate([c.entity for c in chunks])]
+    assert np.all(np.diff(got_t) >= 0)
+    for k in range(3):
+        mine = names == f"v{k + 1}"
+        np.testing.assert_allclose(got_t[mine], t + 0.7 * k, atol=1e-12)
+        for key in ("x", "y", "yaw_deg", "turret_deg", "gun_deg"):
+            np.testing.assert_allclose(np.concatenate([getattr(c, key) for c in chunks])[mine], route[key], atol=1e-9)
+
+
+def test_outputs_that_differ_are_told_apart():
+    """The comparison behind ``outputs_identical``: one pose bit, one event field, a NaN against a number."""
+    from tankcd_cli.tradeoff.gates import same_outputs
+
+    poses = {"x": np.array([1.0, np.nan]), "matcher": np.array(["auto", "auto"], dtype=object)}
+    events = [{"step": 1, "kind": "terrain"}]
+    assert same_outputs((poses, events, None), ({k: v.copy() for k, v in poses.items()}, [dict(events[0])], None))
+    bumped = {**poses, "x": np.array([np.nextafter(1.0, 2.0), np.nan])}
+    assert not same_outputs((poses, events, None), (bumped, events, None))
+    assert not same_outputs((poses, events, None), ({**poses, "x": np.array([1.0, 0.0])}, events, None))
+    assert not same_outputs((poses, events, None), (poses, [{"step": 1, "kind": "obstacle"}], None))
 
 
 def test_the_rows_alone_miss_contacts_at_1_hz_and_no_more_at_50(report):
