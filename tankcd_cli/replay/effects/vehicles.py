@@ -26,10 +26,11 @@ common spans of their segments:
    buckets are read back in time order through the same windows: the same events as the rows in
    time order (their steps each file's own), in memory of a few windows' segments. Input that
    cannot be read twice (standard input, a pipe, a one-pass iterator) is spilled.
-2. **Broad phase** (``collision.broad_phase.candidate_pairs``): each segment's box (its hull
-   origin's two places grown by the vehicle's radius, which no point of it leaves under any
-   articulation) and time span clipped to the window; pairs of different vehicles whose boxes and
-   spans overlap. The cost grows with the vehicles and the pairs that come close.
+2. **Broad phase** (``collision.broad_phase.candidate_pairs``): each segment's box (the box its
+   groups' spheres sweep, ``collision.pair_gate``: hull, turret and gun each in a sphere that moves
+   with the hull origin, so no point of the vehicle leaves the box over the segment) and time span
+   clipped to the window; pairs of different vehicles whose boxes and spans overlap. The cost grows
+   with the vehicles and the pairs that come close.
 
    *The pair gate* (``collision.pair_gate``; off with the gates): each pair of vehicles among the
    candidates is tested over the whole window (spheres of its rigid groups about one line per
@@ -273,9 +274,8 @@ class VehicleContacts:
             return []
         s = seg.take(inside)
         k = kinds[inside]
-        radius = np.array([self.world.kinds[int(i)].body.radius for i in range(len(self.world.kinds))])[k]
-        lo = np.minimum(s.c0, s.c1) - radius[:, None]
-        hi = np.maximum(s.c0, s.c1) + radius[:, None]
+        spheres = self._spheres(s, k)
+        lo, hi = _sphere_boxes(spheres, s.c0, s.c1)
         t0 = np.maximum(s.t0, w0)
         t1 = np.minimum(s.t1, w1)
         pairs = candidate_pairs(lo, hi, t0, t1, s.entity)
@@ -291,26 +291,32 @@ class VehicleContacts:
         # the span begins where one of the two vehicles begins to exist: a contact there is new
         fresh = (s.fresh[i] & (u0 == s.t0[i])) | (s.fresh[j] & (u0 == s.t0[j]))
         if self.gates.enabled and len(i):
-            keep = ~self._clear(s, k, i, j, u0, u1, w0, w1)
+            keep = ~self._clear(s, spheres, i, j, u0, u1, w0, w1)
             i, j, u0, u1, fresh = i[keep], j[keep], u0[keep], u1[keep], fresh[keep]
         return self._spans(s, k, i, j, u0, u1, fresh)
 
-    def _clear(self, s, kinds, i, j, u0, u1, w0, w1) -> np.ndarray:
+    def _spheres(self, s, kinds) -> GroupSpheres:
+        """The group spheres (``collision.pair_gate.group_spheres``) of the window's segments ``s``,
+        each by its kind's body."""
+        offset = np.zeros((len(s), 3, 3))
+        radius = np.full((len(s), 3), np.nan)
+        for kind in np.unique(kinds):
+            sel = np.flatnonzero(kinds == kind)
+            g = group_spheres(self.world.kinds[int(kind)].body, s.q0[sel], s.c0[sel], s.q1[sel], s.turret0[sel],
+                              s.dturret[sel], s.gun0[sel], s.dgun[sel])
+            offset[sel], radius[sel] = g.offset, g.radius
+        return GroupSpheres(offset, radius)
+
+    def _clear(self, s, spheres, i, j, u0, u1, w0, w1) -> np.ndarray:
         """(P,) bool: the common spans [u0, u1] of segments i and j that ``collision.pair_gate`` proves
         free of contact (they need no narrow phase): first each pair of vehicles over the whole window
         (each vehicle's spheres about one line, ``stretch_spheres``: one test for all the pair's
         spans), then span by span for the pairs that test leaves. Counted in the gates as
         ``vehicle_pairs``: per pair of vehicles with candidate spans in the window, asked about, and
-        skipped when every one of its spans is proven clear."""
-        offset = np.zeros((len(s), 3, 3))
-        radius = np.full((len(s), 3), np.nan)
+        skipped when every one of its spans is proven clear. ``spheres``: the segments' group spheres."""
+        offset, radius = spheres.offset, spheres.radius
         paired = np.zeros(len(s), dtype=bool)
-        paired[i] = paired[j] = True  # the spheres of the segments in a candidate pair only
-        for kind in np.unique(kinds[paired]):
-            sel = np.flatnonzero(paired & (kinds == kind))
-            g = group_spheres(self.world.kinds[int(kind)].body, s.q0[sel], s.c0[sel], s.q1[sel], s.turret0[sel],
-                              s.dturret[sel], s.gun0[sel], s.dgun[sel])
-            offset[sel], radius[sel] = g.offset, g.radius
+        paired[i] = paired[j] = True
         # the window's vehicles, numbered 0..n-1, and the pairs of them
         segs = np.flatnonzero(paired)
         vehicles, owner = np.unique(s.entity[segs], return_inverse=True)
@@ -390,6 +396,20 @@ class VehicleContacts:
                                         int(s.entity[a])))
         events.sort(key=lambda e: (e.t, e.a, e.b))
         return events
+
+
+def _sphere_boxes(spheres: GroupSpheres, c0: np.ndarray, c1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment's world box (lo, hi (M, 3) m) holding its vehicle throughout: the union over its
+    groups of the box swept by the group's sphere, whose centre moves with the hull origin from c0
+    to c1 (``collision.pair_gate``: every point of the group stays in that sphere over the segment).
+    Tighter than the origin's two places grown by the body's radius (any articulation, 8.16 m for a
+    T-72) wherever the parts lie to one side: two hulls 12 m abreast, turrets forward, do not pair."""
+    r = spheres.radius[:, :, None]
+    start, end = c0[:, None, :] + spheres.offset, c1[:, None, :] + spheres.offset
+    with np.errstate(invalid="ignore"):
+        lo = np.fmin.reduce(np.minimum(start, end) - r, axis=1)  # an absent group's NaN never decides
+        hi = np.fmax.reduce(np.maximum(start, end) + r, axis=1)
+    return lo, hi
 
 
 def _cut(s, idx, u0, u1):
