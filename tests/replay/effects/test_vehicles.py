@@ -680,3 +680,46 @@ def test_the_pair_gate_changes_no_contact_of_turrets_swinging_between_platoons(f
         ("gun", "gun")]
     assert (on / "p.csv").read_bytes() == (off / "p.csv").read_bytes()
     assert (on / "e.jsonl").read_bytes() == (off / "e.jsonl").read_bytes()
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["t72", "m1", "t55"]))
+@example(3, "t72")
+def test_a_segments_broad_phase_box_holds_every_point_of_its_vehicle_throughout(seed, name):
+    """Random rigid segments (travel, turns with roll and pitch, the turret and gun swinging): every
+    vertex of the body's triangles, placed at 41 fractions of each segment, lies in the box the broad
+    phase gives it (the sweep of its groups' spheres)."""
+    from tankcd_cli.bvh.sweep import chain_placements
+    from tankcd_cli.collision.pair_gate import group_spheres
+    from tankcd_cli.collision.vehicle_body import vehicle_body
+    from tankcd_cli.collision.vehicles import SpanMotion
+    from tankcd_cli.geometry.pose import quaternion_from_euler
+    from tankcd_cli.replay.effects.vehicles import _sphere_boxes
+    from tankcd_cli.vehicle import vehicle_preset
+    from tankcd_cli.vehicle_mesh import PARTS, vehicle_mesh
+
+    rng = np.random.default_rng(seed)
+    preset = vehicle_preset(name)
+    body = vehicle_body(preset, *vehicle_mesh(preset, 2), PARTS)
+    n = 24
+    c0 = rng.uniform(-1e3, 1e3, (n, 3)) + [500000.0, 4500000.0, 0.0]
+    c1 = c0 + rng.normal(0, 3, (n, 3)) * [1, 1, 0.1]
+    yaw0 = rng.uniform(-np.pi, np.pi, n)
+    tilt = rng.uniform(-0.2, 0.2, (n, 4))
+    q0 = quaternion_from_euler(tilt[:, 0], tilt[:, 1], yaw0)
+    q1 = quaternion_from_euler(tilt[:, 2], tilt[:, 3], yaw0 + rng.uniform(-0.7, 0.7, n))
+    turret0, dturret = rng.uniform(-np.pi, np.pi, n), rng.uniform(-np.pi, np.pi, n)
+    gun0, dgun = rng.uniform(-0.1, 0.3, n), rng.uniform(-0.3, 0.3, n)
+    spheres = group_spheres(body, q0, c0, q1, turret0, dturret, gun0, dgun)
+    lo, hi = _sphere_boxes(spheres, c0, c1)
+    motion = SpanMotion(q0, c0, q1, c1, turret0, dturret, gun0, dgun)
+    for s in np.linspace(0.0, 1.0, 41):
+        for g in body.groups:
+            rows, joints = motion.rows(body, g)
+            R, t = chain_placements(rows, joints, np.full(n, s))
+            points = np.einsum("nij,mj->nmi", R, g.tree.triangles.reshape(-1, 3)) + t[:, None, :]
+            assert (points >= lo[:, None, :] - 1e-9).all() and (points <= hi[:, None, :] + 1e-9).all()
+    # and tighter than the body's radius about the origin, sideways, wherever the gun points ahead
+    ahead = group_spheres(body, q0, c0, q0, np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
+    lo, hi = _sphere_boxes(ahead, c0, c0)
+    assert (hi - lo)[:, :2].min(axis=1).max() < 2 * body.radius
