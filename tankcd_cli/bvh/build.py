@@ -81,12 +81,12 @@ class Tree:
 
 def parallelepipeds(lo: np.ndarray, hi: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Centres and half-widths (n, T, 3) of the slab-triple parallelepipeds of each node."""
-    d = kdop.directions(k)
     trip = kdop.triples(k)
+    inverses = kdop.triple_inverses(k)
     centre = np.empty((len(lo), len(trip), 3))
     half = np.empty((len(lo), len(trip), 3))
     for t, idx in enumerate(trip):
-        W = np.linalg.inv(d[idx])
+        W = inverses[t]
         centre[:, t] = (0.5 * (lo[:, idx] + hi[:, idx])) @ W.T
         half[:, t] = 0.5 * (hi[:, idx] - lo[:, idx])
     return centre, half

@@ -38,7 +38,7 @@ def collide(moving: Tree, static: Tree, rotation: np.ndarray, translation: np.nd
     if moving.k != static.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {static.k})")
     d = kdop.directions(moving.k)
-    W = np.stack([np.linalg.inv(d[t]) for t in kdop.triples(moving.k)])
+    W = kdop.triple_inverses(moving.k)
     R = np.ascontiguousarray(np.asarray(rotation, dtype=float).reshape(-1, 3, 3))
     t = np.ascontiguousarray(np.asarray(translation, dtype=float).reshape(-1, 3))
     # poses differ a lot in cost (a clear pose ends at the roots, a grazing one goes deep): the

@@ -145,7 +145,7 @@ def first_contacts(moving: Tree, other: Tree, rows_a, joints_a, rows_b, joints_b
     if moving.k != other.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {other.k})")
     d = kdop.directions(moving.k)
-    W = np.stack([np.linalg.inv(d[t]) for t in kdop.triples(moving.k)])
+    W = kdop.triple_inverses(moving.k)
     # threads only for a batch worth waking them for: on a busy machine a parallel region waits for
     # its threads to be scheduled (up to a time slice, milliseconds), more than a small batch's work
     rate = np.asarray(rate, dtype=np.float64)

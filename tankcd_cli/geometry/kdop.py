@@ -17,6 +17,9 @@ rotated vertices: it never misses).
 
 from __future__ import annotations
 
+import itertools
+from functools import lru_cache
+
 import numpy as np
 
 from tankcd_cli.names import KDOP_KS as KS  # the k-DOP types there are
@@ -27,30 +30,42 @@ _EDGES = [(1, 1, 0), (1, -1, 0), (1, 0, 1), (1, 0, -1), (0, 1, 1), (0, 1, -1)]
 MAX_TRIPLES = 2  # the axes and one diagonal triple: each more tightens little and costs a third more
 
 
+@lru_cache(maxsize=len(KS))  # a pure function of k, asked once per query batch: one entry per k-DOP type
 def directions(k: int) -> np.ndarray:
-    """Unit slab directions (k/2, 3) of a k-DOP; the first three are the axes."""
+    """Unit slab directions (k/2, 3) of a k-DOP; the first three are the axes (read-only)."""
     sets = {6: _AXES, 14: _AXES + _CORNERS, 18: _AXES + _EDGES, 26: _AXES + _CORNERS + _EDGES}
     if k not in sets:
         raise ValueError(f"k-DOPs come with k in {KS}, not {k}")
     d = np.array(sets[k], dtype=float)
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d.setflags(write=False)
+    return d
 
 
+@lru_cache(maxsize=len(KS))
 def triples(k: int) -> np.ndarray:
-    """Index triples (t, 3) of independent directions whose parallelepipeds bound a k-DOP under rotation."""
-    if k == 6:
-        return np.array([[0, 1, 2]])
-    d = directions(k)
+    """Index triples (t, 3) of independent directions whose parallelepipeds bound a k-DOP under rotation
+    (read-only): the axes, then the first well-conditioned triples of the other directions."""
     chosen = [[0, 1, 2]]
-    extra = list(range(3, len(d)))
-    # a few well-conditioned triples of the non-axis directions (and mixed ones)
-    for a in range(len(extra)):
-        for b in range(a + 1, len(extra)):
-            for c in range(b + 1, len(extra)):
-                t = [extra[a], extra[b], extra[c]]
-                if abs(np.linalg.det(d[t])) > 0.3 and len(chosen) < MAX_TRIPLES:
-                    chosen.append(t)
-    return np.array(chosen, dtype=np.int64)
+    d = directions(k)
+    extra = range(3, len(d))
+    for t in itertools.combinations(extra, 3):
+        if len(chosen) == MAX_TRIPLES:
+            break
+        if abs(np.linalg.det(d[list(t)])) > 0.3:
+            chosen.append(list(t))
+    out = np.array(chosen, dtype=np.int64)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=len(KS))
+def triple_inverses(k: int) -> np.ndarray:
+    """Inverses (t, 3, 3) of the triples' direction matrices, whose columns are the w_j (read-only)."""
+    d = directions(k)
+    W = np.stack([np.linalg.inv(d[t]) for t in triples(k)])
+    W.setflags(write=False)
+    return W
 
 
 def fit(points: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -70,8 +85,7 @@ def rotated_bound(lo: np.ndarray, hi: np.ndarray, k: int, rotation: np.ndarray, 
     f = d @ rotation  # rows: R^T d_i, the world directions seen in the body frame
     best_lo = np.full(lo.shape, -np.inf)
     best_hi = np.full(hi.shape, np.inf)
-    for t in triples(k):
-        W = np.linalg.inv(d[t])  # columns w_j
+    for t, W in zip(triples(k), triple_inverses(k)):  # W's columns are the w_j
         mid = 0.5 * (lo[:, t] + hi[:, t])
         half = 0.5 * (hi[:, t] - lo[:, t])
         centre = mid @ W.T  # (n, 3): D^-1 mid

@@ -51,6 +51,23 @@ def test_triples_start_with_the_axes_and_are_independent(k):
 
 
 @pytest.mark.parametrize("k", kdop.KS)
+def test_triple_inverses_invert_the_triples_and_the_shared_arrays_are_read_only(k):
+    d, t, W = kdop.directions(k), kdop.triples(k), kdop.triple_inverses(k)
+    assert W.shape == (len(t), 3, 3)
+    for triple, w in zip(t, W):
+        np.testing.assert_allclose(w @ d[triple], np.eye(3), atol=1e-12)
+    # the arrays are shared between callers (one per k): writing one would change every later query
+    for shared in (d, t, W):
+        with pytest.raises(ValueError):
+            shared[0] = 0
+    # the first well-conditioned triple of the other directions, in the order of combinations
+    first = next(c for c in itertools.combinations(range(3, len(d)), 3) if abs(np.linalg.det(d[list(c)])) > 0.3) \
+        if k > 6 else None
+    if first is not None:
+        assert t[1].tolist() == list(first)
+
+
+@pytest.mark.parametrize("k", kdop.KS)
 def test_fit_is_the_extreme_projections(k):
     rng = np.random.default_rng(k)
     pts = rng.normal(0, 3, (4, 7, 3)) + rng.normal(0, 1e5, (4, 1, 3))  # batched, far from the origin
