@@ -228,13 +228,20 @@ cdef void _frame(const double* R, const double* tp, const double* D, const doubl
 
 
 cdef void _query(Py_ssize_t q, const double* ma, const int64_t* ja, const double* mb, const int64_t* jb,
-                 const double* rate, double eps, const double* D, const double* W, const Trees* tr, double reach,
+                 const double* rate, const double* before, double eps, const double* D, const double* W,
+                 const Trees* tr, double reach,
                  double* f, double* g, double* shift, int64_t* stack, double* span, int64_t* level_of,
                  int64_t* found, double* s_out, int64_t* pairs, double* points, int64_t* node_tests,
                  int64_t* levels) noexcept nogil:
     """Query q: the earliest leaf of the bisection over [0, 1] at which A comes within its motion
     bound of B (see bvh.sweep). The bisection's own stack holds at most DEPTH_LIMIT + 2 intervals:
-    their ends in span, their levels in level_of; ``stack`` is the walk's."""
+    their ends in span, their levels in level_of; ``stack`` is the walk's.
+
+    An interval that can only report at or after ``before[q]`` is dropped unwalked: one starting
+    there (its leaves' middles lie after its start), or a leaf-to-be whose middle is there. The
+    earliest leaf, if it lies before ``before[q]``, starts before it, and so do all its ancestors:
+    it is reached and reported as without the bound; otherwise what is reported (or not) lies at
+    or after the bound as well."""
     cdef Py_ssize_t K = tr.K
     cdef Py_ssize_t T = tr.T
     cdef const double* mqa = ma + 30 * q
@@ -269,6 +276,8 @@ cdef void _query(Py_ssize_t q, const double* ma, const int64_t* ja, const double
         mid = 0.5 * (lo + hi)
         half = 0.5 * (hi - lo)
         r = half * rate[q]
+        if lo >= before[q] or (mid >= before[q] and (r <= eps or depth >= DEPTH_LIMIT)):
+            continue
         chain_at(mqa, ja[q], mid, Ra, ta)
         chain_at(mqb, jb[q], mid, Rb, tb)
         _relative(Ra, ta, Rb, tb, R, t)
@@ -296,7 +305,8 @@ cdef void _query(Py_ssize_t q, const double* ma, const int64_t* ja, const double
     levels[q] = deepest
 
 
-def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, double eps, bint parallel_ok=True):
+def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, double eps, bint parallel_ok=True,
+                   before=None):
     """For each query, the first contact of tree ``a`` moving by ``motion_a`` with tree ``b`` moving
     by ``motion_b`` (rows of 30 doubles, ``joints`` (N,) each), ``rate`` (N,) the two motions'
     summed bound (m per unit of s), ``eps`` the bound at which a leaf is reported, m.
@@ -304,18 +314,24 @@ def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, dou
     Returns found (N,) int64, s (N,) the leaf's middle (-1 where none), pairs (N, 2) of input
     triangle indices (a, b), points (N, 3) in the world (b's placement applied), node tests (N,)
     and the deepest bisection level (N,). ``parallel_ok`` False: one thread (a batch too small to
-    pay for waking the others).
+    pay for waking the others). ``before`` (N,), optional: a query need not report a contact at or
+    after it (the caller has one there already); where the earliest leaf lies before it, the answer
+    is the one without it, else none or one at or after it.
     """
     ma = np.ascontiguousarray(motion_a, dtype=np.float64).reshape(-1, 30)
     mb = np.ascontiguousarray(motion_b, dtype=np.float64).reshape(-1, 30)
     ja = np.ascontiguousarray(joints_a, dtype=np.int64).ravel()
     jb = np.ascontiguousarray(joints_b, dtype=np.int64).ravel()
     rt = np.ascontiguousarray(rate, dtype=np.float64).ravel()
+    bf = (np.full(ma.shape[0], np.inf) if before is None
+          else np.ascontiguousarray(before, dtype=np.float64).ravel())
     Dn = np.ascontiguousarray(D, dtype=np.float64)
     Wn = np.ascontiguousarray(W, dtype=np.float64)
     cdef Py_ssize_t n = ma.shape[0]
-    if not (mb.shape[0] == n and ja.shape[0] == n and jb.shape[0] == n and rt.shape[0] == n):
+    if not (mb.shape[0] == n and ja.shape[0] == n and jb.shape[0] == n and rt.shape[0] == n and bf.shape[0] == n):
         raise ValueError("first_contacts: every query needs both motions, both joint counts and a rate")
+    if np.isnan(bf).any():
+        raise ValueError("first_contacts: a bound of the contact's fraction is NaN")
     if ((ja < 0) | (ja > 2) | (jb < 0) | (jb > 2)).any():
         raise ValueError("first_contacts: a motion has 0, 1 or 2 joints")
     if not np.isfinite(rt).all() or (rt < 0).any():
@@ -340,6 +356,7 @@ def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, dou
     cdef const int64_t* jap = <const int64_t*>cnp.PyArray_DATA(ja)
     cdef const int64_t* jbp = <const int64_t*>cnp.PyArray_DATA(jb)
     cdef const double* rtp = <const double*>cnp.PyArray_DATA(rt)
+    cdef const double* bfp = <const double*>cnp.PyArray_DATA(bf)
     cdef const double* Dp = <const double*>cnp.PyArray_DATA(Dn)
     cdef const double* Wp = <const double*>cnp.PyArray_DATA(Wn)
     cdef int64_t* found_p = <int64_t*>cnp.PyArray_DATA(found_arr)
@@ -369,7 +386,7 @@ def first_contacts(a, b, D, W, motion_a, joints_a, motion_b, joints_b, rate, dou
             if f == NULL or g == NULL or shift == NULL or span == NULL or level_of == NULL or stack == NULL:
                 failed_p[0] = 1
             else:
-                _query(q, map_, jap, mbp, jbp, rtp, eps, Dp, Wp, &tr, reach, f, g, shift, stack, span, level_of,
+                _query(q, map_, jap, mbp, jbp, rtp, bfp, eps, Dp, Wp, &tr, reach, f, g, shift, stack, span, level_of,
                        found_p, s_p, pairs_p, points_p, node_p, level_p)
         free(f)
         free(g)

@@ -138,10 +138,15 @@ class FirstContacts:
 
 
 def first_contacts(moving: Tree, other: Tree, rows_a, joints_a, rows_b, joints_b, rate,
-                   eps: float = LEAF_BOUND) -> FirstContacts:
+                   eps: float = LEAF_BOUND, before=None) -> FirstContacts:
     """The first contact of ``moving`` (motion rows_a) with ``other`` (motion rows_b) in each of N
     steps; ``rate`` (N,) bounds how far any point of either body moves per unit of s, summed
-    (m). See the module's docstring for the method and its guarantees."""
+    (m). See the module's docstring for the method and its guarantees.
+
+    ``before`` (N,) fractions, optional: the caller keeps only contacts earlier than these (it has
+    one of another pair of parts there). A query whose first contact lies before its bound gets the
+    same answer as without it; any other gets none, or one at or after its bound, for less work
+    (the bisection drops the sub-intervals that can only report there)."""
     if moving.k != other.k:
         raise ValueError(f"both trees need the same k-DOP type (got k = {moving.k} and {other.k})")
     d = kdop.directions(moving.k)
@@ -151,7 +156,7 @@ def first_contacts(moving: Tree, other: Tree, rows_a, joints_a, rows_b, joints_b
     rate = np.asarray(rate, dtype=np.float64)
     work = PASS_SECONDS * np.count_nonzero(rate > eps) + STILL_SECONDS * np.count_nonzero(rate <= eps)
     found, s, pairs, points, node_tests, levels = kernel(moving, other, d, W, rows_a, joints_a, rows_b, joints_b,
-                                                         rate, float(eps), work > PARALLEL_ABOVE)
+                                                         rate, float(eps), work > PARALLEL_ABOVE, before)
     return FirstContacts(found.astype(bool), np.where(found > 0, s, np.nan), pairs, points, node_tests, levels)
 
 

@@ -103,8 +103,9 @@ def first_vehicle_contacts(body_a: VehicleBody, motion_a: SpanMotion, body_b: Ve
             if len(near) == 0:
                 continue
             queries += len(near)
+            # a span's contact of an earlier pair of groups bounds what this pair must look for
             got = first_contacts(g1.tree, g2.tree, rows_a[near], ja[near], rows_b[near], jb[near],
-                                 rate_a[near] + rate_b[near])
+                                 rate_a[near] + rate_b[near], before=best_s[near])
             hit = np.flatnonzero(got.found)
             k = near[hit]
             better = got.s[hit] < best_s[k]

@@ -338,3 +338,35 @@ def test_the_sweep_and_the_pose_walk_agree_on_still_poses():
         least = min(tri_distance(P, Q)[0] for P in placed for Q in B)
         assert least <= 2 * LEAF_BOUND
     assert not swept.found.all()
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_property_a_bound_on_the_fraction_changes_only_answers_at_or_after_it(seed):
+    """With ``before``, a query whose first contact (without it) lies before its bound gets that
+    answer bit for bit (time, pair, point); any other gets none or one at or after its bound; and
+    no query does more node tests. Bounds: 0, the contact's own fraction, a hair either side of it,
+    random ones, 1 and infinity; still queries (rate 0) among the moving ones."""
+    rng = np.random.default_rng(seed)
+    A = box([-1.0, -0.4, -0.3], [1.0, 0.4, 0.3], 2)
+    ta, tb = build_tree(A, k=18, leaf_size=2), build_tree(box([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], 2), k=18)
+    n = 60
+    rows, joints = motion_rows(*_random_motion(rng, n, reach=2.0))
+    rows[: n // 6, 7:14] = rows[: n // 6, 0:7]  # still: the end pose is the start pose
+    still, none = static_rows(n)
+    rate = _rate(rows, np.linalg.norm([1.0, 0.4, 0.3])) * (1 + 1e-9)
+    free = first_contacts(ta, tb, rows, joints, still, none, rate)
+    s = np.where(free.found, free.s, rng.uniform(0, 1, n))
+    choice = rng.integers(0, 7, n)
+    before = np.select([choice == 0, choice == 1, choice == 2, choice == 3, choice == 4, choice == 5],
+                       [np.zeros(n), s, np.nextafter(s, 2), np.nextafter(s, -1), rng.uniform(0, 1, n),
+                        np.ones(n)], np.inf)
+    got = first_contacts(ta, tb, rows, joints, still, none, rate, before=before)
+    same = free.found & (free.s < before)
+    for name in ("found", "s", "pairs", "points"):
+        np.testing.assert_array_equal(getattr(got, name)[same], getattr(free, name)[same])
+    assert (~got.found[~same] | (got.s[~same] >= before[~same])).all()
+    assert (got.node_tests <= free.node_tests).all()
+    assert free.found.any()
+    with pytest.raises(ValueError, match="NaN"):
+        first_contacts(ta, tb, rows, joints, still, none, rate, before=np.full(n, np.nan))
