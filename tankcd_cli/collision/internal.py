@@ -14,6 +14,8 @@ exact test rejects, never the reverse).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from tankcd_cli.collision._internal import gun_path_contacts
@@ -153,6 +155,87 @@ def first_gun_contacts(vehicle: Vehicle, azimuth0, dazimuth, elevation0, delevat
         raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
     found = found.astype(bool)
     return found, s_hit, who
+
+
+DRUM_WINDOW_MARGIN = 1e-3
+"""m. The drum window is the drums' shadows grown by this beyond the barrel's reach (10^6 times the
+exact test's ``TOL``): rounding in the window's angles is far below it."""
+
+
+@dataclass(frozen=True)
+class DrumWindow:
+    """The turret azimuths (rad, vehicle frame, 0 = gun forward) at which the barrel can touch a
+    drum at some elevation: the arc ``centre`` +- ``half_width`` (``half_width`` >= pi: every
+    azimuth; an empty window, no drums, has ``half_width`` -1)."""
+
+    centre: float
+    half_width: float
+
+
+def drum_window(vehicle: Vehicle) -> DrumWindow:
+    """The arc of turret azimuths outside which the barrel touches no drum, whatever its elevation.
+
+    Proof. Seen from above (the projection onto the hull's xy plane, which moves no point farther
+    from another), the barrel, a cylinder of radius r about the segment from the trunnion to the
+    muzzle, lies within r of that segment's shadow. At azimuth az and elevation el (|el| < 90 deg,
+    cos el > 0) the shadow is the points c + t (cos az, sin az), c the turret axis (turret_x, 0),
+    for t from trunnion_forward to trunnion_forward + gun_length cos el: on the ray from c at az,
+    or within |trunnion_forward| of c where that is negative. So the barrel's shadow lies within
+    rho = r + max(0, -trunnion_forward) of the ray. A drum's shadow is the rectangle of its axis
+    (along y) grown by its radius; a barrel touching it has a shadow meeting it, so the ray meets
+    the rectangle grown by rho + ``DRUM_WINDOW_MARGIN`` in x and y (which holds every point within
+    that distance). The rays from c that meet a convex set not holding c make the arc between the
+    directions of its corners (narrower than pi); for both drums, the shortest arc holding all
+    their corners' directions (the complement of the widest gap between them, when that gap is
+    wider than pi) holds both arcs. Where c lies in a grown rectangle, or no gap is wider than pi,
+    the window is every azimuth: nothing is proven."""
+    tanks = drums(vehicle)
+    if not tanks:
+        return DrumWindow(0.0, -1.0)
+    grow = vehicle.gun_radius + max(0.0, -vehicle.trunnion_forward) + DRUM_WINDOW_MARGIN
+    c = np.array([vehicle.turret_x, 0.0])
+    angles = []
+    for _, centre, axis, half, radius in tanks:
+        # the shadow's half-extents: the radius across the axis, the half-length (and the radius) along it
+        ext = np.abs(axis[:2]) * half + radius + grow
+        lo, hi = centre[:2] - ext - c, centre[:2] + ext - c
+        if lo[0] <= 0 <= hi[0] and lo[1] <= 0 <= hi[1]:
+            return DrumWindow(0.0, np.pi)
+        corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+        angles.append(np.arctan2(corners[:, 1], corners[:, 0]))
+    a = np.sort(np.concatenate(angles))
+    gaps = np.diff(np.concatenate([a, a[:1] + 2 * np.pi]))
+    k = int(np.argmax(gaps))
+    if gaps[k] <= np.pi:
+        return DrumWindow(0.0, np.pi)
+    first, last = a[(k + 1) % len(a)], a[k]  # the arc runs from after the widest gap round to its start
+    width = (last - first) % (2 * np.pi)
+    return DrumWindow(float(np.angle(np.exp(1j * (first + width / 2)))), float(width / 2 + 1e-9))
+
+
+def drum_window_clear(window: DrumWindow, azimuth0, dazimuth, elevation0, delevation) -> np.ndarray:
+    """(M,) bool: the straight paths in (azimuth, elevation), from (azimuth0, elevation0) changing
+    by (dazimuth, delevation) (M,) rad, that never enter the ``window`` (``drum_window``), with the
+    gun below 90 deg of elevation all along (the window's proof needs cos el > 0): no barrel
+    position on them touches a drum, and ``first_gun_contacts`` would find none. A path's
+    azimuths are the arc between its ends (|dazimuth| long), which misses centre +- h exactly when
+    neither copy of the window, at 0 or at 2 pi from the path's start measured from the centre,
+    meets it. Paths with a NaN are never clear."""
+    az0 = np.asarray(azimuth0, dtype=float).ravel()
+    daz = np.asarray(dazimuth, dtype=float).ravel()
+    el0 = np.asarray(elevation0, dtype=float).ravel()
+    el1 = el0 + np.asarray(delevation, dtype=float).ravel()
+    h = window.half_width
+    if h < 0:
+        return np.isfinite(az0) & np.isfinite(daz)  # no drums: nothing to touch
+    if h >= np.pi:
+        return np.zeros(len(az0), dtype=bool)
+    with np.errstate(invalid="ignore"):
+        start = (np.minimum(az0, az0 + daz) - window.centre + np.pi) % (2 * np.pi) - np.pi  # in [-pi, pi)
+        end = start + np.abs(daz)
+        meets = ((start <= h) & (end >= -h)) | (end >= 2 * np.pi - h)
+        level = (np.abs(el0) < np.pi / 2) & (np.abs(el1) < np.pi / 2)
+        return np.isfinite(end) & level & ~meets
 
 
 def envelope_summary(vehicle: Vehicle, env: dict, step_deg: float) -> dict:

@@ -60,6 +60,7 @@ class Run(Protocol):
     surface: object
     obstacles: list
     world: object
+    gates: object  # ``tankcd_cli.gates.GateTally``: what the effects' gates skipped
 
 
 class Effect:
