@@ -97,7 +97,7 @@ class VehicleContacts:
         self.continuous = continuous
         self.window = WINDOW if window is None else window
         self.horizon = HORIZON if horizon is None else horizon
-        self.buffer = []  # (kind index, Segments)
+        self.buffer = []  # pieces (kind index, Segments sorted by t0, their start buckets): ``_piece``
         self.names: tuple = ()
         self.last_t = np.zeros(0)  # each entity code's last row time
         self.done_k = None  # the windows before window done_k (index on the grid k * window) are processed
@@ -122,7 +122,7 @@ class VehicleContacts:
         if self.spill is not None:
             self.spill.append(kind.index, segments)
             return
-        self.buffer.append((kind.index, segments))
+        self.buffer.append(self._piece(kind.index, segments))
         if self.done_until is not None:
             late = np.flatnonzero(segments.t0 < self.done_until)
             if len(late):
@@ -192,11 +192,12 @@ class VehicleContacts:
         of both), so the cost follows the segments, not the exercise's time span."""
         events = []
         while self.buffer:
-            starts = np.floor(np.concatenate([s.t0 for _, s in self.buffer]) / self.window).astype(np.int64)
-            k = max(self.done_k, int(starts.min()))
-            later = starts[starts > k]
-            if len(later):
-                m = int(later.min())
+            # each piece's start buckets are sorted: its first is its least, and the first above k is found by search
+            k = max(self.done_k, min(int(b[0]) for _, _, b in self.buffer))
+            later = [int(b[i]) for _, _, b in self.buffer for i in [int(np.searchsorted(b, k, side="right"))]
+                     if i < len(b)]
+            if later:
+                m = min(later)
                 if mark is not None and m * self.window > mark:
                     break
                 events += self._window(k * self.window, m * self.window)
@@ -241,7 +242,8 @@ class VehicleContacts:
         for bucket, kinds, segments in self.spill.buckets():
             if k is not None:
                 events += self._window(k * self.window, bucket * self.window)
-            self.buffer += [(int(kind), segments.take(np.flatnonzero(kinds == kind))) for kind in np.unique(kinds)]
+            self.buffer += [self._piece(int(kind), segments.take(np.flatnonzero(kinds == kind)))
+                            for kind in np.unique(kinds)]
             k = bucket
         if k is not None:
             events += self._window(k * self.window, (int(np.floor(self.end / self.window)) + 1) * self.window,
@@ -260,20 +262,40 @@ class VehicleContacts:
         return self._window(w0, w1, last)
 
     # -- one window ----------------------------------------------------------------------------
+    def _piece(self, kind: int, segments: Segments) -> tuple:
+        """A piece of the buffer: a kind's segments sorted by their start (stable), and their start
+        buckets floor(t0 / window), so that a window reads only each piece's head (``_window``)."""
+        if len(segments) > 1 and not (np.diff(segments.t0) >= 0).all():
+            segments = segments.take(np.argsort(segments.t0, kind="stable"))
+        return kind, segments, np.floor(segments.t0 / self.window).astype(np.int64)
+
     def _window(self, w0: float, w1: float, last: bool = False) -> list:
         """Every contact that begins in [w0, w1) (its end included at the last window)."""
         if not self.buffer:
             return []
-        kinds = np.concatenate([np.full(len(s), k, dtype=np.int64) for k, s in self.buffer])
-        seg = Segments.join([s for _, s in self.buffer])
-        # what the later windows still need: segments reaching past this one
-        keep = seg.t1 >= w1
-        self.buffer = [(int(k), seg.take(np.flatnonzero(keep & (kinds == k)))) for k in np.unique(kinds[keep])]
-        inside = np.flatnonzero((seg.t1 >= w0) & (seg.t0 < w1) | (last & (seg.t0 <= w1) & (seg.t1 >= w0)))
-        if len(inside) < 2:
+        # only segments beginning before w1 (at w1 too, at the last window) can be in the window: each
+        # piece's head, by its sorted starts. The rest of a piece waits untouched (a view), and of the
+        # head, what reaches past w1 is kept: the later windows still need it
+        kinds, parts, pieces, heads = [], [], [], {}
+        for k, piece, bucket in self.buffer:
+            p = int(np.searchsorted(piece.t0, w1, side="right" if last else "left"))
+            if p < len(piece):
+                pieces.append((k, piece.take(slice(p, None)), bucket[p:]))
+            if p == 0:
+                continue
+            head = piece.take(slice(0, p))
+            inside = np.flatnonzero(head.t1 >= w0)
+            parts.append(head.take(inside))
+            kinds.append(np.full(len(inside), k, dtype=np.int64))
+            going_on = np.flatnonzero(head.t1 >= w1)
+            if len(going_on):
+                heads.setdefault(k, []).append(head.take(going_on))
+        pieces += [self._piece(k, Segments.join(h) if len(h) > 1 else h[0]) for k, h in heads.items()]
+        self.buffer = pieces
+        if sum(len(x) for x in parts) < 2:
             return []
-        s = seg.take(inside)
-        k = kinds[inside]
+        s = Segments.join(parts) if len(parts) > 1 else parts[0]
+        k = np.concatenate(kinds)
         spheres = self._spheres(s, k)
         lo, hi = _sphere_boxes(spheres, s.c0, s.c1)
         t0 = np.maximum(s.t0, w0)
