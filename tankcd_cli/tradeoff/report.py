@@ -278,7 +278,8 @@ def gates_table(res: Results) -> str:
              "after another (the checks between vehicles and their gate); each replayed once a mode for its "
              "outputs, then the two in turn (the ratio is gates on over off, pair by pair: median, "
              "lowest-highest). Shares: of the work items each gate was asked about (certificate: key-point "
-             "poses; vehicle_pairs: pairs of vehicles in a window), those it proved need no exact work.", "",
+             "poses; vehicle_pairs: pairs of vehicles in a window; drum_window: the gun at a row and along an "
+             "interval), those it proved need no exact work.", "",
              "| replay | rows | vehicles | skipped by gate | gates on | gates off | on / off | outputs |",
              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in res.gates:

@@ -280,7 +280,11 @@ class VehicleContacts:
         for k, piece, bucket in self.buffer:
             p = int(np.searchsorted(piece.t0, w1, side="right" if last else "left"))
             if p < len(piece):
-                pieces.append((k, piece.take(slice(p, None)), bucket[p:]))
+                rest, rest_bucket = piece.take(slice(p, None)), bucket[p:]
+                base = rest.t0.base
+                if base is not None and 2 * len(rest) < base.size:  # a view holding a chunk twice its size: copied
+                    rest, rest_bucket = rest.take(np.arange(len(rest))), rest_bucket.copy()
+                pieces.append((k, rest, rest_bucket))
             if p == 0:
                 continue
             head = piece.take(slice(0, p))
