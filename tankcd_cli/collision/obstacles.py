@@ -251,7 +251,7 @@ class SweptHits:
 
 
 def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray, c0: np.ndarray, q1: np.ndarray,
-                    c1: np.ndarray, turret0, dturret, gun0, dgun) -> SweptHits:
+                    c1: np.ndarray, turret0, dturret, gun0, dgun, known: np.ndarray | None = None) -> SweptHits:
     """The first contact of each vehicle part with each obstacle over M rigid steps of the hull,
     from attitude q0 (M, 4) and origin c0 (M, 3) to q1, c1, the turret and gun turning from
     turret0, gun0 by dturret, dgun (M,) rad at constant rates (``geometry.motion``; ``bvh.sweep``
@@ -262,7 +262,10 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
     vehicle's radius, which no point of it passes under any articulation), then per part and
     obstacle the part's world box at the step's middle grown by half its group's motion bound,
     which holds it throughout the step (every point stays within half the bound of where it is
-    at the middle); a step whose boxes miss every obstacle's costs those box tests alone."""
+    at the middle); a step whose boxes miss every obstacle's costs those box tests alone.
+
+    known : (M, obstacles) bool, optional: pairs of step and obstacle whose contact is known at the
+    step's start (the vehicle there touches the obstacle); they are not walked, and give no row."""
     m = len(q0)
     nparts = len(body.part_names)
     queries = 0
@@ -300,7 +303,10 @@ def obstacles_along(body: VehicleBody, obstacles: list[Obstacle], q0: np.ndarray
             world_half = np.einsum("nij,j->ni", np.abs(R), half) + 0.5 * rate[:, None]
             lo, hi = world_centre - world_half, world_centre + world_half
             for j, ob in enumerate(obstacles):
-                near = np.flatnonzero(((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1))
+                near = ((lo <= ob.hi) & (hi >= ob.lo)).all(axis=1)
+                if known is not None:
+                    near &= ~known[idx, j]
+                near = np.flatnonzero(near)
                 if len(near) == 0:
                     continue
                 queries += len(near)

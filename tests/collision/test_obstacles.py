@@ -151,3 +151,33 @@ def test_every_part_in_contact_is_named_as_every_triangle_pair_says():
     assert got == expected
     assert {"hull", "track_left", "track_right"} <= {q for p, q in got if p == 0}
     assert len({q for _, q in got}) >= 5  # the random poses put most parts in the wall somewhere
+
+
+def test_pairs_known_to_touch_at_the_start_are_spared_the_walk_and_the_rest_are_unchanged():
+    """``known`` (the effect passes the static contacts at each step's start): every step and obstacle
+    touching at the start is one the walk finds a contact with (so the effect, which counts it as
+    touched, loses nothing), and every other pair's first contacts are the same as without it."""
+    rng = np.random.default_rng(11)
+    body = _body()
+    obstacles = [_obstacle([3.0, -1.0, 0.0], [3.3, 1.0, 2.5], "slab"), _obstacle([-1.0, 3.5, 1.2], [1.0, 4.0, 3.0], "beam")]
+    n = 80
+    yaw0 = rng.uniform(-180, 180, n)
+    q0, q1 = _q(yaw0), _q(yaw0 + rng.uniform(-30, 30, n))
+    c0 = np.column_stack([rng.uniform(-4, 2, n), rng.uniform(-3, 4, n), np.zeros(n)])
+    c1 = c0 + np.column_stack([rng.uniform(-2, 2, (n, 2)), np.zeros(n)])
+    t0, dt = rng.uniform(-np.pi, np.pi, n), rng.uniform(-1.0, 1.0, n)
+    g0, dg = np.radians(rng.uniform(-6, 14, n)), np.radians(rng.uniform(-10, 10, n))
+    start = collide_obstacles(body, obstacles, quaternion_matrix(q0), c0, t0, g0)
+    known = np.zeros((n, len(obstacles)), dtype=bool)
+    known[start.pose, start.obstacle] = True
+    assert 5 <= known.sum() < n, "some steps should start touching an obstacle, not all"
+    every = obstacles_along(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg)
+    spared = obstacles_along(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg, known=known)
+    found = {(int(k), int(o), int(p)): s for k, o, p, s in zip(every.step, every.obstacle, every.part, every.s)}
+    kept = {(int(k), int(o), int(p)): s for k, o, p, s in zip(spared.step, spared.obstacle, spared.part, spared.s)}
+    for k, o in zip(*np.nonzero(known)):
+        # the walk finds the contact there, at the step's start (within a leaf)
+        first = min((s for (kk, oo, _), s in found.items() if (kk, oo) == (k, o)), default=None)
+        assert first is not None and first <= 1e-3, (k, o, first)
+        assert not any((kk, oo) == (k, o) for kk, oo, _ in kept)
+    assert kept == {key: s for key, s in found.items() if not known[key[0], key[1]]}

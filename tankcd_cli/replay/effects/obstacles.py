@@ -84,9 +84,13 @@ class Obstacles(Effect):
         gun0 = np.radians(iv.gun0[i] + f0[use] * iv.dgun[i])
         dturret = np.radians((f1[use] - f0[use]) * iv.dturret[i])
         dgun = np.radians((f1[use] - f0[use]) * iv.dgun[i])
+        # a segment that starts touching an obstacle touched it, and a contact with it there continues
+        # (no event): the sweep, which would find it at the start, is spared for that pair
+        start_touch = touch0[use]
         swept = obstacles_along(body, obstacles, segments["q0"][use], segments["c0"][use], segments["q1"][use],
-                                segments["c1"][use], turret0, dturret, gun0, dgun)
+                                segments["c1"][use], turret0, dturret, gun0, dgun, known=start_touch)
         touched = np.zeros((len(seg_iv), k), dtype=bool)
+        touched[use] = start_touch
         touched[use[swept.step], swept.obstacle] = True
         # a segment continues the one before it where that one ends at its start: within an interval,
         # or from the last of the interval before when it ends at this interval's first row
