@@ -158,13 +158,16 @@ def dem_walk(path, rows, x0, y0, size, margin=15.0, seed=5):
 def once(args, checkout=None):
     """One fresh process (of tankcd in ``checkout``, else this one's): seconds, peak resident
     memory (MB) and its --summary."""
-    env = None
+    env = cwd = None
     if checkout:
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join([checkout, os.environ.get("PYTHONPATH", "")])}
+        # `python -m` puts the working directory first on sys.path: run in the checkout, or a run from
+        # this repository's root would import this tankcd_cli, not the checkout's (the paths are absolute)
+        cwd = os.path.abspath(checkout)
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([cwd, os.environ.get("PYTHONPATH", "")])}
     with tempfile.TemporaryFile("w+") as err:
         s = time.perf_counter()
         proc = subprocess.Popen([sys.executable, "-m", "tankcd_cli", *args, "--summary"], stdout=subprocess.DEVNULL,
-                                stderr=err, env=env)
+                                stderr=err, env=env, cwd=cwd)
         _, status, usage = os.wait4(proc.pid, 0)
         seconds = time.perf_counter() - s
         proc.returncode = os.waitstatus_to_exitcode(status)
