@@ -97,7 +97,7 @@ class VehicleContacts:
         self.continuous = continuous
         self.window = WINDOW if window is None else window
         self.horizon = HORIZON if horizon is None else horizon
-        self.buffer = []  # pieces (kind index, Segments sorted by t0, their start buckets): ``_piece``
+        self.buffer = []  # pieces (kind index, Segments sorted by start bucket, their buckets): ``_piece``
         self.names: tuple = ()
         self.last_t = np.zeros(0)  # each entity code's last row time
         self.done_k = None  # the windows before window done_k (index on the grid k * window) are processed
@@ -194,8 +194,11 @@ class VehicleContacts:
         while self.buffer:
             # each piece's start buckets are sorted: its first is its least, and the first above k is found by search
             k = max(self.done_k, min(int(b[0]) for _, _, b in self.buffer))
-            later = [int(b[i]) for _, _, b in self.buffer for i in [int(np.searchsorted(b, k, side="right"))]
-                     if i < len(b)]
+            later = []
+            for _, _, bucket in self.buffer:
+                i = int(np.searchsorted(bucket, k, side="right"))
+                if i < len(bucket):
+                    later.append(int(bucket[i]))
             if later:
                 m = min(later)
                 if mark is not None and m * self.window > mark:
@@ -263,31 +266,49 @@ class VehicleContacts:
 
     # -- one window ----------------------------------------------------------------------------
     def _piece(self, kind: int, segments: Segments) -> tuple:
-        """A piece of the buffer: a kind's segments sorted by their start (stable), and their start
-        buckets floor(t0 / window), so that a window reads only each piece's head (``_window``)."""
-        if len(segments) > 1 and not (np.diff(segments.t0) >= 0).all():
-            segments = segments.take(np.argsort(segments.t0, kind="stable"))
-        return kind, segments, np.floor(segments.t0 / self.window).astype(np.int64)
+        """A piece of the buffer: a kind's segments sorted by their start bucket floor(t0 / window)
+        (stable: within a bucket each vehicle's segments stay together, in time order), and the
+        buckets, so that a window reads only each piece's head (``_window``)."""
+        bucket = np.floor(segments.t0 / self.window).astype(np.int64)
+        if len(bucket) > 1 and not (np.diff(bucket) >= 0).all():
+            offset = bucket - bucket.min()
+            # a chunk spans few windows: a 16-bit key sorts by radix, in linear time
+            key = offset.astype(np.int16) if offset.max() < np.iinfo(np.int16).max else offset
+            order = np.argsort(key, kind="stable")
+            segments, bucket = segments.take(order), bucket[order]
+        return kind, segments, bucket
 
     def _window(self, w0: float, w1: float, last: bool = False) -> list:
         """Every contact that begins in [w0, w1) (its end included at the last window)."""
         if not self.buffer:
             return []
         # only segments beginning before w1 (at w1 too, at the last window) can be in the window: each
-        # piece's head, by its sorted starts. The rest of a piece waits untouched (a view), and of the
-        # head, what reaches past w1 is kept: the later windows still need it
+        # piece's head. Division rounds monotonically, so a bucket below floor(w1 / window) holds only
+        # starts before w1 and one above it only starts after w1; that bucket's own segments are
+        # compared with w1. The rest of a piece waits untouched (a view), and of the head, what reaches
+        # past w1 is kept: the later windows still need it
+        edge = int(np.floor(w1 / self.window))
         kinds, parts, pieces, heads = [], [], [], {}
         for k, piece, bucket in self.buffer:
-            p = int(np.searchsorted(piece.t0, w1, side="right" if last else "left"))
-            if p < len(piece):
+            p0, p1 = int(np.searchsorted(bucket, edge, "left")), int(np.searchsorted(bucket, edge, "right"))
+            t0 = piece.t0[p0:p1]
+            begun = t0 <= w1 if last else t0 < w1
+            if begun.all() or not begun.any():
+                p = p1 if begun.all() else p0
+                head = piece.take(slice(0, p))
                 rest, rest_bucket = piece.take(slice(p, None)), bucket[p:]
+            else:  # some of the edge bucket's segments begin in the window, some after it (w1 off the grid)
+                inside_edge = p0 + np.flatnonzero(begun)
+                head = piece.take(np.r_[np.arange(p0), inside_edge])
+                after = np.r_[p0 + np.flatnonzero(~begun), np.arange(p1, len(piece))]
+                rest, rest_bucket = piece.take(after), bucket[after]
+            if len(rest):
                 base = rest.t0.base
                 if base is not None and 2 * len(rest) < base.size:  # a view holding a chunk twice its size: copied
                     rest, rest_bucket = rest.take(np.arange(len(rest))), rest_bucket.copy()
                 pieces.append((k, rest, rest_bucket))
-            if p == 0:
+            if len(head) == 0:
                 continue
-            head = piece.take(slice(0, p))
             inside = np.flatnonzero(head.t1 >= w0)
             parts.append(head.take(inside))
             kinds.append(np.full(len(inside), k, dtype=np.int64))

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import example, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import write_asc
@@ -723,3 +723,66 @@ def test_a_segments_broad_phase_box_holds_every_point_of_its_vehicle_throughout(
     ahead = group_spheres(body, q0, c0, q0, np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
     lo, hi = _sphere_boxes(ahead, c0, c0)
     assert (hi - lo)[:, :2].min(axis=1).max() < 2 * body.radius
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), window=st.sampled_from([2.0, 0.7, 3.0, 1.9]),
+       ends=st.lists(st.floats(0.05, 3.0), min_size=1, max_size=12))
+def test_a_window_reads_exactly_the_segments_the_rule_says_and_keeps_the_rest(monkeypatch, seed, window, ends):
+    """Each window's segments are those with t0 < w1 (t0 <= w1 at the last) and t1 >= w0 among the ones
+    added and not yet left behind (t1 < an earlier w1), whatever the chunks' order inside and wherever
+    w1 falls against the buffer's buckets (on their grid or off it, with starts on a window's edge).
+    The patches are the same for every example (they only record), so the shared fixture is safe."""
+    from tankcd_cli.replay.between_rows import Segments
+    from tankcd_cli.replay.effects import vehicles
+
+    rng = np.random.default_rng(seed)
+    seen = []
+
+    def boxes(spheres, c0, c1):  # the window's segments, by the id carried in c0
+        seen.append(np.sort(c0[:, 0].astype(np.int64)))
+        return np.zeros((len(c0), 3)), np.zeros((len(c0), 3))
+
+    monkeypatch.setattr(vehicles, "_sphere_boxes", boxes)
+    monkeypatch.setattr(vehicles, "candidate_pairs", lambda *a, **k: np.zeros((0, 2), np.int64))
+    monkeypatch.setattr(vehicles.VehicleContacts, "_spheres", lambda self, s, k: None)
+
+    class Kind:
+        index = 0
+
+    contacts = vehicles.VehicleContacts(None, window=window)
+    n, total = 0, []
+    cuts = np.cumsum(ends)
+    for c in range(4):  # chunks, each in vehicle order (not time order), some starts on the window grid
+        m = int(rng.integers(1, 60))
+        t0 = rng.uniform(0, cuts[-1] + 1, m)
+        on_grid = rng.random(m) < 0.2
+        t0[on_grid] = window * rng.integers(0, int(cuts[-1] / window) + 2, on_grid.sum())
+        t1 = t0 + rng.choice([0.0, 0.1, 0.5, 2.5], m)
+        ids = np.arange(n, n + m)
+        z = np.zeros(m)
+        segs = Segments(np.zeros(m, np.int64), ids, t0, t1, np.zeros((m, 4)), np.column_stack([ids, z, z]),
+                        np.zeros((m, 4)), np.zeros((m, 3)), z, z, z, z, np.zeros(m, bool))
+        contacts.add(Kind, segs.take(rng.permutation(m)))
+        total.append((ids, t0, t1))
+        n += m
+    ids = np.concatenate([t[0] for t in total])
+    t0 = np.concatenate([t[1] for t in total])
+    t1 = np.concatenate([t[2] for t in total])
+    alive = np.ones(n, dtype=bool)
+    w0 = 0.0
+    for i, w1 in enumerate(cuts):
+        last = i == len(cuts) - 1
+        seen.clear()
+        contacts.close_window(w0, w1, last)
+        want = np.flatnonzero(alive & (t1 >= w0) & ((t0 < w1) | (last & (t0 <= w1))))
+        got = seen[0] if seen else np.zeros(0, np.int64)
+        if len(want) >= 2:
+            assert got.tolist() == np.sort(ids[want]).tolist()
+        else:
+            assert len(got) == 0
+        alive &= t1 >= w1
+        buffered = np.sort(np.concatenate([p.c0[:, 0] for _, p, _ in contacts.buffer]).astype(np.int64)) \
+            if contacts.buffer else np.zeros(0, np.int64)
+        assert buffered.tolist() == np.sort(ids[alive]).tolist()
+        w0 = w1
