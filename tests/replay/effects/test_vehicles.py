@@ -753,7 +753,7 @@ def test_a_window_reads_exactly_the_segments_the_rule_says_and_keeps_the_rest(mo
     contacts = vehicles.VehicleContacts(None, window=window)
     n, total = 0, []
     cuts = np.cumsum(ends)
-    for c in range(4):  # chunks, each in vehicle order (not time order), some starts on the window grid
+    for _ in range(4):  # chunks, each in no time order, some starts on the window grid
         m = int(rng.integers(1, 60))
         t0 = rng.uniform(0, cuts[-1] + 1, m)
         on_grid = rng.random(m) < 0.2
