@@ -89,17 +89,28 @@ def _dense(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg, samples):
     return out
 
 
+def _slab_and_beam():
+    return [_obstacle([3.0, -1.0, 0.0], [3.3, 1.0, 2.5], "slab"), _obstacle([-1.0, 3.5, 1.2], [1.0, 4.0, 3.0], "beam")]
+
+
+def _random_steps(rng, n, turn_deg, x, y, move, swing):
+    """n random articulated rigid steps: yaw turning by up to ``turn_deg``, the origin starting in the
+    box ``x`` by ``y`` (m) and moving up to ``move`` m each way, the turret swinging up to ``swing`` rad,
+    the gun nodding up to 10 deg: (q0, c0, q1, c1, turret0, dturret, gun0, dgun)."""
+    yaw0 = rng.uniform(-180, 180, n)
+    q0, q1 = _q(yaw0), _q(yaw0 + rng.uniform(-turn_deg, turn_deg, n))
+    c0 = np.column_stack([rng.uniform(*x, n), rng.uniform(*y, n), np.zeros(n)])
+    c1 = c0 + np.column_stack([rng.uniform(-move, move, (n, 2)), np.zeros(n)])
+    t0, dt = rng.uniform(-np.pi, np.pi, n), rng.uniform(-swing, swing, n)
+    g0, dg = np.radians(rng.uniform(-6, 14, n)), np.radians(rng.uniform(-10, 10, n))
+    return q0, c0, q1, c1, t0, dt, g0, dg
+
+
 def test_against_the_dense_oracle_on_random_articulated_steps():
     rng = np.random.default_rng(4)
     body = _body()
-    obstacles = [_obstacle([3.0, -1.0, 0.0], [3.3, 1.0, 2.5], "slab"), _obstacle([-1.0, 3.5, 1.2], [1.0, 4.0, 3.0], "beam")]
-    n = 60
-    yaw0 = rng.uniform(-180, 180, n)
-    q0, q1 = _q(yaw0), _q(yaw0 + rng.uniform(-60, 60, n))
-    c0 = np.column_stack([rng.uniform(-6, 0, n), rng.uniform(-4, 4, n), np.zeros(n)])
-    c1 = c0 + np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
-    t0, dt = rng.uniform(-np.pi, np.pi, n), rng.uniform(-1.5, 1.5, n)
-    g0, dg = np.radians(rng.uniform(-6, 14, n)), np.radians(rng.uniform(-10, 10, n))
+    obstacles = _slab_and_beam()
+    q0, c0, q1, c1, t0, dt, g0, dg = _random_steps(rng, 60, 60, (-6, 0), (-4, 4), 3, 1.5)
     got = obstacles_along(body, obstacles, q0, c0, q1, c1, t0, dt, g0, dg)
     found = {(int(k), int(o), int(p)): s for k, o, p, s in zip(got.step, got.obstacle, got.part, got.s)}
     assert len(found) == len(got.step)  # one row per (step, obstacle, part)
@@ -159,14 +170,9 @@ def test_pairs_known_to_touch_at_the_start_are_spared_the_walk_and_the_rest_are_
     touched, loses nothing), and every other pair's first contacts are the same as without it."""
     rng = np.random.default_rng(11)
     body = _body()
-    obstacles = [_obstacle([3.0, -1.0, 0.0], [3.3, 1.0, 2.5], "slab"), _obstacle([-1.0, 3.5, 1.2], [1.0, 4.0, 3.0], "beam")]
+    obstacles = _slab_and_beam()
     n = 80
-    yaw0 = rng.uniform(-180, 180, n)
-    q0, q1 = _q(yaw0), _q(yaw0 + rng.uniform(-30, 30, n))
-    c0 = np.column_stack([rng.uniform(-4, 2, n), rng.uniform(-3, 4, n), np.zeros(n)])
-    c1 = c0 + np.column_stack([rng.uniform(-2, 2, (n, 2)), np.zeros(n)])
-    t0, dt = rng.uniform(-np.pi, np.pi, n), rng.uniform(-1.0, 1.0, n)
-    g0, dg = np.radians(rng.uniform(-6, 14, n)), np.radians(rng.uniform(-10, 10, n))
+    q0, c0, q1, c1, t0, dt, g0, dg = _random_steps(rng, n, 30, (-4, 2), (-3, 4), 2, 1.0)
     start = collide_obstacles(body, obstacles, quaternion_matrix(q0), c0, t0, g0)
     known = np.zeros((n, len(obstacles)), dtype=bool)
     known[start.pose, start.obstacle] = True
