@@ -59,14 +59,12 @@ class Internal(Effect):
         """The gun along each interval's angle path, for intervals whose first row is clear of the drums."""
         rows, iv, a = block.rows, block.iv, block.a
         moving = np.flatnonzero(((iv.dturret != 0) | (iv.dgun != 0)) & ~rows.contacts[self.name][a])
-        if len(moving):
-            moving = moving[_unproven(run, kind.vehicle, np.radians(iv.turret0[moving]), np.radians(iv.dturret[moving]),
-                                      np.radians(iv.gun0[moving]), np.radians(iv.dgun[moving]))]
+        paths = [np.radians(v[moving]) for v in (iv.turret0, iv.dturret, iv.gun0, iv.dgun)]
+        test = _unproven(run, kind.vehicle, *paths)
+        moving, paths = moving[test], [p[test] for p in paths]
         if len(moving) == 0:
             return [], None
-        found, s, drum = first_gun_contacts(kind.vehicle, np.radians(iv.turret0[moving]),
-                                            np.radians(iv.dturret[moving]), np.radians(iv.gun0[moving]),
-                                            np.radians(iv.dgun[moving]))
+        found, s, drum = first_gun_contacts(kind.vehicle, *paths)
         events = []
         for j in np.flatnonzero(found & (s > 0)):
             k = moving[j]
