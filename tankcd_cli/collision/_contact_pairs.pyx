@@ -1,6 +1,7 @@
 # cython: language_level=3
 """The triangle pairs of first contacts between two placed bodies: for each contact, every pair of
-triangles whose boxes come within ``reach`` of each other, after shrinking each side to the box of
+triangles whose boxes come within ``reach`` of each other (and, asked, neither of which lies wholly
+beyond the other's plane by more than ``reach``), after shrinking each side to the box of
 the other's near triangles (``collision.vehicles.contact_centres``; its numpy twin is
 ``collision.contact_pairs.near_triangle_pairs_numpy``, which the tests compare pair for pair)."""
 
@@ -56,11 +57,55 @@ cdef void _boxes(const double[:, :, :] T, double[:, :] lo, double[:, :] hi) noex
                     hi[j, c] = T[j, v, c]
 
 
-def near_triangle_pairs(const double[:, :, :, :] A, const double[:, :, :, :] B, double reach, int rounds=3):
+cdef void _normals(const double[:, :, :] T, double[:, :] n, unsigned char[:] ok) noexcept nogil:
+    """Each triangle's unit normal (T (m, 3, 3) in; n (m, 3) and ok (m,), a nonzero area, out), as
+    numpy's cross product and norm give it (the same roundings)."""
+    cdef Py_ssize_t j
+    cdef double ux, uy, uz, vx, vy, vz, x, y, z, size
+    for j in range(T.shape[0]):
+        ux = T[j, 1, 0] - T[j, 0, 0]
+        uy = T[j, 1, 1] - T[j, 0, 1]
+        uz = T[j, 1, 2] - T[j, 0, 2]
+        vx = T[j, 2, 0] - T[j, 0, 0]
+        vy = T[j, 2, 1] - T[j, 0, 1]
+        vz = T[j, 2, 2] - T[j, 0, 2]
+        x = uy * vz - uz * vy
+        y = uz * vx - ux * vz
+        z = ux * vy - uy * vx
+        size = sqrt(x * x + y * y + z * z)
+        ok[j] = size > 0
+        if ok[j]:
+            x, y, z = x / size, y / size, z / size
+        n[j, 0] = x
+        n[j, 1] = y
+        n[j, 2] = z
+
+
+cdef inline bint _beyond(const double[:, :, :] X, Py_ssize_t i, const double[:, :] n, const unsigned char[:] ok,
+                         const double[:, :, :] Y, Py_ssize_t j, double reach) noexcept nogil:
+    """Triangle Y[j] lies wholly farther than ``reach`` beyond triangle X[i]'s plane, on one side
+    (a lower bound of their distance; never for a triangle of no area)."""
+    cdef int v
+    cdef double side
+    cdef bint above = True, below = True
+    if not ok[i]:
+        return False
+    for v in range(3):
+        side = ((Y[j, v, 0] - X[i, 0, 0]) * n[i, 0] + (Y[j, v, 1] - X[i, 0, 1]) * n[i, 1]
+                + (Y[j, v, 2] - X[i, 0, 2]) * n[i, 2])
+        above = above and side > reach
+        below = below and side < -reach
+    return above or below
+
+
+def near_triangle_pairs(const double[:, :, :, :] A, const double[:, :, :, :] B, double reach, int rounds=3,
+                        bint planes=False):
     """For K contacts, body a's placed triangles A (K, ma, 3, 3) and body b's B (K, mb, 3, 3), m:
     (owner, ia, ib) int64 each, every pair (ia, ib) of contact ``owner`` whose boxes come within
     ``reach`` (m) on every axis, after ``rounds`` rounds of keeping each side's triangles within
-    ``reach`` of the box of the other's kept ones; in contact order, then ia, then ib (np.nonzero's)."""
+    ``reach`` of the box of the other's kept ones; in contact order, then ia, then ib (np.nonzero's).
+    ``planes``: also drop the pairs one of whose triangles lies wholly farther than ``reach`` beyond
+    the other's plane (a lower bound of their distance: they are not within ``reach`` either)."""
     cdef Py_ssize_t K = A.shape[0], ma = A.shape[1], mb = B.shape[1]
     cdef Py_ssize_t i, k, j, na, nb, ka, kb, n_out = 0, cap = 1024
     cdef double box_lo[3]
@@ -73,6 +118,8 @@ def near_triangle_pairs(const double[:, :, :, :] A, const double[:, :, :, :] B, 
     cdef Py_ssize_t[:] near_b = near_b_arr
     cdef double[:, :] alo = np.empty((ma, 3)), ahi = np.empty((ma, 3))
     cdef double[:, :] blo = np.empty((mb, 3)), bhi = np.empty((mb, 3))
+    cdef double[:, :] an = np.empty((ma, 3)), bn = np.empty((mb, 3))
+    cdef unsigned char[:] a_ok = np.empty(ma, np.uint8), b_ok = np.empty(mb, np.uint8)
     out_arr = np.empty((cap, 3), dtype=np.int64)
     cdef cnp.int64_t[:, :] out = out_arr
     for i in range(K):
@@ -98,6 +145,9 @@ def near_triangle_pairs(const double[:, :, :, :] A, const double[:, :, :, :] B, 
                     near_b[k] = near_b[j]
                     k += 1
             nb = k
+        if planes:
+            _normals(A[i], an, a_ok)
+            _normals(B[i], bn, b_ok)
         for ka in range(na):
             for kb in range(nb):
                 ok = True
@@ -107,6 +157,9 @@ def near_triangle_pairs(const double[:, :, :, :] A, const double[:, :, :, :] B, 
                         ok = False
                         break
                 if not ok:
+                    continue
+                if planes and (_beyond(A[i], near_a[ka], an, a_ok, B[i], near_b[kb], reach)
+                               or _beyond(B[i], near_b[kb], bn, b_ok, A[i], near_a[ka], reach)):
                     continue
                 if n_out == cap:
                     cap *= 2

@@ -9,11 +9,11 @@ import numpy as np
 
 from tankcd_cli.collision._contact_pairs import near_triangle_pairs, triangle_pair_features
 
-__all__ = ["near_triangle_pairs", "near_triangle_pairs_numpy", "triangle_pair_features",
+__all__ = ["near_triangle_pairs", "near_triangle_pairs_numpy", "plane_separated", "triangle_pair_features",
            "triangle_pair_features_numpy"]
 
 
-def near_triangle_pairs_numpy(A: np.ndarray, B: np.ndarray, reach: float, rounds: int = 3):
+def near_triangle_pairs_numpy(A: np.ndarray, B: np.ndarray, reach: float, rounds: int = 3, planes: bool = False):
     """``near_triangle_pairs`` in numpy (placed triangles (K, m, 3, 3) in; owner, ia, ib out): the
     compiled kernel's twin, which the tests hold it to."""
     alo, ahi, blo, bhi = A.min(axis=2), A.max(axis=2), B.min(axis=2), B.max(axis=2)
@@ -34,7 +34,26 @@ def near_triangle_pairs_numpy(A: np.ndarray, B: np.ndarray, reach: float, rounds
     if not owners:
         z = np.zeros(0, dtype=np.int64)
         return z, z.copy(), z.copy()
-    return np.concatenate(owners), np.concatenate(ias), np.concatenate(ibs)
+    owner, ia, ib = np.concatenate(owners), np.concatenate(ias), np.concatenate(ibs)
+    if planes:
+        keep = ~plane_separated(A[owner, ia], B[owner, ib], reach)
+        owner, ia, ib = owner[keep], ia[keep], ib[keep]
+    return owner, ia, ib
+
+
+def plane_separated(P: np.ndarray, Q: np.ndarray, reach: float) -> np.ndarray:
+    """(J,) bool: the pairs (P[j], Q[j]) (J, 3, 3) one of whose triangles lies wholly farther than
+    ``reach`` beyond the other's plane, on one side (a lower bound of their distance; a triangle of
+    no area has no plane)."""
+    apart = np.zeros(len(P), bool)
+    for X, Y in ((P, Q), (Q, P)):
+        n = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+        size = np.linalg.norm(n, axis=1)
+        ok = size > 0
+        n[ok] /= size[ok, None]
+        side = np.einsum("jvi,ji->jv", Y - X[:, :1], n)
+        apart |= ok & ((side > reach).all(axis=1) | (side < -reach).all(axis=1))
+    return apart
 
 
 def _dot(x, y):

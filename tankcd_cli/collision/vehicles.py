@@ -146,22 +146,53 @@ def contact_centres(body_a: VehicleBody, motion_a: SpanMotion, body_b: VehicleBo
     out = np.array(witness, dtype=np.float64, copy=True)
     if len(span) == 0:
         return out
-    placed = []
+    reach = 2 * CONTACT_BAND + 1e-3  # the sweep's pair lies within 1 mm; the band's pairs within 1 mm of it
+    s = np.asarray(s, dtype=np.float64)
+    sides = []
     for body, motion in ((body_a, motion_a), (body_b, motion_b)):
-        each = []
+        groups = []
         for g in body.groups:
             rows, joints = motion.take(span).rows(body, g)
-            R, t = chain_placements(rows, joints, np.asarray(s, dtype=np.float64))
-            each.append(np.matmul(g.tree.triangles.reshape(1, -1, 3), np.transpose(R, (0, 2, 1))) + t[:, None, :])
-        placed.append(np.concatenate(each, axis=1).reshape(len(span), -1, 3, 3))  # (K, m, 3, 3) world, at s
-    reach = 2 * CONTACT_BAND + 1e-3  # the sweep's pair lies within 1 mm; the band's pairs within 1 mm of it
-    A, B = placed
-    owner, ia, ib = near_triangle_pairs(A, B, reach)
-    P, Q = A[owner, ia], B[owner, ib]
-    keep = _plane_separated(P, Q, reach)
-    if not keep.any():
+            R, t = chain_placements(rows, joints, s)
+            centre = 0.5 * (g.tree.lo[0, :3] + g.tree.hi[0, :3])
+            extent = 0.5 * (g.tree.hi[0, :3] - g.tree.lo[0, :3])
+            mid = np.einsum("nij,j->ni", R, centre) + t
+            half = np.einsum("nij,j->ni", np.abs(R), extent)
+            groups.append((g, R, t, mid - half, mid + half))  # the group's world box at s (K, 3) each
+        sides.append(groups)
+    # only groups whose boxes come within reach can hold a near pair (a triangle's box lies in its
+    # group's; 1 um more than reach for the two computations' roundings): the same pairs, fewer placed
+    slack = reach + 1e-6
+    near = {(x, y): np.flatnonzero(((ga[3] <= gb[4] + slack) & (gb[3] <= ga[4] + slack)).all(axis=1))
+            for x, ga in enumerate(sides[0]) for y, gb in enumerate(sides[1])}
+    placed = [{}, {}]
+    for side, groups in enumerate(sides):
+        for x, (g, R, t, _, _) in enumerate(groups):
+            want = np.zeros(len(span), dtype=bool)
+            for key, idx in near.items():
+                if key[side] == x:
+                    want[idx] = True
+            use = np.flatnonzero(want)
+            if len(use):
+                pos = np.cumsum(want) - 1  # a span's row among those placed
+                tri = np.matmul(g.tree.triangles.reshape(1, -1, 3), np.transpose(R[use], (0, 2, 1))) + t[use, None, :]
+                placed[side][x] = (use, pos, tri.reshape(len(use), -1, 3, 3))  # world, at s
+    owners, Ps, Qs = [], [], []
+    for (x, y), idx in near.items():
+        if len(idx) == 0:
+            continue
+        use_a, pos_a, A = placed[0][x]
+        use_b, pos_b, B = placed[1][y]
+        A = A if len(use_a) == len(idx) else A[pos_a[idx]]
+        B = B if len(use_b) == len(idx) else B[pos_b[idx]]
+        o, ia, ib = near_triangle_pairs(A, B, reach, planes=True)  # pairs apart by a plane cannot be within reach
+        owners.append(idx[o])
+        Ps.append(A[o, ia])
+        Qs.append(B[o, ib])
+    owner = np.concatenate(owners) if owners else np.zeros(0, dtype=np.int64)
+    if len(owner) == 0:
         return out
-    owner, P, Q = owner[keep], P[keep], Q[keep]
+    P, Q = np.concatenate(Ps), np.concatenate(Qs)
     # every hit's pairs in one call
     d, cp, cq = triangle_pair_features(P, Q)
     d = np.where(np.isfinite(d), d, np.inf)
@@ -185,21 +216,6 @@ def _moves(motion: SpanMotion, span: np.ndarray) -> np.ndarray:
     """(K,) bool: the motion over these spans is not the identity (an instant's placement)."""
     return ((motion.c0[span] != motion.c1[span]).any(axis=1) | (motion.q0[span] != motion.q1[span]).any(axis=1)
             | (motion.dturret[span] != 0) | (motion.dgun[span] != 0))
-
-
-def _plane_separated(P: np.ndarray, Q: np.ndarray, reach: float) -> np.ndarray:
-    """(J,) bool: the pairs (P[j], Q[j]) (J, 3, 3) that may come within ``reach``: those whose other
-    triangle lies farther than ``reach`` beyond either one's plane are dropped (a lower bound of their
-    distance)."""
-    keep = np.ones(len(P), bool)
-    for X, Y in ((P, Q), (Q, P)):
-        n = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
-        size = np.linalg.norm(n, axis=1)
-        ok = size > 0
-        n[ok] /= size[ok, None]
-        side = np.einsum("jvi,ji->jv", Y - X[:, :1], n)
-        keep &= ~ok | ~((side > reach).all(axis=1) | (side < -reach).all(axis=1))
-    return keep
 
 
 def _closing_speed(body_a, motion_a, body_b, motion_b, span, s, part_a, part_b, point) -> np.ndarray:

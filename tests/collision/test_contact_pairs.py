@@ -5,9 +5,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tankcd_cli.collision.contact_pairs import (near_triangle_pairs, near_triangle_pairs_numpy, triangle_pair_features,
-                                                triangle_pair_features_numpy)
-from tankcd_cli.geometry.triangles import tri_tri_brute
+from tankcd_cli.collision.contact_pairs import (near_triangle_pairs, near_triangle_pairs_numpy, plane_separated,
+                                                triangle_pair_features, triangle_pair_features_numpy)
+from tankcd_cli.geometry.triangles import tri_distance, tri_tri_brute
 from tankcd_cli.vehicle import vehicle_preset
 from tankcd_cli.vehicle_mesh import vehicle_mesh
 
@@ -33,12 +33,33 @@ def test_the_compiled_pair_search_of_a_contact_gives_its_numpy_twins_pairs_in_it
             [3.46 + gap + rng.uniform(-2, 2, k), rng.uniform(-4, 4, k), np.zeros(k)])[:, None, None, :]
         if case == 5:  # a box edge exactly at reach: b's lowest x equal to a's highest x plus reach
             B = A + np.array([A[..., 0].max() - A[..., 0].min() + reach, 0, 0])
-        got = near_triangle_pairs(np.ascontiguousarray(A), np.ascontiguousarray(B), reach)
-        want = near_triangle_pairs_numpy(A, B, reach)
-        for g, w in zip(got, want):
-            assert g.dtype == np.int64 and np.array_equal(g, w)
+        for planes in (False, True):
+            got = near_triangle_pairs(np.ascontiguousarray(A), np.ascontiguousarray(B), reach, planes=planes)
+            want = near_triangle_pairs_numpy(A, B, reach, planes=planes)
+            for g, w in zip(got, want):
+                assert g.dtype == np.int64 and np.array_equal(g, w)
     z = np.zeros((0, 4, 3, 3))
     assert all(len(v) == 0 for v in near_triangle_pairs(z, z, reach))
+
+
+def test_a_pair_apart_by_a_plane_is_farther_than_reach_and_every_closer_pair_is_kept():
+    """The plane test only drops pairs the brute-force distance puts beyond ``reach``: random triangle
+    pairs (the hard ones among them) at random offsets, and the ones it keeps include every pair within
+    ``reach``. With it on, the kernel keeps exactly the box-near pairs the twin's plane test keeps."""
+    rng = np.random.default_rng(5)
+    P, Q = _hard_pairs(rng, 3000)
+    Q = Q + rng.normal(0, 0.01, (len(Q), 1, 3))
+    d = np.array([tri_distance(p, q)[0] for p, q in zip(P, Q)])
+    for reach in (3e-3, 0.02, 0.5):
+        apart = plane_separated(P, Q, reach)
+        assert apart.any() and (d <= reach).any()
+        assert (d[apart] > reach - 1e-9).all()
+    k = 40
+    A, B = P[None, :k], Q[None, :k]
+    for planes in (False, True):
+        got = near_triangle_pairs(np.ascontiguousarray(A), np.ascontiguousarray(B), 0.02, planes=planes)
+        want = near_triangle_pairs_numpy(A, B, 0.02, planes=planes)
+        assert all(np.array_equal(g, w) for g, w in zip(got, want))
 
 
 def _hard_pairs(rng, n):

@@ -159,3 +159,58 @@ def test_the_point_of_a_first_contact_along_a_segment_or_a_face_is_its_centre_wh
     # the fronts' overlap: y from 1.0 - 1.73 to 1.73, z from 0.49 to 2.19: its centre
     assert faces[0, 1] == pytest.approx(0.5, abs=0.1) and faces[0, 2] == pytest.approx(1.34, abs=0.1)
 
+
+
+def _centre_of_all_pairs(body, ma, mb, k, s):
+    """The oracle of a contact's point: every triangle of both bodies placed at fraction s of span k (no
+    group left out), every pair's 15 feature pairs by the numpy twins (no box or plane test; pairs whose
+    bounding spheres are more than 1 cm apart skipped), those within ``CONTACT_BAND`` of the least, each
+    midpoint once (to 1 um): their mean."""
+    from tankcd_cli.collision.contact_pairs import triangle_pair_features_numpy
+    from tankcd_cli.collision.vehicles import CONTACT_BAND
+
+    placed = []
+    for m in (ma, mb):
+        q = quaternion_slerp(m.q0[k:k + 1], m.q1[k:k + 1], np.array([s]))
+        c = m.c0[k:k + 1] + s * (m.c1[k:k + 1] - m.c0[k:k + 1])
+        tris = []
+        for g in body.groups:
+            R, t = group_placements(body, g, quaternion_matrix(q), c, m.turret0[k:k + 1] + s * m.dturret[k:k + 1],
+                                    m.gun0[k:k + 1] + s * m.dgun[k:k + 1])
+            tris.append(g.tree.triangles @ R[0].T + t[0])
+        placed.append(np.concatenate(tris))
+    A, B = placed
+    # only pairs whose bounding spheres (about the centroids) come within 1 cm: a lower bound of the
+    # distance, independent of the search's boxes and planes
+    ca, cb = A.mean(axis=1), B.mean(axis=1)
+    ra, rb = np.linalg.norm(A - ca[:, None], axis=2).max(axis=1), np.linalg.norm(B - cb[:, None], axis=2).max(axis=1)
+    gap = np.linalg.norm(ca[:, None] - cb[None], axis=2) - ra[:, None] - rb[None]
+    ia, ib = np.nonzero(gap <= 0.01)
+    d, cp, cq = triangle_pair_features_numpy(A[ia], B[ib])
+    d = np.where(np.isfinite(d), d, np.inf)
+    keep = d <= d.min() + CONTACT_BAND
+    mids = np.unique(np.round(0.5 * (cp[keep] + cq[keep]), 6), axis=0)
+    return mids.mean(axis=0)
+
+
+def test_the_point_of_a_first_contact_is_the_centre_of_every_pair_within_the_band_of_all_triangles():
+    """Random articulated pairs (turrets and guns turning): each contact's point equals the centre the
+    oracle finds from every triangle pair of the two whole bodies, so the groups and pairs the search
+    leaves out (boxes or planes more than its reach apart) never held a pair within the band."""
+    rng = np.random.default_rng(21)
+    body = _body()
+    n = 24
+    c0a = np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
+    c0b = c0a + np.column_stack([rng.uniform(-10, 10, (n, 2)), np.zeros(n)])
+    a = _motion(c0a, c0a + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
+                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n))
+    b = _motion(c0b, c0b + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
+                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n), 2.0, -6.0)
+    hits = first_vehicle_contacts(body, a, body, b)
+    assert len(hits.span) >= 8
+    parts = set()
+    for h, k in enumerate(hits.span):
+        want = _centre_of_all_pairs(body, a, b, k, hits.s[h])
+        assert np.allclose(hits.point[h], want, atol=1e-5), (k, hits.point[h], want)
+        parts.add((body.part_names[hits.part_a[h]], body.part_names[hits.part_b[h]]))
+    assert len(parts) >= 3  # hulls, turrets and guns among the contacts, not one pair of groups
