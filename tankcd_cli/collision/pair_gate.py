@@ -104,7 +104,12 @@ def _turned(points: np.ndarray, axis: np.ndarray, through: np.ndarray, angle: np
     u = axis / np.linalg.norm(axis)
     v = points - through
     c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-    return v * c + np.cross(u, v) * s + np.outer(v @ u, u) * (1 - c) + through
+    # u x v by its components (np.cross's products and differences, without its axis shuffling)
+    cross = np.empty_like(v)
+    cross[:, 0] = u[1] * v[:, 2] - u[2] * v[:, 1]
+    cross[:, 1] = u[2] * v[:, 0] - u[0] * v[:, 2]
+    cross[:, 2] = u[0] * v[:, 1] - u[1] * v[:, 0]
+    return v * c + cross * s + (v @ u)[:, None] * u * (1 - c) + through
 
 
 def clear_spans(spheres_a: GroupSpheres, a_t0, a_t1, a_c0, a_c1, spheres_b: GroupSpheres, b_t0, b_t1, b_c0,

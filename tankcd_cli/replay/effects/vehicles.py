@@ -451,11 +451,14 @@ def _sphere_boxes(spheres: GroupSpheres, c0: np.ndarray, c1: np.ndarray) -> tupl
     to c1 (``collision.pair_gate``: every point of the group stays in that sphere over the segment).
     Tighter than the origin's two places grown by the body's radius (any articulation, 8.16 m for a
     T-72) wherever the parts lie to one side: two hulls 12 m abreast, turrets forward, do not pair."""
-    r = spheres.radius[:, :, None]
-    start, end = c0[:, None, :] + spheres.offset, c1[:, None, :] + spheres.offset
-    with np.errstate(invalid="ignore"):
-        lo = np.fmin.reduce(np.minimum(start, end) - r, axis=1)  # an absent group's NaN never decides
-        hi = np.fmax.reduce(np.maximum(start, end) + r, axis=1)
+    lo = hi = None
+    for g in range(spheres.offset.shape[1]):  # three groups: pairwise, not a reduction over a short axis
+        r = spheres.radius[:, g, None]
+        start, end = c0 + spheres.offset[:, g], c1 + spheres.offset[:, g]
+        with np.errstate(invalid="ignore"):
+            low, high = np.minimum(start, end) - r, np.maximum(start, end) + r
+        # an absent group's NaN never decides
+        lo, hi = (low, high) if lo is None else (np.fmin(lo, low), np.fmax(hi, high))
     return lo, hi
 
 
