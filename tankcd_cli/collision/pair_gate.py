@@ -112,6 +112,9 @@ def _turned(points: np.ndarray, axis: np.ndarray, through: np.ndarray, angle: np
     return v * c + cross * s + (v @ u)[:, None] * u * (1 - c) + through
 
 
+CLEAR_BLOCK = 2048  # spans a block of ``clear_spans``: its (B, 3, 3) arrays stay in cache
+
+
 def clear_spans(spheres_a: GroupSpheres, a_t0, a_t1, a_c0, a_c1, spheres_b: GroupSpheres, b_t0, b_t1, b_c0,
                 b_c1, u0, u1) -> np.ndarray:
     """(P,) bool: the common span [u0, u1] (P,) s of segment a and segment b is proven free of any
@@ -128,28 +131,27 @@ def clear_spans(spheres_a: GroupSpheres, a_t0, a_t1, a_c0, a_c1, spheres_b: Grou
 
     pa, va = origin(a_t0, a_t1, np.asarray(a_c0, float), np.asarray(a_c1, float))
     pb, vb = origin(b_t0, b_t1, np.asarray(b_c0, float), np.asarray(b_c1, float))
-    p0 = (pa - pb).T  # (3, P): the origins' difference at u0, by coordinate
-    vel = (va - vb).T
-    vv = (vel * vel).sum(axis=0)
+    p0 = pa - pb  # (P, 3): the origins' difference at u0
+    vel = va - vb
+    vv = (vel[:, 0] * vel[:, 0] + vel[:, 1] * vel[:, 1]) + vel[:, 2] * vel[:, 2]
     moving = vv > 0
     inv = np.where(moving, 1.0 / np.where(moving, vv, 1.0), 0.0)
     span = np.maximum(u1 - u0, 0.0)
-    off_a = np.moveaxis(spheres_a.offset, 0, -1)  # (3 groups, 3, P)
-    off_b = np.moveaxis(spheres_b.offset, 0, -1)
     clear = np.ones(len(u0), dtype=bool)
-    for ga in range(SLOTS):
-        ra = spheres_a.radius[:, ga]
-        for gb in range(SLOTS):
-            reach = ra + spheres_b.radius[:, gb] + MARGIN
-            present = ~np.isnan(reach)  # an absent group (NaN radius) never decides
-            if not present.any():
-                continue
-            d0 = p0 + off_a[ga] - off_b[gb]
-            # the least |d0 + tau vel| over tau in [0, span]: the convex quadratic's minimiser, clipped
-            tau = np.clip(-(d0 * vel).sum(axis=0) * inv, 0.0, span)
-            d = d0 + tau * vel
-            least2 = (d * d).sum(axis=0)
-            clear &= (least2 > np.where(present, reach, 0.0) ** 2) | ~present
+    for k in range(0, len(u0), CLEAR_BLOCK):  # blocks: every group pair at once, the block in cache
+        b = slice(k, k + CLEAR_BLOCK)
+        # (B, 3 of a's groups, 3 of b's), a coordinate at a time
+        d0 = [(p0[b, c, None, None] + spheres_a.offset[b, :, None, c]) - spheres_b.offset[b, None, :, c]
+              for c in range(3)]
+        v = [vel[b, c, None, None] for c in range(3)]
+        # the least |d0 + tau vel| over tau in [0, span]: the convex quadratic's minimiser, clipped
+        tau = np.clip(-((d0[0] * v[0] + d0[1] * v[1]) + d0[2] * v[2]) * inv[b, None, None], 0.0,
+                      span[b, None, None])
+        d = [d0[c] + tau * v[c] for c in range(3)]
+        least2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]
+        reach = (spheres_a.radius[b, :, None] + spheres_b.radius[b, None, :]) + MARGIN
+        present = ~np.isnan(reach)  # an absent group (NaN radius) never decides
+        clear[b] = ((least2 > np.where(present, reach, 0.0) ** 2) | ~present).all(axis=(1, 2))
     return clear
 
 
