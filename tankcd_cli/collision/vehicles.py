@@ -69,12 +69,15 @@ class VehicleHits:
 
 
 def first_vehicle_contacts(body_a: VehicleBody, motion_a: SpanMotion, body_b: VehicleBody,
-                           motion_b: SpanMotion) -> VehicleHits:
+                           motion_b: SpanMotion, describe: bool = True) -> VehicleHits:
     """The earliest contact in each span between vehicle a and vehicle b, both moving.
 
     Broad phase per group pair: each group's box at the span's middle grown by half its motion
     bound holds it throughout the span, so a pair of groups whose grown boxes miss costs that
-    test alone; the rest take the sweep with both bodies moving."""
+    test alone; the rest take the sweep with both bodies moving. ``describe`` False: which spans
+    hold a contact, when, and the parts the sweep met, without the contact's point (the sweep's
+    own pair's, not ``contact_centres``') or its closing speed (zeros): for a caller that asks
+    whether the vehicles touch."""
     m = len(motion_a)
     best_s = np.full(m, np.inf)
     part_a = np.full(m, -1, dtype=np.int64)
@@ -115,6 +118,8 @@ def first_vehicle_contacts(body_a: VehicleBody, motion_a: SpanMotion, body_b: Ve
             part_b[k] = g2.parts[got.pairs[h, 1]]
             point[k] = got.points[h]
     span = np.flatnonzero(np.isfinite(best_s))
+    if not describe:
+        return VehicleHits(span, best_s[span], part_a[span], part_b[span], point[span], np.zeros(len(span)), queries)
     moving = span[_moves(motion_a, span) | _moves(motion_b, span)]  # an instant's test: its point is not asked
     point[moving] = contact_centres(body_a, motion_a, body_b, motion_b, moving, best_s[moving], point[moving])
     closing = _closing_speed(body_a, motion_a, body_b, motion_b, span, best_s[span], part_a[span], part_b[span],

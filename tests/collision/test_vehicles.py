@@ -214,3 +214,27 @@ def test_the_point_of_a_first_contact_is_the_centre_of_every_pair_within_the_ban
         assert np.allclose(hits.point[h], want, atol=1e-5), (k, hits.point[h], want)
         parts.add((body.part_names[hits.part_a[h]], body.part_names[hits.part_b[h]]))
     assert len(parts) >= 3  # hulls, turrets and guns among the contacts, not one pair of groups
+
+
+def test_asked_only_whether_they_touch_the_query_gives_the_same_spans_times_and_parts():
+    """``describe=False`` (whether two vehicles touch, as at a span's start) skips the contact's point
+    and closing speed only: the same spans, fractions and parts as the full answer, on moving and on
+    still (an instant's) random articulated pairs."""
+    rng = np.random.default_rng(23)
+    body = _body()
+    n = 30
+    c0a = np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
+    c0b = c0a + np.column_stack([rng.uniform(-9, 9, (n, 2)), np.zeros(n)])
+    a = _motion(c0a, c0a + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
+                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n))
+    b = _motion(c0b, c0b + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
+                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n), 2.0, -6.0)
+    still_a = _motion(c0a, c0a, a_yaw := rng.uniform(-180, 180, n), a_yaw, rng.uniform(-180, 180, n))
+    still_b = _motion(c0b, c0b, b_yaw := rng.uniform(-180, 180, n), b_yaw, rng.uniform(-180, 180, n))
+    for ma, mb in ((a, b), (still_a, still_b)):
+        full = first_vehicle_contacts(body, ma, body, mb)
+        bare = first_vehicle_contacts(body, ma, body, mb, describe=False)
+        assert len(full.span) >= 3
+        for f in ("span", "s", "part_a", "part_b"):
+            assert np.array_equal(getattr(full, f), getattr(bare, f))
+        assert (bare.closing == 0).all() and bare.queries == full.queries

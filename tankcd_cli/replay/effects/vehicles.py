@@ -415,7 +415,8 @@ class VehicleContacts:
                 # find them too (they touch at s = 0) and give no event
                 every = np.arange(len(sel))
                 at_start = np.zeros(len(sel), dtype=bool)
-                at_start[first_vehicle_contacts(body_a, _still(ma, every), body_b, _still(mb, every)).span] = True
+                at_start[first_vehicle_contacts(body_a, _still(ma, every), body_b, _still(mb, every),
+                                                describe=False).span] = True
                 sweep = np.flatnonzero(~at_start | fresh[sel])
                 if len(sweep) == 0:
                     continue
