@@ -485,10 +485,10 @@ def candidate_pairs(lo, hi, t0, t1, owner, *, method: str = "auto", block: int =
     ``auto``, from benchmarks/results/broad_phase.md (vehicles driving for 10 s at 10 Hz, spread
     over 10 km x 10 km or crowded in platoons in 1 km x 1 km; every method in the same run):
 
-    - fewer than ``BRUTE_FORCE_BELOW`` (128) segments: brute force. All three take 0.04-0.5 ms
-      there; brute force is the fastest up to 50 segments, within 0.03 ms of the sweep at 100,
-      and from 160 on 1.8x slower than it or more (at 1,000 segments 10x; at 100,000 24-58x
-      slower than the sweep and 190-220x slower than the grid).
+    - fewer than ``BRUTE_FORCE_BELOW`` (128) segments: brute force. It was the fastest up to 50
+      segments against the numpy sweep; against the compiled one it is within 0.05 ms of it
+      there (0.03-0.08 ms against 0.03 ms at 20-100 segments) and from 160 on 3.5x slower or
+      more (at 1,000 segments 23x).
     - otherwise the sweep's candidates K on its best axis are counted (exactly up to 2,048
       segments, else estimated on a fixed uniform sample of 2,048: within 3 % on the benchmark)
       and the sweep runs while K <= ``SWEEP_CANDIDATES_PER_SEGMENT`` (200) per segment, the grid
