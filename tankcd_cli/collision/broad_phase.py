@@ -256,10 +256,11 @@ def sort_and_sweep(lo, hi, t0, t1, owner, *, axis: int | str | None = None, bloc
     Returns (P, 2) int64 candidate pairs (see the module's docstring).
 
     In the order of the segments' starts on the axis, segment p's partners on that axis are
-    exactly the segments q > p starting at or before p's end: the range (p, searchsorted(starts,
-    end_p, right)). Each overlapping pair is in one range, once (that of the one sorting first).
-    The ranges' candidates are tested on the other axes and the owners, in blocks of at most
-    ``block``.
+    exactly the segments q > p starting at or before p's end (ties in start in either order:
+    the one sorting first finds the other). Each overlapping pair is met once, from the one
+    sorting first, and tested on the other axes and the owners as it is met, in compiled code: no
+    candidate arrays are formed, so ``block`` (checked, for the other methods' sake) bounds
+    nothing here.
     """
     L, H, own = _segments(lo, hi, t0, t1, owner)
     block = _check_block(block)
