@@ -1,9 +1,10 @@
 # cython: language_level=3
-"""The broad phase's sort and sweep, compiled (``collision.broad_phase.sort_and_sweep``'s method,
-whose numpy twin the tests hold it to): the segments in the order of their starts on one axis, each
-one's partners the segments after it that start at or before its end, tested on the other axes
-and the owners as they are met. Only the input floats are compared (closed intervals), never
-differences of them, as in every method."""
+"""The broad phase's sort and sweep, compiled (``collision.broad_phase.sort_and_sweep``'s method;
+its oracle is ``collision.broad_phase.brute_force``, every pair tested, which the tests hold it to
+array for array): the segments in the order of their starts on one axis, each one's partners the
+segments after it that start at or before its end, tested on the other axes and the owners as
+they are met. Only the input floats are compared (closed intervals), never differences of them,
+as in every method."""
 
 import numpy as np
 

@@ -45,6 +45,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tankcd_cli.collision._broad_phase import sweep_keys
+
 METHODS = ("auto", "sort_and_sweep", "uniform_grid", "brute_force")
 AXES = ("x", "y", "z", "t")
 
@@ -281,8 +283,6 @@ def _sweep(L, H, own, ids, axis, others, block) -> list:
     """Pair keys of the segments ``ids`` among themselves, swept on ``axis``: the compiled sweep
     (``collision._broad_phase.sweep_keys``), each candidate tested as it is met, so its memory is
     the output's (``block`` bounds the numpy methods' candidate arrays; none are formed here)."""
-    from tankcd_cli.collision._broad_phase import sweep_keys
-
     order = ids[np.argsort(L[ids, axis], kind="stable")].astype(np.int64, copy=False)
     return [sweep_keys(np.ascontiguousarray(L), np.ascontiguousarray(H), np.ascontiguousarray(own, dtype=np.int64),
                        order, int(axis), np.asarray(others, dtype=np.int64))]
