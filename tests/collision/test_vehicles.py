@@ -104,16 +104,24 @@ def _dense(body, ma, mb, samples=1600):
     return first
 
 
-def test_against_the_dense_oracle_on_random_pairs_of_articulated_vehicles():
-    rng = np.random.default_rng(8)
-    body = _body()
-    n = 40
+def _random_pairs(rng, n, apart):
+    """n random pairs of articulated vehicles near each other: a's hull origins within 3 m of 0, b's
+    within ``apart`` m of a's (both at z = 0), each driving up to 6 m, turning, its turret and gun turning
+    (b's gun from 2 deg, by -6 deg). Returns the start origins (n, 3) each and the two motions."""
     c0a = np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
-    c0b = c0a + np.column_stack([rng.uniform(-12, 12, (n, 2)), np.zeros(n)])
+    c0b = c0a + np.column_stack([rng.uniform(-apart, apart, (n, 2)), np.zeros(n)])
     a = _motion(c0a, c0a + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
                 rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n))
     b = _motion(c0b, c0b + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
                 rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n), 2.0, -6.0)
+    return c0a, c0b, a, b
+
+
+def test_against_the_dense_oracle_on_random_pairs_of_articulated_vehicles():
+    rng = np.random.default_rng(8)
+    body = _body()
+    n = 40
+    _, _, a, b = _random_pairs(rng, n, 12)
     hits = first_vehicle_contacts(body, a, body, b)
     found = dict(zip(hits.span.tolist(), hits.s.tolist()))
     dense = _dense(body, a, b)
@@ -200,12 +208,7 @@ def test_the_point_of_a_first_contact_is_the_centre_of_every_pair_within_the_ban
     rng = np.random.default_rng(21)
     body = _body()
     n = 24
-    c0a = np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
-    c0b = c0a + np.column_stack([rng.uniform(-10, 10, (n, 2)), np.zeros(n)])
-    a = _motion(c0a, c0a + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
-                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n))
-    b = _motion(c0b, c0b + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
-                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n), 2.0, -6.0)
+    _, _, a, b = _random_pairs(rng, n, 10)
     hits = first_vehicle_contacts(body, a, body, b)
     assert len(hits.span) >= 8
     parts = set()
@@ -223,12 +226,7 @@ def test_asked_only_whether_they_touch_the_query_gives_the_same_spans_times_and_
     rng = np.random.default_rng(23)
     body = _body()
     n = 30
-    c0a = np.column_stack([rng.uniform(-3, 3, (n, 2)), np.zeros(n)])
-    c0b = c0a + np.column_stack([rng.uniform(-9, 9, (n, 2)), np.zeros(n)])
-    a = _motion(c0a, c0a + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
-                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n))
-    b = _motion(c0b, c0b + np.column_stack([rng.uniform(-6, 6, (n, 2)), np.zeros(n)]), rng.uniform(-180, 180, n),
-                rng.uniform(-180, 180, n), rng.uniform(-180, 180, n), rng.uniform(-90, 90, n), 2.0, -6.0)
+    c0a, c0b, a, b = _random_pairs(rng, n, 9)
     still_a = _motion(c0a, c0a, a_yaw := rng.uniform(-180, 180, n), a_yaw, rng.uniform(-180, 180, n))
     still_b = _motion(c0b, c0b, b_yaw := rng.uniform(-180, 180, n), b_yaw, rng.uniform(-180, 180, n))
     for ma, mb in ((a, b), (still_a, still_b)):
